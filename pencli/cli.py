@@ -1,0 +1,38 @@
+"""The ``pen`` command: assembles the subcommands; :func:`main` is the entry point."""
+
+from __future__ import annotations
+
+import typer
+
+from pencli import __version__
+from pencli.commands import params as params_cmd
+from pencli.commands import predict as predict_cmd
+from pencli.commands.common import PenTyper
+
+app = PenTyper(
+    name="pen",
+    help="Penetration mechanics of thin blades in porous, brittle materials (successor of JPL's BAM).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+app.add_typer(params_cmd.app, name="params")
+app.registered_commands.extend(predict_cmd.app.registered_commands)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"pen {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def root(
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="Print the version."),
+) -> None:
+    """pen: penetration mechanics of thin blades in porous, brittle materials."""
+
+
+def main() -> None:
+    """Console-script entry point."""
+    app()

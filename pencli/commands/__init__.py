@@ -1,0 +1,1 @@
+"""The ``pen`` subcommands: parse, one call into :mod:`pencli.api`, render."""

@@ -1,0 +1,83 @@
+"""What every command shares: the error boundary, ``--db``, output helpers."""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any, Callable
+
+import typer
+from rich.console import Console
+
+from pencli.errors import PenError
+
+console = Console()
+err_console = Console(stderr=True)
+
+DB_HELP = "Workspace catalog (DuckDB file; a runs/ folder sits beside it). Default: $PEN_DB, else ./runs.duckdb."
+DbOption = typer.Option(None, "--db", help=DB_HELP, show_default=False)
+
+
+def db_path(db: Path | None) -> Path:
+    """The workspace catalog path: --db, else $PEN_DB, else ./runs.duckdb."""
+    if db is not None:
+        return db
+    env = os.environ.get("PEN_DB")
+    return Path(env) if env else Path("runs.duckdb")
+
+
+def fail(message: str, code: int = 1) -> typer.Exit:
+    """Print one red line on stderr; return the Exit to raise."""
+    err_console.print(f"[red]error:[/red] {message}", highlight=False, soft_wrap=True)
+    return typer.Exit(code)
+
+
+def pen_errors(fn: Callable) -> Callable:
+    """The one place a :class:`PenError` becomes one red line and exit code 1."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except PenError as exc:
+            raise fail(str(exc)) from None
+        except KeyboardInterrupt:
+            raise fail("interrupted; nothing was written", 130) from None
+
+    return wrapper
+
+
+class PenTyper(typer.Typer):
+    """A Typer whose commands all pass through :func:`pen_errors`."""
+
+    def command(self, *args, **kwargs):
+        register = super().command(*args, **kwargs)
+        return lambda fn: register(pen_errors(fn))
+
+
+def _json_default(value: Any):
+    if hasattr(value, "item"):
+        return value.item()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def _finite(value: Any) -> Any:
+    """JSON has no inf/nan: they become null."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+def print_json(data: Any) -> None:
+    """Write ``data`` as JSON on stdout (plain, no colour, no wrapping)."""
+    sys.stdout.write(json.dumps(_finite(data), indent=2, default=_json_default, allow_nan=False) + "\n")

@@ -1,0 +1,98 @@
+"""``pen predict``: one design through the reference dynamic model."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.table import Table
+
+from pencli import api
+from pencli.commands.common import DbOption, PenTyper, console, print_json
+from pencli.model.resistance import TERMS
+
+app = PenTyper()
+
+SUMMARY_ROWS = (
+    ("contact_speed_m_s", "speed at contact", "m/s", "{:.4f}"),
+    ("contact_time_s", "time to contact", "ms", "{:.3f}"),
+    ("penetration_time_s", "penetration time", "ms", "{:.3f}"),
+    ("final_depth_mm", "final depth", "mm", "{:.2f}"),
+    ("full_penetration", "full penetration", "", "{}"),
+    ("peak_resistance_n", "peak resistance", "N", "{:.1f}"),
+    ("peak_resistance_depth_mm", "  at depth", "mm", "{:.2f}"),
+    ("residual_ke_j", "residual kinetic energy", "J", "{:.2f}"),
+    ("spring_energy_j", "spring energy delivered", "J", "{:.2f}"),
+    ("gravity_work_j", "work of gravity", "J", "{:.2f}"),
+    ("energy_strength_j", "energy: strength", "J", "{:.2f}"),
+    ("energy_friction_j", "energy: friction", "J", "{:.2f}"),
+    ("energy_damping_j", "energy: damping", "J", "{:.2f}"),
+    ("energy_inertia_j", "energy: inertia", "J", "{:.2f}"),
+)
+_MS = {"contact_time_s", "penetration_time_s"}
+
+
+@app.command("predict")
+def predict(
+    penetrator: str = typer.Option(..., "--penetrator", "-p", help="Penetrator preset name or YAML file."),
+    material: str = typer.Option(..., "--material", "-m", help="Material preset name or YAML file."),
+    energizing: str = typer.Option(..., "--energizing", "-e", help="Energizing (launcher) preset name or YAML file."),
+    set_: Optional[List[str]] = typer.Option(
+        None, "--set", metavar="KEY=VALUE",
+        help="Override any CONTRACT §1 key in its file's unit, e.g. blade_width_mm=150 or "
+             "coefficients.inertia_coefficient=40. Repeatable. `pen params keys` lists them."),
+    terms: str = typer.Option(",".join(TERMS), "--terms",
+                              help="Eq. 9 terms switched on, comma-separated: strength,friction,damping,inertia."),
+    speed_at_contact: Optional[float] = typer.Option(
+        None, "--speed-at-contact", min=0.0,
+        help="Start at the surface with this speed [m/s] instead of simulating the flight (BAM's option)."),
+    allow_out_of_range: bool = typer.Option(False, "--allow-out-of-range",
+                                            help="Accept values outside a parameter's documented range."),
+    json_out: bool = typer.Option(False, "--json", help="Print the CONTRACT §5 record as JSON."),
+    out: Optional[Path] = typer.Option(None, "--out", help="Write the trajectory (t, x, v, a, each term, "
+                                                           "load-cell force) to this Parquet file."),
+    rate: float = typer.Option(50_000.0, "--rate", min=1.0, help="Trajectory sampling rate for --out [Hz]."),
+    db: Optional[Path] = DbOption,
+) -> None:
+    """Predict a blade's penetration with the reference model (CONTRACT §2).
+
+    Example: pen predict -p al6061_1mm -m mpacs_c -e springs_4 --set blade_width_mm=150 --json
+    """
+    if out is not None and out.suffix.lower() != ".parquet":
+        raise typer.BadParameter(f"'{out}' must end in .parquet", param_hint="--out")
+    prediction = api.predict(penetrator, material, energizing, overrides=set_ or (), terms=terms,
+                             speed_at_contact_m_s=speed_at_contact, allow_out_of_range=allow_out_of_range,
+                             output_rate_hz=rate)
+    if out is not None:
+        api.write_prediction_trajectory(prediction, out)
+    if json_out:
+        print_json(prediction.to_dict())
+        return
+    render(prediction, out)
+
+
+def render(prediction: api.Prediction, out: Path | None) -> None:
+    """A rich summary table with units."""
+    record = prediction.to_dict()
+    title = f"{prediction.penetrator.name} · {prediction.material.name} · {prediction.energizing.name}"
+    table = Table(title=title, caption=f"terms: {', '.join(prediction.result.terms)}", show_header=True,
+                  header_style="bold")
+    table.add_column("figure")
+    table.add_column("value", justify="right")
+    table.add_column("unit")
+    for key, label, unit, fmt in SUMMARY_ROWS:
+        value = record[key]
+        if key in _MS:
+            value = value * 1e3
+        table.add_row(label, fmt.format(value), unit)
+    console.print(table)
+    end = record["end"]
+    console.print(f"ended by: [bold]{end.replace('_', ' ')}[/bold]; energy balance error "
+                  f"{record['energy_balance_error_j']:.2e} J")
+    if record["overrides"]:
+        console.print("overrides: " + ", ".join(f"{k}={v:g}" for k, v in record["overrides"].items()))
+    if prediction.result.message:
+        console.print(f"[yellow]note:[/yellow] {prediction.result.message}")
+    if out is not None:
+        console.print(f"trajectory written to {out}")

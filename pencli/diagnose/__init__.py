@@ -1,0 +1,1 @@
+"""Sim-to-real gap diagnosis (pure core, issue 5)."""

@@ -1,0 +1,1 @@
+"""Edges: readers and writers of files (Parquet, CSV, xlsx, YAML dumps)."""

@@ -1,0 +1,108 @@
+"""A complete design (blade, material, launcher) in SI units.
+
+The CLI and files speak the units of CONTRACT §1 (mm, kPa, %); the core
+speaks SI.  :func:`design_from_sets` is the one place the conversion
+happens, using ``si_name`` and ``si_scale`` of each parameter definition.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+from pencli.params.definitions import PARAMETERS
+from pencli.params.validate import ParameterSet
+
+
+@dataclass(frozen=True)
+class Design:
+    """Every parameter of the three kinds, SI.
+
+    Coefficients a material file does not give are ``nan``; the simulator
+    refuses to use a term whose coefficient is ``nan``.
+    """
+
+    blade_width_m: float
+    """w, rectangular blade width. [m]"""
+    blade_thickness_m: float
+    """T, blade thickness. [m]"""
+    tip_angle_rad: float
+    """θ, leading-edge angle from vertical (π/2 = flat edge). [rad]"""
+    penetration_depth_m: float
+    """Full penetration depth (hard stops). [m]"""
+    sprung_mass_kg: float
+    """Accelerated body, blade included. [kg]"""
+    load_cell_mass_kg: float
+    """Blade + mount below the force sensor. [kg]"""
+    density_kg_m3: float
+    """ρ, bulk density. [kg/m³]"""
+    strength_pa: float
+    """S, microstructure strength. [Pa]"""
+    friction_coefficient: float
+    """μ, blade–material friction coefficient. [–]"""
+    gravity_m_s2: float
+    """g, gravitational acceleration along the penetration axis. [m/s²]"""
+    strength_factor: float
+    """Cs, S correction factor. [–]"""
+    sidewall_pressure_pa: float
+    """P, sidewall pressure. [Pa]"""
+    damping_pa_s_m: float
+    """C, damping per unit area. [Pa·s/m]"""
+    inertia_coefficient: float
+    """K, inertia coefficient. [–]"""
+    spring_count: int
+    """n, number of parallel springs. [–]"""
+    spring_stiffness_n_m: float
+    """k, stiffness per spring. [N/m]"""
+    spring_mass_kg: float
+    """Mass per spring. [kg]"""
+    nominal_length_m: float
+    """L0, spring free length. [m]"""
+    compressed_length_m: float
+    """Lc, spring length at release. [m]"""
+    surface_offset_m: float
+    """s0, blade tip to surface at release. [m]"""
+    efficiency: float
+    """η, propulsion efficiency as a fraction. [–]"""
+
+    @property
+    def effective_mass_kg(self) -> float:
+        """m_eff = sprung mass + n·spring mass / 3 (CONTRACT §2). [kg]"""
+        return self.sprung_mass_kg + self.spring_count * self.spring_mass_kg / 3.0
+
+    @property
+    def drive_stiffness_n_m(self) -> float:
+        """η·n·k, the effective stiffness of the launcher. [N/m]"""
+        return self.efficiency * self.spring_count * self.spring_stiffness_n_m
+
+    @property
+    def stroke_m(self) -> float:
+        """L0 − Lc, travel from release until the springs reach free length. [m]"""
+        return self.nominal_length_m - self.compressed_length_m
+
+    @property
+    def frontal_area_m2(self) -> float:
+        """w·T, projected frontal area of the blade. [m²]"""
+        return self.blade_width_m * self.blade_thickness_m
+
+    def stored_energy_j(self) -> float:
+        """η·n·k·(L0 − Lc)²/2, what the launcher can deliver over its stroke. [J]"""
+        return 0.5 * self.drive_stiffness_n_m * self.stroke_m ** 2
+
+
+DESIGN_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Design))
+
+
+def design_from_sets(penetrator: ParameterSet, material: ParameterSet, energizing: ParameterSet) -> Design:
+    """Build an SI :class:`Design` from three validated parameter sets."""
+    by_kind = {"penetrator": penetrator, "material": material, "energizing": energizing}
+    values: dict[str, float] = {}
+    for param in PARAMETERS:
+        raw = by_kind[param.kind].get(param.key)
+        if raw is None:
+            values[param.si_name] = math.nan
+        elif param.dtype is int:
+            values[param.si_name] = int(raw)
+        else:
+            values[param.si_name] = float(raw) * param.si_scale
+    return Design(**values)

@@ -1,0 +1,466 @@
+r"""The one-degree-of-freedom spring rig of CONTRACT §2.
+
+Equation of motion of the moving body (x = tip depth, positive down):
+
+.. math::
+
+    m_\mathrm{eff}\,\ddot x = \eta n k \,(L_0 - L(x))\,[L < L_0]
+                              + m_\mathrm{eff}\, g - R(x, \dot x)
+
+    m_\mathrm{eff} = m + n\,m_s/3, \qquad L(x) = L_c + x + s_0
+
+starting at rest at :math:`x = -s_0`.
+
+How it is solved
+----------------
+*Flight* (release to contact) has no resistance, so it is solved in closed
+form: harmonic motion about the shifted equilibrium while the springs push,
+then a parabola under gravity once they reach free length.  Contact and
+spring release are found from those formulas exactly.
+
+*Penetration* is integrated with scipy's DOP853 (8th order) at rtol 1e-10,
+split where the springs reach free length (the force's slope jumps there),
+and ended at arrest (v = 0 with x > 0) or full depth; each of these events
+is root-found on the dense output, never located to a time step.  The
+energies of the rate terms are integrated as extra states; the strength and
+friction energies have closed forms.
+
+Pure: numpy and scipy only, SI units.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Iterable
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import minimize_scalar
+
+from pencli.model.design import Design
+from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, resistance_law
+
+MODEL_NAME = "contract-2/eq9-1dof"
+"""Identifier of the reference dynamic model, recorded with every result."""
+
+PHASES: tuple[str, ...] = ("flight", "penetration")
+"""Phase codes used in :attr:`Trajectory.phase` (index into this tuple)."""
+
+_RTOL = 1e-10
+_T_MAX_S = 60.0  # give up on a run that neither arrests nor reaches full depth in this time
+
+
+@dataclass(frozen=True)
+class Summary:
+    """The CONTRACT §5 record of one simulated design, plus pen's extras.
+
+    The first twelve fields are the contract's, with its names and units.
+    """
+
+    contact_speed_m_s: float
+    """Speed when the tip reaches the surface. [m/s]"""
+    penetration_time_s: float
+    """From contact to arrest or full depth. [s]"""
+    final_depth_mm: float
+    """Depth at arrest, or the full depth. [mm]"""
+    full_penetration: bool
+    """Reached the full penetration depth."""
+    peak_resistance_n: float
+    """Max of R over the penetration. [N]"""
+    peak_resistance_depth_mm: float
+    """Depth where the peak occurred. [mm]"""
+    residual_ke_j: float
+    """Kinetic energy left at full depth (0 at arrest). [J]"""
+    spring_energy_j: float
+    """Energy the launcher delivered over the simulated span. [J]"""
+    energy_strength_j: float
+    """Dissipated by the strength term. [J]"""
+    energy_friction_j: float
+    """Dissipated by the sidewall-friction term. [J]"""
+    energy_damping_j: float
+    """Dissipated by the damping term. [J]"""
+    energy_inertia_j: float
+    """Dissipated by the inertia term. [J]"""
+    contact_time_s: float
+    """Time from release to contact (0 when the speed at contact is given). [s]"""
+    end: str
+    """How penetration ended: ``arrest``, ``full_depth``, ``no_contact`` or ``stalled``."""
+    gravity_work_j: float
+    """Work of gravity over the simulated span. [J]"""
+    initial_ke_j: float
+    """Kinetic energy at the start of the simulated span. [J]"""
+    energy_balance_error_j: float
+    """initial KE + spring + gravity − (final KE + Σ term energies). [J]"""
+
+    def to_dict(self) -> dict:
+        """Flat mapping, JSON-ready."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Sampled time histories of one simulation, SI.
+
+    Each attribute is a 1-D array of the same length.  Forces follow the
+    contract's sign: resistance pushes the blade up and is positive.
+    """
+
+    time_s: np.ndarray
+    """Time since release (since contact when the speed at contact is given). [s]"""
+    depth_m: np.ndarray
+    """Tip depth x, negative above the surface. [m]"""
+    velocity_m_s: np.ndarray
+    """dx/dt, down positive. [m/s]"""
+    acceleration_m_s2: np.ndarray
+    """d²x/dt², down positive. [m/s²]"""
+    strength_n: np.ndarray
+    """Strength term of R. [N]"""
+    friction_n: np.ndarray
+    """Sidewall-friction term of R. [N]"""
+    damping_n: np.ndarray
+    """Damping term of R. [N]"""
+    inertia_n: np.ndarray
+    """Inertia term of R. [N]"""
+    resistance_n: np.ndarray
+    """R, the sum of the switched-on terms. [N]"""
+    spring_force_n: np.ndarray
+    """η·n·k·(L0 − L) while L < L0, else 0. [N]"""
+    load_cell_force_n: np.ndarray
+    """Tared load-cell reading F = R + m_lc·a, compression positive. [N]"""
+    phase: np.ndarray
+    """Index into :data:`PHASES`. [–]"""
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Column name (unit-suffixed) → array."""
+        return dict(asdict(self))
+
+    def __len__(self) -> int:
+        return int(self.time_s.size)
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """What :func:`simulate` returns."""
+
+    design: Design
+    terms: tuple[str, ...]
+    speed_at_contact_m_s: float | None
+    summary: Summary
+    trajectory: Trajectory
+    model: str = MODEL_NAME
+    success: bool = True
+    message: str = ""
+
+    def to_dict(self) -> dict:
+        """Summary plus the model record (which model and terms produced it)."""
+        out = self.summary.to_dict()
+        out["model"] = self.model
+        out["terms"] = list(self.terms)
+        out["speed_at_contact_override_m_s"] = self.speed_at_contact_m_s
+        return out
+
+
+# --------------------------------------------------------------------------- flight
+@dataclass(frozen=True)
+class Flight:
+    """Closed-form flight from release (t = 0, at rest) to contact.
+
+    ``u`` is the displacement from the release position (= x + s0).
+    """
+
+    mass_kg: float
+    stiffness_n_m: float
+    stroke_m: float
+    gravity_m_s2: float
+    surface_offset_m: float
+
+    @property
+    def omega_rad_s(self) -> float:
+        """Angular frequency of the spring phase, sqrt(η n k / m_eff). [rad/s]"""
+        return math.sqrt(self.stiffness_n_m / self.mass_kg)
+
+    @property
+    def amplitude_m(self) -> float:
+        """U = stroke + m g/(η n k): the harmonic motion is u = U(1 − cos ωt). [m]"""
+        return self.stroke_m + self.mass_kg * self.gravity_m_s2 / self.stiffness_n_m
+
+    def time_to_reach(self, u: float) -> float:
+        """Time at which the body has moved ``u`` from release (``inf`` if never). [s]"""
+        if u <= 0.0:
+            return 0.0
+        U, w = self.amplitude_m, self.omega_rad_s
+        if u <= self.stroke_m:
+            return 2.0 * math.asin(math.sqrt(u / (2.0 * U))) / w  # 1 − cos θ = 2 sin²(θ/2), stable for small u
+        t_rel = self.release_time_s
+        v_rel = self.state(t_rel)[1]
+        d = u - self.stroke_m
+        disc = v_rel * v_rel + 2.0 * self.gravity_m_s2 * d
+        if v_rel + math.sqrt(disc) <= 0.0:
+            return math.inf
+        return t_rel + 2.0 * d / (v_rel + math.sqrt(disc))  # root of g τ²/2 + v τ − d = 0, cancellation-free
+
+    @property
+    def release_time_s(self) -> float:
+        """When the springs reach free length. [s]"""
+        return self.time_to_reach(self.stroke_m)
+
+    def state(self, t):
+        """(u, v, a) at time(s) ``t`` since release. [m, m/s, m/s²]"""
+        t = np.asarray(t, dtype=float)
+        U, w = self.amplitude_m, self.omega_rad_s
+        t_rel = 2.0 * math.asin(math.sqrt(self.stroke_m / (2.0 * U))) / w
+        ta = np.minimum(t, t_rel)
+        u = 2.0 * U * np.sin(0.5 * w * ta) ** 2
+        v = U * w * np.sin(w * ta)
+        a = U * w * w * np.cos(w * ta)
+        tau = np.maximum(t - t_rel, 0.0)
+        after = t > t_rel
+        v_rel = U * w * math.sin(w * t_rel)
+        u = np.where(after, self.stroke_m + v_rel * tau + 0.5 * self.gravity_m_s2 * tau * tau, u)
+        v = np.where(after, v_rel + self.gravity_m_s2 * tau, v)
+        a = np.where(after, self.gravity_m_s2, a)
+        return u, v, a
+
+
+def flight_of(design: Design) -> Flight:
+    """The closed-form flight of ``design``."""
+    return Flight(design.effective_mass_kg, design.drive_stiffness_n_m, design.stroke_m,
+                  design.gravity_m_s2, design.surface_offset_m)
+
+
+# --------------------------------------------------------------------------- penetration
+def _spring_force(design: Design, x):
+    """η·n·k·(L0 − L(x)) while L < L0, else 0. [N]"""
+    compression = design.stroke_m - (np.asarray(x, dtype=float) + design.surface_offset_m)
+    return design.drive_stiffness_n_m * np.maximum(compression, 0.0)
+
+
+def _make_rhs(law: ResistanceLaw, mass: float, stiffness: float, stroke: float, offset: float, gravity: float):
+    a0, a1, b, d = law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2
+    weight = mass * gravity
+
+    def rhs(_t, y):
+        x, v = y[0], y[1]
+        vp = v if v > 0.0 else 0.0
+        compression = stroke - x - offset
+        spring = stiffness * compression if compression > 0.0 else 0.0
+        resist = a0 + a1 * x + (b + d * vp) * vp  # Eq. 9 in contact
+        return [v, (spring + weight - resist) / mass, b * vp * vp, d * vp * vp * vp]
+
+    return rhs
+
+
+def _event(fn, direction: float):
+    fn.terminal = True
+    fn.direction = direction
+    return fn
+
+
+def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float):
+    """Integrate from contact; returns (segments, end, t_end, y_end)."""
+    mass = design.effective_mass_kg
+    stroke, offset = design.stroke_m, design.surface_offset_m
+    depth = design.penetration_depth_m
+    rhs = _make_rhs(law, mass, design.drive_stiffness_n_m, stroke, offset, design.gravity_m_s2)
+    y = np.array([0.0, v0, 0.0, 0.0])
+    t = t0
+    segments = []
+    release_depth = stroke - offset  # > 0: springs still push at contact
+    if v0 <= 0.0 and rhs(t, y)[1] <= 0.0:
+        return segments, "arrest", t, y  # the drive cannot overcome the static resistance
+    atol = np.array([1e-13, 1e-12, 1e-11, 1e-11])
+    ev_full = _event(lambda _t, s: s[0] - depth, 1.0)
+    ev_arrest = _event(lambda _t, s: s[1], -1.0)
+    stops = [ev_full, ev_arrest]
+    if release_depth > 0.0 and release_depth < depth:
+        stops.append(_event(lambda _t, s: s[0] - release_depth, 1.0))
+    while True:
+        sol = solve_ivp(rhs, (t, t0 + _T_MAX_S), y, method="DOP853", rtol=_RTOL, atol=atol,
+                        events=stops, dense_output=True)
+        hit = [i for i, times in enumerate(sol.t_events) if len(times)]
+        if not hit:
+            segments.append((sol.t[0], sol.t[-1], sol.sol, sol.t))
+            return segments, "stalled", sol.t[-1], sol.y[:, -1]
+        i = hit[0]
+        t_hit = float(sol.t_events[i][0])
+        y_hit = np.array(sol.y_events[i][0], dtype=float)
+        segments.append((sol.t[0], t_hit, sol.sol, sol.t))
+        if i == 0:
+            y_hit[0] = depth
+            return segments, "full_depth", t_hit, y_hit
+        if i == 1:
+            y_hit[1] = 0.0
+            return segments, "arrest", t_hit, y_hit
+        y_hit[0] = release_depth  # springs at free length: restart without that event
+        stops = stops[:2]
+        t, y = t_hit, y_hit
+
+
+def _peak(law: ResistanceLaw, segments) -> tuple[float, float]:
+    """Largest R over the penetration and the depth where it occurs. [N, m]"""
+    def resistance(state):
+        x, v = state[0], np.maximum(state[1], 0.0)
+        return law.strength_n + law.friction_n_m * x + (law.damping_n_s_m + law.inertia_n_s2_m2 * v) * v
+
+    best_r, best_x = -math.inf, 0.0
+    for t_start, t_end, dense, steps in segments:
+        grid = np.union1d(np.linspace(t_start, t_end, 401), steps[(steps >= t_start) & (steps <= t_end)])
+        states = dense(grid)
+        values = resistance(states)
+        k = int(np.argmax(values))
+        r_k, x_k = float(values[k]), float(states[0, k])
+        if 0 < k < grid.size - 1:  # interior maximum: refine on the dense output
+            res = minimize_scalar(lambda tt: -float(resistance(dense(tt))), bounds=(grid[k - 1], grid[k + 1]),
+                                  method="bounded", options={"xatol": 1e-12 * max(1.0, abs(grid[k]))})
+            if -res.fun > r_k:
+                r_k, x_k = float(-res.fun), float(dense(res.x)[0])
+        if r_k > best_r:
+            best_r, best_x = r_k, x_k
+    return best_r, best_x
+
+
+def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
+             speed_at_contact_m_s: float | None = None, output_rate_hz: float = 50_000.0) -> SimulationResult:
+    """Simulate one shot of the rig (CONTRACT §2).
+
+    Parameters
+    ----------
+    design
+        Blade, material and launcher, SI.
+    terms
+        Eq. 9 terms switched on (default: all four).
+    speed_at_contact_m_s
+        When given, skip the flight and start at the surface with this speed
+        (BAM's "speed at comet contact"); the springs keep their geometry. [m/s]
+    output_rate_hz
+        Sampling rate of the returned trajectory (events are added exactly). [Hz]
+
+    Returns
+    -------
+    SimulationResult
+        Summary (CONTRACT §5) and trajectory.
+    """
+    chosen = parse_terms(terms)
+    law = resistance_law(design, chosen)
+    mass = design.effective_mass_kg
+    flight = flight_of(design)
+
+    if speed_at_contact_m_s is None:
+        t_contact = flight.time_to_reach(design.surface_offset_m)
+        if not math.isfinite(t_contact):
+            return _no_contact(design, chosen, flight)
+        _, v_contact, _ = flight.state(t_contact)
+        v_contact = float(v_contact)
+        u_start, initial_ke = 0.0, 0.0
+    else:
+        t_contact, v_contact = 0.0, float(speed_at_contact_m_s)
+        u_start, initial_ke = design.surface_offset_m, 0.5 * mass * v_contact ** 2
+
+    segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact)
+    x_end, v_end = float(y_end[0]), float(y_end[1])
+    full = end == "full_depth"
+
+    # Energy book-keeping (each term is the integral of that term over depth).
+    e_strength = law.strength_n * x_end
+    e_friction = 0.5 * law.friction_n_m * x_end ** 2
+    e_damping, e_inertia = float(y_end[2]), float(y_end[3])
+    u_end = x_end + design.surface_offset_m
+    spring_j = 0.5 * design.drive_stiffness_n_m * (max(design.stroke_m - u_start, 0.0) ** 2
+                                                   - max(design.stroke_m - u_end, 0.0) ** 2)
+    gravity_j = mass * design.gravity_m_s2 * (u_end - u_start)
+    final_ke = 0.5 * mass * v_end ** 2
+    balance = initial_ke + spring_j + gravity_j - (final_ke + e_strength + e_friction + e_damping + e_inertia)
+
+    if segments:
+        peak_n, peak_x = _peak(law, segments)
+    else:  # stopped at the surface
+        peak_n, peak_x = law.strength_n, 0.0
+
+    trajectory = _sample(design, law, flight, segments, speed_at_contact_m_s is None, t_contact, v_contact,
+                         t_end, y_end, output_rate_hz)
+    summary = Summary(
+        contact_speed_m_s=v_contact,
+        penetration_time_s=t_end - t_contact,
+        final_depth_mm=x_end * 1e3,
+        full_penetration=full,
+        peak_resistance_n=peak_n,
+        peak_resistance_depth_mm=peak_x * 1e3,
+        residual_ke_j=final_ke if full else 0.0,
+        spring_energy_j=spring_j,
+        energy_strength_j=e_strength,
+        energy_friction_j=e_friction,
+        energy_damping_j=e_damping,
+        energy_inertia_j=e_inertia,
+        contact_time_s=t_contact,
+        end=end,
+        gravity_work_j=gravity_j,
+        initial_ke_j=initial_ke,
+        energy_balance_error_j=balance,
+    )
+    message = "" if end != "stalled" else (
+        f"neither arrest nor full depth within {_T_MAX_S:g} s of contact; figures are at that time")
+    return SimulationResult(design, chosen, speed_at_contact_m_s, summary, trajectory,
+                            success=end != "stalled", message=message)
+
+
+def _no_contact(design: Design, chosen: tuple[str, ...], flight: Flight) -> SimulationResult:
+    """The body never reaches the surface (no gravity and no push left)."""
+    mass = design.effective_mass_kg
+    spring_j = 0.5 * design.drive_stiffness_n_m * design.stroke_m ** 2
+    t = np.linspace(0.0, flight.release_time_s, 2)
+    u, v, a = flight.state(t)
+    zeros = np.zeros_like(t)
+    trajectory = Trajectory(t, u - design.surface_offset_m, v, a, zeros, zeros, zeros, zeros, zeros,
+                            _spring_force(design, u - design.surface_offset_m), design.load_cell_mass_kg * a,
+                            np.zeros(t.size, dtype=np.int8))
+    summary = Summary(0.0, 0.0, 0.0, False, 0.0, 0.0, 0.0, spring_j, 0.0, 0.0, 0.0, 0.0, math.inf,
+                      "no_contact", 0.0, 0.0, spring_j - 0.5 * mass * float(v[-1]) ** 2)
+    return SimulationResult(design, chosen, None, summary, trajectory, success=True,
+                            message="the body never reaches the surface")
+
+
+def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_end, y_end, rate_hz):
+    """Uniformly sampled trajectory, with contact and the end included exactly."""
+    step = 1.0 / rate_hz
+    mass = design.effective_mass_kg
+    parts_t, parts_x, parts_v, parts_a, parts_phase = [], [], [], [], []
+    if with_flight and t_contact > 0.0:
+        tf = np.arange(0.0, t_contact, step)
+        u, v, a = flight.state(tf)
+        parts_t.append(tf)
+        parts_x.append(u - design.surface_offset_m)
+        parts_v.append(v)
+        parts_a.append(a)
+        parts_phase.append(np.zeros(tf.size, dtype=np.int8))
+    for t_start, t_stop, dense, _ in segments:
+        tp = np.arange(t_start, t_stop, step)
+        states = dense(tp) if tp.size else np.zeros((4, 0))
+        parts_t.append(tp)
+        parts_x.append(states[0])
+        parts_v.append(states[1])
+        parts_a.append(np.zeros(tp.size))  # filled below from the equation of motion
+        parts_phase.append(np.ones(tp.size, dtype=np.int8))
+    parts_t.append(np.array([t_end]))
+    parts_x.append(np.array([float(y_end[0]) if segments else 0.0]))
+    parts_v.append(np.array([float(y_end[1]) if segments else v_contact]))
+    parts_a.append(np.zeros(1))
+    parts_phase.append(np.ones(1, dtype=np.int8))
+    t = np.concatenate(parts_t)
+    x = np.concatenate(parts_x)
+    v = np.concatenate(parts_v)
+    a_flight = np.concatenate(parts_a)
+    phase = np.concatenate(parts_phase)
+    in_material = phase == 1
+    strength, friction, damping, inertia = law.terms_in_contact(x, v)
+    mask = in_material.astype(float)
+    strength, friction, damping, inertia = strength * mask, friction * mask, damping * mask, inertia * mask
+    resistance = strength + friction + damping + inertia
+    spring = _spring_force(design, x)
+    a = np.where(in_material, (spring + mass * design.gravity_m_s2 - resistance) / mass, a_flight)
+    load_cell = resistance + design.load_cell_mass_kg * a
+    return Trajectory(t, x, v, a, strength, friction, damping, inertia, resistance, spring, load_cell, phase)
+
+
+__all__ = ["MODEL_NAME", "PHASES", "TERMS", "Flight", "SimulationResult", "Summary", "Trajectory",
+           "flight_of", "simulate"]

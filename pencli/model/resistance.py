@@ -1,0 +1,169 @@
+r"""Penetration resistance, paper Eq. 9 with the Table 1 strength factor.
+
+.. math::
+
+    R(x, \dot x) = w T \left( C_s S (\sin\theta + \mu\cos\theta)
+                   + \frac{\mu P\, 2x}{T} + C \dot x + K \rho \dot x^2 \right)
+
+for :math:`x > 0` (CONTRACT §2); the rate terms use :math:`\dot x > 0` only;
+above the surface :math:`R = 0`.  Each term is a separate pure function so any
+subset can be switched on or off, and so energy can be booked per term.
+
+Units: x [m], v [m/s], forces [N].  Every function accepts floats or numpy
+arrays (broadcasting).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable
+
+import numpy as np
+
+from pencli.errors import ModelError
+
+TERMS: tuple[str, ...] = ("strength", "friction", "damping", "inertia")
+"""The four Eq. 9 terms, in the paper's order."""
+
+
+def parse_terms(terms: Iterable[str] | str | None) -> tuple[str, ...]:
+    """Normalise a term selection (``None`` = all; a comma list is accepted)."""
+    if terms is None:
+        return TERMS
+    if isinstance(terms, str):
+        terms = [t for t in (s.strip() for s in terms.split(",")) if t]
+    chosen = tuple(terms)
+    unknown = [t for t in chosen if t not in TERMS]
+    if unknown:
+        raise ModelError(f"unknown model term {unknown[0]!r}; terms are: {', '.join(TERMS)}")
+    return tuple(t for t in TERMS if t in chosen)
+
+
+def strength_term(x, blade_width_m, blade_thickness_m, tip_angle_rad, strength_pa,
+                  strength_factor, friction_coefficient):
+    r"""Microstructure-strength (tip) resistance. [N]
+
+    .. math:: R_s = w T\, C_s S (\sin\theta + \mu\cos\theta) \quad (x > 0)
+
+    Parameters
+    ----------
+    x : depth of the tip, positive down. [m]
+    blade_width_m : w. [m]
+    blade_thickness_m : T. [m]
+    tip_angle_rad : θ from vertical. [rad]
+    strength_pa : S. [Pa]
+    strength_factor : Cs. [–]
+    friction_coefficient : μ. [–]
+    """
+    value = (blade_width_m * blade_thickness_m * strength_factor * strength_pa
+             * (math.sin(tip_angle_rad) + friction_coefficient * math.cos(tip_angle_rad)))  # Eq. 9 (Eq. 1)
+    return np.where(np.asarray(x) > 0, value, 0.0)
+
+
+def friction_term(x, blade_width_m, friction_coefficient, sidewall_pressure_pa):
+    r"""Sidewall friction. [N]
+
+    .. math:: R_f = w T\, \frac{\mu P\, 2x}{T} = 2 \mu P w x \quad (x > 0)
+
+    Parameters
+    ----------
+    x : depth. [m]
+    blade_width_m : w. [m]
+    friction_coefficient : μ. [–]
+    sidewall_pressure_pa : P. [Pa]
+    """
+    x = np.asarray(x, dtype=float)
+    return np.where(x > 0, 2.0 * friction_coefficient * sidewall_pressure_pa * blade_width_m * x, 0.0)  # Eq. 9 (Eq. 4)
+
+
+def damping_term(x, v, blade_width_m, blade_thickness_m, damping_pa_s_m):
+    r"""Viscous damping. [N]
+
+    .. math:: R_d = w T\, C \dot x \quad (x > 0,\ \dot x > 0)
+
+    Parameters
+    ----------
+    x : depth. [m]
+    v : speed, down positive. [m/s]
+    damping_pa_s_m : C, damping per unit area. [Pa·s/m]
+    """
+    x = np.asarray(x, dtype=float)
+    v = np.asarray(v, dtype=float)
+    return np.where((x > 0) & (v > 0), blade_width_m * blade_thickness_m * damping_pa_s_m * v, 0.0)  # Eq. 9 (Eq. 8)
+
+
+def inertia_term(x, v, blade_width_m, blade_thickness_m, inertia_coefficient, density_kg_m3):
+    r"""Inertial (drag) resistance of displaced material. [N]
+
+    .. math:: R_i = w T\, K \rho \dot x^2 \quad (x > 0,\ \dot x > 0)
+
+    Parameters
+    ----------
+    x : depth. [m]
+    v : speed, down positive. [m/s]
+    inertia_coefficient : K. [–]
+    density_kg_m3 : ρ. [kg/m³]
+    """
+    x = np.asarray(x, dtype=float)
+    v = np.asarray(v, dtype=float)
+    return np.where((x > 0) & (v > 0),
+                    blade_width_m * blade_thickness_m * inertia_coefficient * density_kg_m3 * v * v, 0.0)  # Eq. 9 (Eq. 7)
+
+
+@dataclass(frozen=True)
+class ResistanceLaw:
+    r"""Eq. 9 reduced to four numbers for fast evaluation in contact.
+
+    .. math:: R(x, v) = a_0 + a_1 x + b\,v + d\,v^2 \qquad (x > 0, v > 0)
+
+    Attributes
+    ----------
+    strength_n : a0, constant tip resistance. [N]
+    friction_n_m : a1, sidewall friction per depth. [N/m]
+    damping_n_s_m : b, damping per speed. [N·s/m]
+    inertia_n_s2_m2 : d, inertial resistance per speed squared. [N·s²/m²]
+    """
+
+    strength_n: float
+    friction_n_m: float
+    damping_n_s_m: float
+    inertia_n_s2_m2: float
+
+    def terms_in_contact(self, x, v):
+        """The four terms for a tip in the material (x ≥ 0), as arrays. [N]"""
+        v_pos = np.maximum(np.asarray(v, dtype=float), 0.0)
+        x = np.asarray(x, dtype=float)
+        return (np.full_like(x, self.strength_n), self.friction_n_m * x,
+                self.damping_n_s_m * v_pos, self.inertia_n_s2_m2 * v_pos * v_pos)
+
+
+def resistance_law(design, terms: Iterable[str] | None = None) -> ResistanceLaw:
+    """Eq. 9 coefficients of ``design`` with only ``terms`` switched on.
+
+    Raises
+    ------
+    ModelError
+        A switched-on term whose coefficient the material does not give.
+    """
+    chosen = parse_terms(terms)
+    needed = {
+        "strength": ("strength_factor", "coefficients.strength_factor"),
+        "friction": ("sidewall_pressure_pa", "coefficients.sidewall_pressure_kpa"),
+        "damping": ("damping_pa_s_m", "coefficients.damping_kpa_s_m"),
+        "inertia": ("inertia_coefficient", "coefficients.inertia_coefficient"),
+    }
+    for term in chosen:
+        attr, key = needed[term]
+        if not math.isfinite(getattr(design, attr)):
+            raise ModelError(
+                f"the material gives no {key}, needed by the {term} term; fit it (pen fit), "
+                f"set it (--set {key}=VALUE) or leave the term out (--terms)")
+    w, T = design.blade_width_m, design.blade_thickness_m
+    on = {t: (t in chosen) for t in TERMS}
+    a0 = float(strength_term(1.0, w, T, design.tip_angle_rad, design.strength_pa, design.strength_factor,
+                             design.friction_coefficient)) if on["strength"] else 0.0
+    a1 = float(friction_term(1.0, w, design.friction_coefficient, design.sidewall_pressure_pa)) if on["friction"] else 0.0
+    b = float(damping_term(1.0, 1.0, w, T, design.damping_pa_s_m)) if on["damping"] else 0.0
+    d = float(inertia_term(1.0, 1.0, w, T, design.inertia_coefficient, design.density_kg_m3)) if on["inertia"] else 0.0
+    return ResistanceLaw(a0, a1, b, d)

@@ -1,0 +1,233 @@
+"""One definition per parameter of the three YAML kinds (CONTRACT §1).
+
+Everything that speaks about a parameter is derived from :data:`PARAMETERS`:
+the YAML validation (:mod:`pencli.params.validate`), the JSON Schemas in
+``schema/`` (:mod:`pencli.params.schema`), the ``--set`` keys, sweep variable
+names and the CLI help text.  To add a parameter, add one :class:`Param`
+here (and its SI field to :class:`pencli.model.design.Design`).
+
+Two kinds of bound:
+
+- *hard* bounds are physical impossibilities (a negative width, an
+  efficiency above 100 %) and are always an error;
+- the *documented range* is what the model was built and checked for; a
+  value outside it is an error unless the caller explicitly allows it
+  (``--allow-out-of-range``).
+
+Pure data and pure functions: no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Literal
+
+Kind = Literal["penetrator", "material", "energizing"]
+KINDS: tuple[Kind, ...] = ("penetrator", "material", "energizing")
+
+
+@dataclass(frozen=True)
+class Param:
+    """The one definition of a parameter.
+
+    Attributes
+    ----------
+    key
+        Name in the YAML file (dotted for nested keys), unit in the name.
+    kind
+        Which of the three parameter files holds it.
+    symbol
+        Symbol in the paper (Eq. 9 and Table 1).
+    meaning
+        One line, what it is.
+    unit
+        Unit of the file value, as printed in help text.
+    si_name
+        Field of :class:`pencli.model.design.Design` holding the SI value.
+    si_scale
+        Factor from the file unit to SI (``mm`` -> ``m`` is 1e-3).
+    dtype
+        ``float`` or ``int``.
+    hard_min, hard_max
+        Physical bounds, always enforced.  ``None`` for unbounded.
+    hard_min_exclusive, hard_max_exclusive
+        Whether the hard bound itself is excluded.
+    range_min, range_max
+        Documented range; outside it is an error unless explicitly allowed.
+    required
+        A file of this kind must give it.
+    default
+        Value used when an optional key is absent (``None``: stays absent).
+    """
+
+    key: str
+    kind: Kind
+    symbol: str
+    meaning: str
+    unit: str
+    si_name: str
+    si_scale: float = 1.0
+    dtype: type = float
+    hard_min: float | None = None
+    hard_max: float | None = None
+    hard_min_exclusive: bool = False
+    hard_max_exclusive: bool = False
+    range_min: float | None = None
+    range_max: float | None = None
+    required: bool = True
+    default: float | None = None
+
+    @property
+    def hard_text(self) -> str:
+        """The hard bounds as text, e.g. ``> 0`` or ``> 0 and <= 100``."""
+        parts = []
+        if self.hard_min is not None:
+            parts.append(f"{'>' if self.hard_min_exclusive else '>='} {_fmt(self.hard_min)}")
+        if self.hard_max is not None:
+            parts.append(f"{'<' if self.hard_max_exclusive else '<='} {_fmt(self.hard_max)}")
+        return " and ".join(parts) if parts else "any number"
+
+    @property
+    def range_text(self) -> str:
+        """The documented range as text, e.g. ``[0.1, 50] mm``."""
+        lo = "-inf" if self.range_min is None else _fmt(self.range_min)
+        hi = "inf" if self.range_max is None else _fmt(self.range_max)
+        return f"[{lo}, {hi}] {self.unit}".rstrip()
+
+    @property
+    def help(self) -> str:
+        """One line of help: meaning, unit, documented range."""
+        opt = "" if self.required else (
+            f", optional (default {_fmt(self.default)})" if self.default is not None else ", optional")
+        return f"{self.symbol}: {self.meaning} [{self.unit}]; range {self.range_text}{opt}"
+
+    def hard_violation(self, value: float) -> bool:
+        """True when ``value`` breaks a hard bound (or is not finite)."""
+        if not math.isfinite(value):
+            return True
+        if self.hard_min is not None:
+            if value < self.hard_min or (self.hard_min_exclusive and value == self.hard_min):
+                return True
+        if self.hard_max is not None:
+            if value > self.hard_max or (self.hard_max_exclusive and value == self.hard_max):
+                return True
+        return False
+
+    def outside_range(self, value: float) -> bool:
+        """True when ``value`` is outside the documented range."""
+        return ((self.range_min is not None and value < self.range_min)
+                or (self.range_max is not None and value > self.range_max))
+
+
+def _fmt(value: float | None) -> str:
+    if value is None:
+        return "none"
+    return f"{value:g}"
+
+
+_P = Param
+PARAMETERS: tuple[Param, ...] = (
+    # --- penetrator: the blade and the moving body ---------------------------
+    _P("blade_width_mm", "penetrator", "w", "rectangular blade width", "mm",
+       "blade_width_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=5, range_max=1000),
+    _P("blade_thickness_mm", "penetrator", "T", "blade thickness", "mm",
+       "blade_thickness_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=0.1, range_max=50),
+    _P("tip_angle_deg", "penetrator", "θ", "leading-edge angle from vertical (90 = flat edge)", "deg",
+       "tip_angle_rad", math.pi / 180, hard_min=0, hard_max=90, range_min=0, range_max=90),
+    _P("penetration_depth_mm", "penetrator", "d", "full penetration depth (hard stops)", "mm",
+       "penetration_depth_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=1000),
+    _P("sprung_mass_kg", "penetrator", "m", "accelerated body, blade included", "kg",
+       "sprung_mass_kg", 1.0, hard_min=0, hard_min_exclusive=True, range_min=0.05, range_max=200),
+    _P("load_cell_mass_kg", "penetrator", "m_lc", "blade + mount below the force sensor", "kg",
+       "load_cell_mass_kg", 1.0, hard_min=0, range_min=0, range_max=50),
+    # --- material: measured properties -------------------------------------------
+    _P("density_kg_m3", "material", "ρ", "bulk density", "kg/m³",
+       "density_kg_m3", 1.0, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=3000),
+    _P("microstructure_strength_kpa", "material", "S", "microstructure strength", "kPa",
+       "strength_pa", 1e3, hard_min=0, range_min=0, range_max=1e6),
+    _P("friction_coefficient", "material", "μ", "blade–material friction coefficient", "–",
+       "friction_coefficient", 1.0, hard_min=0, range_min=0, range_max=2),
+    _P("gravity_m_s2", "material", "g", "gravitational acceleration along the penetration axis", "m/s²",
+       "gravity_m_s2", 1.0, hard_min=0, range_min=0, range_max=30, required=False, default=9.81),
+    # --- material: the four Eq. 9 coefficients (what `pen fit` produces) -------
+    _P("coefficients.strength_factor", "material", "Cs", "S correction factor", "–",
+       "strength_factor", 1.0, hard_min=0, range_min=0, range_max=20, required=False),
+    _P("coefficients.sidewall_pressure_kpa", "material", "P", "sidewall pressure", "kPa",
+       "sidewall_pressure_pa", 1e3, hard_min=0, range_min=0, range_max=1e5, required=False),
+    _P("coefficients.damping_kpa_s_m", "material", "C", "damping per unit area", "kPa·s/m",
+       "damping_pa_s_m", 1e3, hard_min=0, range_min=0, range_max=1e5, required=False),
+    _P("coefficients.inertia_coefficient", "material", "K", "inertia (drag) coefficient", "–",
+       "inertia_coefficient", 1.0, hard_min=0, range_min=0, range_max=1000, required=False),
+    # --- energizing: the spring launcher --------------------------------------------
+    _P("spring_count", "energizing", "n", "number of parallel springs (2, 4 or 6 on the reference rig)",
+       "–", "spring_count", 1.0, dtype=int, hard_min=1, range_min=1, range_max=12),
+    _P("spring_stiffness_kn_m", "energizing", "k", "stiffness per spring", "kN/m",
+       "spring_stiffness_n_m", 1e3, hard_min=0, hard_min_exclusive=True, range_min=0.01, range_max=1000),
+    _P("spring_mass_kg", "energizing", "m_s", "mass per spring", "kg",
+       "spring_mass_kg", 1.0, hard_min=0, range_min=0, range_max=50),
+    _P("spring_nominal_length_mm", "energizing", "L0", "spring free length", "mm",
+       "nominal_length_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000),
+    _P("spring_compressed_length_mm", "energizing", "Lc", "spring length at release", "mm",
+       "compressed_length_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000),
+    _P("surface_offset_mm", "energizing", "s0", "blade tip to surface at release (stand-off)", "mm",
+       "surface_offset_m", 1e-3, hard_min=0, range_min=0, range_max=2000),
+    _P("propulsion_efficiency_pct", "energizing", "η", "propulsion efficiency", "%",
+       "efficiency", 1e-2, hard_min=0, hard_max=100, hard_min_exclusive=True, range_min=1, range_max=100),
+)
+
+BY_KEY: dict[str, Param] = {p.key: p for p in PARAMETERS}
+"""Every parameter by its YAML key (dotted for ``coefficients.*``)."""
+
+COEFFICIENT_KEYS: tuple[str, ...] = tuple(p.key for p in PARAMETERS if p.key.startswith("coefficients."))
+
+TERM_COEFFICIENT: dict[str, str] = {
+    "strength": "coefficients.strength_factor",
+    "friction": "coefficients.sidewall_pressure_kpa",
+    "damping": "coefficients.damping_kpa_s_m",
+    "inertia": "coefficients.inertia_coefficient",
+}
+"""Which coefficient each Eq. 9 term needs."""
+
+OPTIONAL_TOP_KEYS: dict[str, str] = {
+    "notes": "free text: where the values come from (string)",
+}
+"""Keys pen adds to every kind beyond CONTRACT §1 (allowed: 'add freely')."""
+
+
+def params_of(kind: Kind) -> tuple[Param, ...]:
+    """The parameters of one kind, in definition order."""
+    return tuple(p for p in PARAMETERS if p.kind == kind)
+
+
+@dataclass(frozen=True)
+class Rule:
+    """A check across parameters of one kind.
+
+    ``check(values)`` receives the file-unit values by key and says whether
+    the rule holds; ``message`` says what is valid.  ``keys`` lists the
+    parameters the rule speaks of; the first is the one named in the error.
+    """
+
+    kind: Kind
+    keys: tuple[str, ...]
+    message: str
+    check: Callable[[dict[str, float]], bool]
+
+    def holds(self, values: dict[str, float]) -> bool:
+        """Whether the rule holds (a rule whose keys are absent holds)."""
+        if not all(k in values for k in self.keys):
+            return True
+        return bool(self.check(values))
+
+
+RULES: tuple[Rule, ...] = (
+    Rule("penetrator", ("blade_thickness_mm", "blade_width_mm"), "must be less than blade_width_mm",
+         lambda v: v["blade_thickness_mm"] < v["blade_width_mm"]),
+    Rule("penetrator", ("load_cell_mass_kg", "sprung_mass_kg"),
+         "must not exceed sprung_mass_kg (it is part of the moving body)",
+         lambda v: v["load_cell_mass_kg"] <= v["sprung_mass_kg"]),
+    Rule("energizing", ("spring_compressed_length_mm", "spring_nominal_length_mm"),
+         "must be less than spring_nominal_length_mm (the springs must be compressed)",
+         lambda v: v["spring_compressed_length_mm"] < v["spring_nominal_length_mm"]),
+)

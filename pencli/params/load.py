@@ -1,0 +1,101 @@
+"""Reading parameter files and bundled presets.
+
+A parameter reference (``--material mpacs_c`` or ``--material my.yaml``) is a
+bundled preset name or a file path; :func:`resolve` takes either.  YAML is
+read with a loader that rejects duplicate keys, since a repeated key is
+almost always a typo that would otherwise be silently ignored.
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from pencli.errors import ParameterError
+from pencli.params.definitions import KINDS, Kind
+from pencli.params.validate import ParameterSet, validate_mapping
+
+PRESET_PACKAGE = "pencli.params.presets"
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader that refuses duplicate mapping keys."""
+
+
+def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
+    seen: dict[Any, int] = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r} (first on line {seen[key] + 1})", key_node.start_mark)
+        seen[key] = key_node.start_mark.line
+    return loader.construct_mapping(node, deep=deep)
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def read_yaml(path: Path) -> Any:
+    """Parse a YAML file strictly; errors name the file and line."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ParameterError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ParameterError(f"{path}: cannot read: {exc}") from None
+    try:
+        return yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - strict SafeLoader subclass
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ParameterError(f"{path}:{where}: not valid YAML: {problem}") from None
+
+
+def load_file(path: str | Path, expected_kind: Kind | None = None, *,
+              allow_out_of_range: bool = False) -> ParameterSet:
+    """Load and validate one parameter file."""
+    path = Path(path)
+    return validate_mapping(read_yaml(path), str(path), expected_kind=expected_kind,
+                            allow_out_of_range=allow_out_of_range)
+
+
+def _preset_dir(kind: Kind):
+    return resources.files(PRESET_PACKAGE).joinpath(kind)
+
+
+def preset_names(kind: Kind) -> list[str]:
+    """Names of the bundled presets of one kind, sorted."""
+    folder = _preset_dir(kind)
+    return sorted(entry.name[:-5] for entry in folder.iterdir() if entry.name.endswith(".yaml"))
+
+
+def load_preset(name: str, kind: Kind) -> ParameterSet:
+    """Load a bundled preset by name."""
+    entry = _preset_dir(kind).joinpath(f"{name}.yaml")
+    if not entry.is_file():
+        raise ParameterError(
+            f"no {kind} preset named '{name}'; bundled {kind} presets: {', '.join(preset_names(kind))} "
+            f"(or give a file path)")
+    with resources.as_file(entry) as path:
+        data = read_yaml(Path(path))
+    return validate_mapping(data, f"preset:{kind}/{name}", expected_kind=kind)
+
+
+def resolve(ref: str | Path, kind: Kind, *, allow_out_of_range: bool = False) -> ParameterSet:
+    """A preset name or a file path, loaded and validated as ``kind``."""
+    text = str(ref)
+    path = Path(text)
+    looks_like_path = path.suffix in (".yaml", ".yml") or "/" in text or "\\" in text
+    if looks_like_path or (path.exists() and path.is_file()):
+        return load_file(path, kind, allow_out_of_range=allow_out_of_range)
+    return load_preset(text, kind)
+
+
+def all_presets() -> list[ParameterSet]:
+    """Every bundled preset, by kind then name."""
+    return [load_preset(name, kind) for kind in KINDS for name in preset_names(kind)]

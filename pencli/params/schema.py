@@ -1,0 +1,60 @@
+"""JSON Schemas of the three parameter kinds, derived from the definitions.
+
+``schema/<kind>.schema.json`` in the repository is this module's output;
+a test regenerates it and compares, so the files cannot drift from the
+definitions.  Only the hard bounds are in the schema (they are absolute);
+the documented range is given as ``x-range`` for tools that care.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pencli.params.definitions import OPTIONAL_TOP_KEYS, Kind, Param, params_of
+
+
+def _property(param: Param) -> dict[str, Any]:
+    prop: dict[str, Any] = {
+        "type": "integer" if param.dtype is int else "number",
+        "description": f"{param.symbol}: {param.meaning} [{param.unit}]",
+        "x-unit": param.unit,
+        "x-range": [param.range_min, param.range_max],
+    }
+    if param.hard_min is not None:
+        prop["exclusiveMinimum" if param.hard_min_exclusive else "minimum"] = param.hard_min
+    if param.hard_max is not None:
+        prop["exclusiveMaximum" if param.hard_max_exclusive else "maximum"] = param.hard_max
+    if param.default is not None:
+        prop["default"] = param.default
+    return prop
+
+
+def json_schema(kind: Kind) -> dict[str, Any]:
+    """JSON Schema (draft 2020-12) of one parameter-file kind."""
+    properties: dict[str, Any] = {
+        "kind": {"const": kind},
+        "name": {"type": "string", "minLength": 1},
+    }
+    for key, meaning in OPTIONAL_TOP_KEYS.items():
+        properties[key] = {"type": "string", "description": meaning}
+    required = ["kind", "name"]
+    nested: dict[str, Any] = {}
+    for param in params_of(kind):
+        if "." in param.key:
+            group, sub = param.key.split(".", 1)
+            nested.setdefault(group, {})[sub] = _property(param)
+            continue
+        properties[param.key] = _property(param)
+        if param.required:
+            required.append(param.key)
+    for group, props in nested.items():
+        properties[group] = {"type": "object", "properties": props, "additionalProperties": False}
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": f"https://pen.invalid/schema/{kind}.schema.json",
+        "title": f"pen {kind} parameter file (CONTRACT §1)",
+        "type": "object",
+        "properties": properties,
+        "required": required,
+        "additionalProperties": False,
+    }

@@ -1,0 +1,193 @@
+"""Validation of parameter mappings against :mod:`pencli.params.definitions`.
+
+Pure: takes the mapping a YAML reader produced and the name of where it came
+from (used in messages), returns a :class:`ParameterSet` or raises
+:class:`~pencli.errors.ParameterError` with one line naming the source, the
+key, the value received and what is valid.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any, Mapping
+
+from pencli.errors import ParameterError
+from pencli.params.definitions import (
+    BY_KEY,
+    KINDS,
+    OPTIONAL_TOP_KEYS,
+    RULES,
+    Kind,
+    Param,
+    params_of,
+)
+
+
+@dataclass(frozen=True)
+class ParameterSet:
+    """A validated parameter file: values in the file's units, by dotted key.
+
+    Attributes
+    ----------
+    kind
+        ``penetrator``, ``material`` or ``energizing``.
+    name
+        The ``name:`` of the file.
+    values
+        Validated values by key (``coefficients.*`` flattened), file units.
+    source
+        Where it came from: a path, ``preset:NAME``, or a description.
+    notes
+        The optional ``notes:`` text.
+    """
+
+    kind: Kind
+    name: str
+    values: Mapping[str, float]
+    source: str = "<memory>"
+    notes: str = ""
+    overrides: Mapping[str, float] = field(default_factory=dict)
+
+    def get(self, key: str, default: float | None = None) -> float | None:
+        """Value of ``key`` in file units, or ``default`` when absent."""
+        return self.values.get(key, default)
+
+    def to_mapping(self) -> dict[str, Any]:
+        """The nested mapping of CONTRACT §1, ready to dump as YAML."""
+        out: dict[str, Any] = {"kind": self.kind, "name": self.name}
+        if self.notes:
+            out["notes"] = self.notes
+        for param in params_of(self.kind):
+            if param.key not in self.values:
+                continue
+            value = self.values[param.key]
+            if "." in param.key:
+                group, sub = param.key.split(".", 1)
+                out.setdefault(group, {})[sub] = value
+            else:
+                out[param.key] = value
+        return out
+
+    def with_values(self, updates: Mapping[str, float], *, allow_out_of_range: bool = False,
+                    source_note: str = "--set") -> "ParameterSet":
+        """A new set with ``updates`` applied and the whole set re-validated."""
+        merged = dict(self.values)
+        merged.update(updates)
+        mapping = replace(self, values=merged).to_mapping()
+        checked = validate_mapping(mapping, f"{self.source} ({source_note})", expected_kind=self.kind,
+                                   allow_out_of_range=allow_out_of_range)
+        all_overrides = dict(self.overrides)
+        all_overrides.update(updates)
+        return replace(checked, source=self.source, overrides=all_overrides)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def check_value(param: Param, value: Any, where: str, *, allow_out_of_range: bool = False) -> float:
+    """Check one value against its definition; return it as ``float`` (or ``int``).
+
+    Raises
+    ------
+    ParameterError
+        Wrong type, NaN/inf, a hard bound broken, or outside the documented
+        range without ``allow_out_of_range``.
+    """
+    if not _is_number(value):
+        raise ParameterError(
+            f"{where}: key '{param.key}': got {value!r} ({type(value).__name__}); "
+            f"expected a {'whole number' if param.dtype is int else 'number'} in {param.unit}")
+    if param.dtype is int and (isinstance(value, float) and not value.is_integer()):
+        raise ParameterError(f"{where}: key '{param.key}': got {value!r}; expected a whole number")
+    number = int(value) if param.dtype is int else float(value)
+    if isinstance(number, float) and not math.isfinite(number):
+        raise ParameterError(f"{where}: key '{param.key}': got {value!r}; expected a finite number")
+    if param.hard_violation(number):
+        raise ParameterError(
+            f"{where}: key '{param.key}': got {value!r} {param.unit}; must be {param.hard_text}")
+    if not allow_out_of_range and param.outside_range(number):
+        raise ParameterError(
+            f"{where}: key '{param.key}': got {value!r} {param.unit}; outside the documented range "
+            f"{param.range_text} (pass --allow-out-of-range to accept it)")
+    return number
+
+
+def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = None,
+                     allow_out_of_range: bool = False) -> ParameterSet:
+    """Validate the mapping of one parameter file (CONTRACT §1).
+
+    Parameters
+    ----------
+    data
+        What the YAML reader returned.
+    source
+        Name for messages (file path or preset name).
+    expected_kind
+        When given, a file of another kind is an error.
+    allow_out_of_range
+        Accept values outside the documented range (hard bounds still hold).
+
+    Returns
+    -------
+    ParameterSet
+    """
+    if not isinstance(data, Mapping):
+        raise ParameterError(
+            f"{source}: expected a mapping of keys (kind:, name:, ...), got {type(data).__name__}")
+    kind = data.get("kind")
+    if kind not in KINDS:
+        raise ParameterError(f"{source}: key 'kind': got {kind!r}; expected one of {', '.join(KINDS)}")
+    if expected_kind is not None and kind != expected_kind:
+        raise ParameterError(f"{source}: key 'kind': got {kind!r}; expected {expected_kind!r} here")
+    name = data.get("name")
+    if not isinstance(name, str) or not name.strip():
+        raise ParameterError(f"{source}: key 'name': got {name!r}; expected a non-empty string")
+    notes = data.get("notes", "")
+    if not isinstance(notes, str):
+        raise ParameterError(f"{source}: key 'notes': got {notes!r}; expected a string")
+
+    flat: dict[str, Any] = {}
+    for key, value in data.items():
+        if key in ("kind", "name") or key in OPTIONAL_TOP_KEYS:
+            continue
+        if key == "coefficients" and kind == "material":
+            if value is None:
+                continue
+            if not isinstance(value, Mapping):
+                raise ParameterError(
+                    f"{source}: key 'coefficients': got {value!r}; expected a mapping of coefficients")
+            for sub, subvalue in value.items():
+                flat[f"coefficients.{sub}"] = subvalue
+        else:
+            flat[str(key)] = value
+
+    known = {p.key: p for p in params_of(kind)}
+    for key in flat:
+        if key not in known:
+            hint = ""
+            other = BY_KEY.get(key)
+            if other is not None:
+                hint = f" (it belongs in a {other.kind} file)"
+            raise ParameterError(
+                f"{source}: unknown key '{key}'{hint}; valid {kind} keys: {', '.join(known)}")
+
+    values: dict[str, float] = {}
+    for param in known.values():
+        if param.key not in flat:
+            if param.required:
+                raise ParameterError(
+                    f"{source}: missing key '{param.key}' ({param.meaning}, {param.unit})")
+            if param.default is not None:
+                values[param.key] = param.default
+            continue
+        values[param.key] = check_value(param, flat[param.key], source,
+                                        allow_out_of_range=allow_out_of_range)
+
+    for rule in RULES:
+        if rule.kind == kind and not rule.holds(values):
+            first = rule.keys[0]
+            shown = ", ".join(f"{k}={values[k]:g}" for k in rule.keys)
+            raise ParameterError(f"{source}: key '{first}': got {shown}; {first} {rule.message}")
+    return ParameterSet(kind=kind, name=name, values=values, source=source, notes=notes)
