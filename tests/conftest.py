@@ -1,0 +1,30 @@
+"""Shared fixtures: a CLI runner and a temporary workspace."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+SPEC = Path(__file__).resolve().parents[2] / "shared" / "spec"
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def runner() -> CliRunner:
+    return CliRunner()
+
+
+@pytest.fixture
+def workspace(tmp_path, monkeypatch) -> Path:
+    """An empty workspace folder; PEN_DB points into it."""
+    monkeypatch.setenv("PEN_DB", str(tmp_path / "runs.duckdb"))
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+def invoke(runner: CliRunner, *args: str):
+    from pencli.cli import app
+
+    return runner.invoke(app, [str(a) for a in args])
