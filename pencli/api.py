@@ -6,9 +6,11 @@ pure core and returns result objects.  Nothing here prints.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import glob
+import json
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from pencli.errors import ParameterError, PenError
 from pencli.model.design import Design, design_from_sets
@@ -123,3 +125,141 @@ def validate_files(paths: Iterable[str | Path], *, allow_out_of_range: bool = Fa
         else:
             out.append(Validation(str(path), True, ps.kind, ps.name))
     return out
+
+
+# ---------------------------------------------------------------------------- workspace: ingest, runs, export
+def workspace(db: str | Path):
+    """The workspace whose catalog is ``db``."""
+    from pencli.store.workspace import Workspace
+
+    return Workspace(db)
+
+
+@dataclass(frozen=True)
+class IngestOutcome:
+    """What happened to one source: ``added``, ``existing`` or ``rejected``."""
+
+    source: str
+    status: str
+    id: str | None = None
+    message: str = ""
+
+
+def expand_sources(paths: Iterable[str | Path]) -> list[tuple[str, Path | None, str]]:
+    """Run folders named by paths, globs and parent folders, in a stable order.
+
+    Returns (argument, folder or None, problem) triples; a problem names an
+    argument that matched nothing.
+    """
+    from pencli.io.runfolder import is_run_folder
+
+    out: list[tuple[str, Path | None, str]] = []
+    for arg in paths:
+        text = str(arg)
+        matches = sorted(Path(m) for m in glob.glob(text)) if any(c in text for c in "*?[") else [Path(text)]
+        if not matches:
+            out.append((text, None, f"{text}: matches no file or folder"))
+            continue
+        for path in matches:
+            if not path.exists():
+                out.append((text, None, f"{path}: no such file or folder"))
+            elif path.is_file():
+                if path.name in ("data.csv", "data.xlsx"):
+                    out.append((text, path.parent, ""))
+                else:
+                    out.append((text, None, f"{path}: expected a run folder (holding data.csv or data.xlsx), "
+                                            f"not a file"))
+            elif is_run_folder(path):
+                out.append((text, path, ""))
+            else:
+                found = sorted(p.parent for p in path.rglob("data.csv")) + sorted(
+                    p.parent for p in path.rglob("data.xlsx"))
+                if not found:
+                    bam = sorted(p for p in path.iterdir() if p.suffix.lower() in (".csv", ".xlsx"))
+                    if bam:
+                        out.append((text, path, ""))
+                    else:
+                        out.append((text, None, f"{path}: no run folders (data.csv or data.xlsx) inside"))
+                for folder in sorted(set(found)):
+                    out.append((text, folder, ""))
+    return out
+
+
+def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None = None, time_unit: str = "s",
+           position_unit: str = "mm", force_unit: str = "N", torque_unit: str = "Nm",
+           parameter_refs: Mapping[str, str] | None = None, command: str = "pen ingest",
+           progress: Callable[[IngestOutcome], None] | None = None) -> list[IngestOutcome]:
+    """Ingest run folders into the workspace; each source is accepted or rejected on its own."""
+    from pencli.io.runfolder import ReadOptions, parse_column_map, read_run_folder, unit_factor
+
+    options = ReadOptions(parse_column_map(columns), time_unit, position_unit, force_unit, torque_unit)
+    for quantity, unit in (("time", time_unit), ("position", position_unit), ("force", force_unit),
+                           ("torque", torque_unit)):
+        unit_factor(quantity, unit)
+    ws = workspace(db)
+    outcomes: list[IngestOutcome] = []
+    for _, folder, problem in expand_sources(paths):
+        if folder is None:
+            outcome = IngestOutcome(problem.split(":")[0], "rejected", message=problem)
+        else:
+            try:
+                run = read_run_folder(folder, options, parameter_refs)
+                added = ws.add_run(run, command=command)
+            except PenError as exc:
+                outcome = IngestOutcome(str(folder), "rejected", message=str(exc))
+            else:
+                outcome = IngestOutcome(str(folder), "added" if added.created else "existing", added.run_id)
+        outcomes.append(outcome)
+        if progress is not None:
+            progress(outcome)
+    return outcomes
+
+
+def add_run(run, db: str | Path, *, command: str):
+    """Add an in-memory :class:`~pencli.store.rundata.RunData` (e.g. from the rig) to the workspace."""
+    from pencli.io.checks import check_run_columns
+
+    check_run_columns(run.columns, run.source, surface_offset_mm=float(run.energizing.get("surface_offset_mm")))
+    return workspace(db).add_run(run, command=command)
+
+
+def list_runs(db: str | Path, **filters) -> list[dict]:
+    """Catalog rows of the runs matching the filters (see ``Workspace.list_runs``)."""
+    return workspace(db).list_runs(**filters)
+
+
+@dataclass(frozen=True)
+class RunDetail:
+    """One run: its catalog row, parameters and stages."""
+
+    row: dict
+    parameters: dict
+    stages: list = field(default_factory=list)
+
+
+def run_detail(db: str | Path, ref: str) -> RunDetail:
+    """A run's catalog row, parameter sets and stages with provenance."""
+    ws = workspace(db)
+    run_id = ws.resolve(ref)
+    return RunDetail(ws.run_row(run_id), ws.run_parameters(run_id), ws.stages(run_id))
+
+
+def query(db: str | Path, sql: str) -> tuple[list[str], list[tuple]]:
+    """Read-only SQL on the catalog."""
+    return workspace(db).query(sql)
+
+
+def export_run(db: str | Path, ref: str, to: str | Path, *, data_format: str = "csv", overwrite: bool = False
+               ) -> Path:
+    """Write a run's raw stage as a CONTRACT §3 folder."""
+    from pencli.io.runfolder import write_run_folder
+    from pencli.store.workspace import raw_columns_of
+
+    ws = workspace(db)
+    run_id = ws.resolve(ref)
+    table, _ = ws.read_stage(run_id, "raw")
+    row = ws.run_row(run_id)
+    info = dict(json.loads(row["info"]) if row.get("info") else {})
+    info.setdefault("id", run_id)
+    return write_run_folder(to, raw_columns_of(table), ws.run_parameters(run_id), info, data_format=data_format,
+                            overwrite=overwrite)

@@ -7,6 +7,7 @@ import typer
 from pencli import __version__
 from pencli.commands import params as params_cmd
 from pencli.commands import predict as predict_cmd
+from pencli.commands import runs as runs_cmd
 from pencli.commands.common import PenTyper
 
 app = PenTyper(
@@ -17,7 +18,9 @@ app = PenTyper(
     pretty_exceptions_enable=False,
 )
 app.add_typer(params_cmd.app, name="params")
-app.registered_commands.extend(predict_cmd.app.registered_commands)
+app.add_typer(runs_cmd.runs_app, name="runs")
+for module in (predict_cmd, runs_cmd):
+    app.registered_commands.extend(module.app.registered_commands)
 
 
 def _version(value: bool) -> None:

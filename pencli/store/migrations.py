@@ -1,0 +1,59 @@
+"""Numbered, transactional schema migrations of the workspace catalog.
+
+Each migration is applied once, inside a transaction, and recorded in
+``schema_migrations``.  Never edit a released migration: add a new one.
+The tables are documented in ``schema/catalog.md``.
+"""
+
+from __future__ import annotations
+
+MIGRATIONS: tuple[tuple[int, str, str], ...] = (
+    (1, "runs, parameters and stages", """
+        CREATE TABLE runs (
+            run_id              VARCHAR PRIMARY KEY,
+            content_sha256      VARCHAR NOT NULL UNIQUE,
+            source              VARCHAR NOT NULL,
+            source_format       VARCHAR NOT NULL,
+            ingested_at         TIMESTAMP NOT NULL,
+            run_date            DATE,
+            operator            VARCHAR,
+            notes               VARCHAR,
+            tags                VARCHAR[],
+            info                JSON,
+            material            VARCHAR NOT NULL,
+            penetrator          VARCHAR NOT NULL,
+            energizing          VARCHAR NOT NULL,
+            blade_thickness_mm  DOUBLE NOT NULL,
+            blade_width_mm      DOUBLE NOT NULL,
+            spring_count        INTEGER NOT NULL,
+            sprung_mass_kg      DOUBLE NOT NULL,
+            surface_offset_mm   DOUBLE NOT NULL,
+            sampling_rate_hz    DOUBLE NOT NULL,
+            n_samples           BIGINT NOT NULL,
+            duration_s          DOUBLE NOT NULL,
+            pen_version         VARCHAR NOT NULL
+        );
+        CREATE TABLE run_parameters (
+            run_id      VARCHAR NOT NULL REFERENCES runs(run_id),
+            kind        VARCHAR NOT NULL,
+            name        VARCHAR NOT NULL,
+            parameters  JSON NOT NULL,
+            PRIMARY KEY (run_id, kind)
+        );
+        CREATE TABLE stages (
+            run_id          VARCHAR NOT NULL REFERENCES runs(run_id),
+            stage_no        INTEGER NOT NULL,
+            stage           VARCHAR NOT NULL,
+            parent_no       INTEGER,
+            path            VARCHAR NOT NULL,
+            content_sha256  VARCHAR NOT NULL,
+            command         VARCHAR NOT NULL,
+            parameters      JSON NOT NULL,
+            pen_version     VARCHAR NOT NULL,
+            created_at      TIMESTAMP NOT NULL,
+            PRIMARY KEY (run_id, stage_no)
+        );
+    """),
+)
+
+LATEST = MIGRATIONS[-1][0]

@@ -1,0 +1,402 @@
+"""A workspace: ``runs.duckdb`` (the catalog) and ``runs/`` beside it.
+
+Layout (documented in ``schema/catalog.md``)::
+
+    runs.duckdb
+    runs/<run_id>/00-raw.parquet       immutable, content-hashed
+    runs/<run_id>/01-tare.parquet      each conditioning stage, numbered
+    ...
+
+Every write is atomic: the Parquet file is written under a temporary name,
+the catalog rows are inserted in a transaction, the file is renamed into
+place, then the transaction commits.  Any failure (or Ctrl-C) rolls the
+transaction back and removes the file, so a Parquet file never exists
+without its catalog row nor the other way round.
+
+DuckDB lets one process write a database file at a time.  pen opens the
+catalog only for the moment it needs it and, when another process holds it,
+retries for a bounded time (``PEN_LOCK_TIMEOUT_S``, default 30 s) before
+failing with a message naming the file and the process.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as dt
+import json
+import os
+import re
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator, Mapping, Sequence
+
+import duckdb
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from pencli import __version__
+from pencli.errors import StoreError
+from pencli.store.migrations import LATEST, MIGRATIONS
+from pencli.store.rundata import RAW_COLUMNS, RunData, content_hash, table_hash
+
+DEFAULT_LOCK_TIMEOUT_S = 30.0
+RAW_STAGE = "raw"
+_ID_SAFE = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+@dataclass(frozen=True)
+class AddedRun:
+    """Outcome of adding a run: its id and whether it was new."""
+
+    run_id: str
+    created: bool
+    source: str
+
+
+@dataclass(frozen=True)
+class StageRecord:
+    """One stage of a run, as the catalog records it."""
+
+    run_id: str
+    stage_no: int
+    stage: str
+    parent_no: int | None
+    path: Path
+    content_sha256: str
+    command: str
+    parameters: dict
+    pen_version: str
+    created_at: dt.datetime
+
+
+def _now() -> dt.datetime:
+    return dt.datetime.now(dt.timezone.utc).replace(tzinfo=None, microsecond=0)
+
+
+class Workspace:
+    """The catalog and run folders of one workspace."""
+
+    def __init__(self, db_path: str | Path, *, lock_timeout_s: float | None = None):
+        self.db_path = Path(db_path)
+        self.runs_dir = self.db_path.parent / "runs"
+        if lock_timeout_s is None:
+            lock_timeout_s = float(os.environ.get("PEN_LOCK_TIMEOUT_S", DEFAULT_LOCK_TIMEOUT_S))
+        self.lock_timeout_s = lock_timeout_s
+
+    # ------------------------------------------------------------------ connection
+    def exists(self) -> bool:
+        """Whether the catalog file exists."""
+        return self.db_path.is_file()
+
+    @contextlib.contextmanager
+    def connect(self, *, write: bool = False) -> Iterator[duckdb.DuckDBPyConnection]:
+        """Open the catalog (creating and migrating it when writing), with a bounded wait on a lock."""
+        if not write and not self.exists():
+            raise StoreError(f"{self.db_path}: no workspace here; add runs first (pen ingest PATH or pen acquire), "
+                             f"or point --db / $PEN_DB at one")
+        if write:
+            self.db_path.parent.mkdir(parents=True, exist_ok=True)
+        deadline = time.monotonic() + self.lock_timeout_s
+        delay = 0.02
+        while True:
+            try:
+                con = duckdb.connect(str(self.db_path), read_only=not write)
+                break
+            except duckdb.IOException as exc:
+                text = str(exc)
+                if "lock" not in text.lower():
+                    raise StoreError(f"{self.db_path}: cannot open the catalog: {text.splitlines()[0]}") from None
+                if time.monotonic() >= deadline:
+                    holder = re.search(r"PID (\d+)", text)
+                    who = f" (process {holder.group(1)})" if holder else ""
+                    raise StoreError(
+                        f"{self.db_path}: the workspace is locked by another pen process{who} and stayed locked "
+                        f"for {self.lock_timeout_s:g} s; wait for it to finish or raise PEN_LOCK_TIMEOUT_S") from None
+                time.sleep(delay)
+                delay = min(delay * 1.5, 0.5)
+            except duckdb.Error as exc:
+                raise StoreError(f"{self.db_path}: cannot open the catalog: {str(exc).splitlines()[0]}") from None
+        try:
+            if write:
+                self._migrate(con)
+            else:
+                self._check_version(con)
+            yield con
+        finally:
+            con.close()
+
+    def _migrate(self, con: duckdb.DuckDBPyConnection) -> None:
+        con.execute("CREATE TABLE IF NOT EXISTS schema_migrations (version INTEGER PRIMARY KEY, name VARCHAR, "
+                    "applied_at TIMESTAMP, pen_version VARCHAR)")
+        done = {row[0] for row in con.execute("SELECT version FROM schema_migrations").fetchall()}
+        if done and max(done) > LATEST:
+            raise StoreError(f"{self.db_path}: catalog schema version {max(done)} is newer than this pen "
+                             f"({__version__}, schema {LATEST}); upgrade pen")
+        for version, name, sql in MIGRATIONS:
+            if version in done:
+                continue
+            con.execute("BEGIN TRANSACTION")
+            try:
+                con.execute(sql)
+                con.execute("INSERT INTO schema_migrations VALUES (?, ?, ?, ?)", [version, name, _now(), __version__])
+                con.execute("COMMIT")
+            except BaseException:
+                con.execute("ROLLBACK")
+                raise
+
+    def _check_version(self, con: duckdb.DuckDBPyConnection) -> None:
+        try:
+            version = con.execute("SELECT max(version) FROM schema_migrations").fetchone()[0]
+        except duckdb.CatalogException:
+            raise StoreError(f"{self.db_path}: not a pen workspace (no schema_migrations table)") from None
+        if version is None or version > LATEST:
+            raise StoreError(f"{self.db_path}: catalog schema version {version} is not one this pen reads "
+                             f"(up to {LATEST})")
+        if version < LATEST:
+            raise StoreError(f"{self.db_path}: catalog schema version {version} is older than this pen's "
+                             f"({LATEST}); any writing command (e.g. pen ingest) upgrades it")
+
+    # ------------------------------------------------------------------ runs
+    def add_run(self, run: RunData, *, command: str) -> AddedRun:
+        """Add a raw run (immutable).  The same data added again returns the existing run."""
+        digest = content_hash(run.columns)
+        wanted = self._wanted_id(run)
+        with self.connect(write=True) as con:
+            row = con.execute("SELECT run_id FROM runs WHERE content_sha256 = ?", [digest]).fetchone()
+            if row is not None:
+                self._check_same_parameters(con, row[0], run)
+                return AddedRun(row[0], False, run.source)
+            run_id = wanted
+            if con.execute("SELECT 1 FROM runs WHERE run_id = ?", [run_id]).fetchone() is not None:
+                run_id = f"{wanted}-{digest[:8]}"
+            table = run.to_table()
+            record = {
+                "stage": RAW_STAGE, "run_id": run_id, "parent": None, "command": command,
+                "parameters": {"source": run.source, "format": run.source_format, **run.reader_options},
+            }
+            stage = self._write_stage(con, run_id, 0, table, record, digest, run_rows=(run, digest))
+        return AddedRun(stage.run_id, True, run.source)
+
+    def _wanted_id(self, run: RunData) -> str:
+        raw = str(run.info.get("id") or Path(run.source).name or "run")
+        name = _ID_SAFE.sub("-", raw).strip("-.") or "run"
+        return name[:80]
+
+    def _check_same_parameters(self, con, run_id: str, run: RunData) -> None:
+        stored = {k: json.loads(p) for k, p in con.execute(
+            "SELECT kind, parameters FROM run_parameters WHERE run_id = ?", [run_id]).fetchall()}
+        for ps in run.parameter_sets():
+            old = stored.get(ps.kind, {})
+            new = ps.to_mapping()
+            for key in sorted(set(old) | set(new)):
+                if key in ("name", "notes"):
+                    continue
+                if old.get(key) != new.get(key):
+                    raise StoreError(
+                        f"{run.source}: the same data is already run '{run_id}' but with {ps.kind} {key} = "
+                        f"{old.get(key)!r}, not {new.get(key)!r}; raw runs are immutable (export it, fix the "
+                        f"parameter file, or keep the stored one)")
+
+    def _write_stage(self, con, run_id: str, stage_no: int, table: pa.Table, record: dict, digest: str,
+                     run_rows: tuple[RunData, str] | None = None) -> StageRecord:
+        """Write one stage file and its catalog rows atomically."""
+        folder = self.runs_dir / run_id
+        created_folder = not folder.exists()
+        folder.mkdir(parents=True, exist_ok=True)
+        final = folder / f"{stage_no:02d}-{record['stage']}.parquet"
+        if final.exists():
+            raise StoreError(f"{final}: exists but is not in the catalog; move it away (left by an older failure?)")
+        tmp = folder / f".{final.name}.{os.getpid()}.tmp"
+        now = _now()
+        meta = {
+            "pen:stage": record["stage"], "pen:stage_no": str(stage_no), "pen:run_id": run_id,
+            "pen:parent_no": json.dumps(record.get("parent")), "pen:command": record["command"],
+            "pen:parameters": json.dumps(record["parameters"], default=str), "pen:version": __version__,
+            "pen:created_at": now.isoformat(), "pen:content_sha256": digest,
+        }
+        if run_rows is not None:
+            meta["pen:run_parameters"] = json.dumps({ps.kind: ps.to_mapping() for ps in run_rows[0].parameter_sets()})
+            meta["pen:run_info"] = json.dumps(run_rows[0].info, default=str)
+        merged = dict(table.schema.metadata or {})
+        merged.update({k.encode(): v.encode() for k, v in meta.items()})
+        table = table.replace_schema_metadata(merged)
+        committed = False
+        con.execute("BEGIN TRANSACTION")
+        try:
+            pq.write_table(table, tmp, compression="zstd")
+            if run_rows is not None:
+                self._insert_run(con, run_id, *run_rows, now)
+            con.execute("INSERT INTO stages VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+                run_id, stage_no, record["stage"], record.get("parent"), str(final.relative_to(self.runs_dir.parent)),
+                digest, record["command"], json.dumps(record["parameters"], default=str), __version__, now])
+            os.replace(tmp, final)
+            con.execute("COMMIT")
+            committed = True
+        finally:
+            if not committed:
+                with contextlib.suppress(Exception):
+                    con.execute("ROLLBACK")
+                for path in (tmp, final):
+                    with contextlib.suppress(FileNotFoundError):
+                        path.unlink()
+                if created_folder:
+                    with contextlib.suppress(OSError):
+                        folder.rmdir()
+        return StageRecord(run_id, stage_no, record["stage"], record.get("parent"), final, digest,
+                           record["command"], record["parameters"], __version__, now)
+
+    def _insert_run(self, con, run_id: str, run: RunData, digest: str, now: dt.datetime) -> None:
+        p, m, e = run.penetrator, run.material, run.energizing
+        info = run.info
+        tags = info.get("tags") or []
+        if isinstance(tags, str):
+            tags = [tags]
+        run_date = info.get("date")
+        if isinstance(run_date, str):
+            try:
+                run_date = dt.date.fromisoformat(run_date)
+            except ValueError:
+                run_date = None
+        con.execute("INSERT INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+            run_id, digest, run.source, run.source_format, now, run_date,
+            None if info.get("operator") is None else str(info.get("operator")),
+            None if info.get("notes") is None else str(info.get("notes")),
+            [str(t) for t in tags], json.dumps(info, default=str),
+            m.name, p.name, e.name, p.get("blade_thickness_mm"), p.get("blade_width_mm"),
+            int(e.get("spring_count")), p.get("sprung_mass_kg"), e.get("surface_offset_mm"),
+            run.sampling_rate_hz, run.n_samples, run.duration_s, __version__])
+        for ps in run.parameter_sets():
+            con.execute("INSERT INTO run_parameters VALUES (?, ?, ?, ?)",
+                        [run_id, ps.kind, ps.name, json.dumps(ps.to_mapping())])
+
+    # ------------------------------------------------------------------ stages
+    def add_stage(self, run_id: str, stage: str, table: pa.Table, *, parent_no: int, command: str,
+                  parameters: Mapping[str, Any]) -> StageRecord:
+        """Append a conditioning stage to a run (atomic)."""
+        with self.connect(write=True) as con:
+            last = con.execute("SELECT max(stage_no) FROM stages WHERE run_id = ?", [run_id]).fetchone()[0]
+            if last is None:
+                raise StoreError(f"no run '{run_id}' in {self.db_path}")
+            record = {"stage": stage, "parent": parent_no, "command": command, "parameters": dict(parameters)}
+            return self._write_stage(con, run_id, last + 1, table, record, table_hash(table))
+
+    def stages(self, run_id: str) -> list[StageRecord]:
+        """All stages of a run, oldest first."""
+        with self.connect() as con:
+            rows = con.execute("SELECT run_id, stage_no, stage, parent_no, path, content_sha256, command, parameters, "
+                               "pen_version, created_at FROM stages WHERE run_id = ? ORDER BY stage_no",
+                               [run_id]).fetchall()
+        return [StageRecord(r[0], r[1], r[2], r[3], self.runs_dir.parent / r[4], r[5], r[6], json.loads(r[7]),
+                            r[8], r[9]) for r in rows]
+
+    def read_stage(self, run_id: str, stage: str | int | None = None) -> tuple[pa.Table, StageRecord]:
+        """A stage's table (default: the latest stage) and its record."""
+        records = self.stages(run_id)
+        if not records:
+            raise StoreError(f"no run '{run_id}' in {self.db_path}")
+        if stage is None:
+            chosen = records[-1]
+        else:
+            matches = [r for r in records if r.stage == stage or r.stage_no == stage]
+            if not matches:
+                raise StoreError(f"run '{run_id}' has no stage {stage!r}; it has: "
+                                 f"{', '.join(f'{r.stage_no}:{r.stage}' for r in records)}")
+            chosen = matches[-1]
+        try:
+            return pq.read_table(chosen.path), chosen
+        except (OSError, pa.ArrowException) as exc:
+            raise StoreError(f"{chosen.path}: cannot read stage '{chosen.stage}' of run '{run_id}': {exc}") from None
+
+    # ------------------------------------------------------------------ look-ups
+    def resolve(self, ref: str) -> str:
+        """A run id, a run folder under runs/, or an ingested source folder → run id."""
+        with self.connect() as con:
+            if con.execute("SELECT 1 FROM runs WHERE run_id = ?", [ref]).fetchone():
+                return ref
+            path = Path(ref)
+            if path.exists():
+                resolved = path.resolve()
+                if resolved.parent == self.runs_dir.resolve():
+                    name = resolved.name
+                    if con.execute("SELECT 1 FROM runs WHERE run_id = ?", [name]).fetchone():
+                        return name
+                row = con.execute("SELECT run_id FROM runs WHERE source = ?", [str(resolved)]).fetchone()
+                if row:
+                    return row[0]
+        raise StoreError(f"no run '{ref}' in {self.db_path} (give a run id from `pen runs`, or a folder under "
+                         f"{self.runs_dir})")
+
+    def run_parameters(self, run_id: str) -> dict[str, dict]:
+        """The three parameter mappings stored with a run, by kind."""
+        with self.connect() as con:
+            rows = con.execute("SELECT kind, parameters FROM run_parameters WHERE run_id = ?", [run_id]).fetchall()
+        if not rows:
+            raise StoreError(f"no run '{run_id}' in {self.db_path}")
+        return {kind: json.loads(text) for kind, text in rows}
+
+    def run_row(self, run_id: str) -> dict:
+        """The catalog row of a run."""
+        with self.connect() as con:
+            cur = con.execute("SELECT * FROM runs WHERE run_id = ?", [run_id])
+            row = cur.fetchone()
+            if row is None:
+                raise StoreError(f"no run '{run_id}' in {self.db_path}")
+            return dict(zip([d[0] for d in cur.description], row))
+
+    def list_runs(self, *, material: str | None = None, penetrator: str | None = None,
+                  thickness_mm: float | None = None, springs: int | None = None, tag: str | None = None,
+                  since: dt.date | None = None, until: dt.date | None = None) -> list[dict]:
+        """Runs matching every given filter, newest first."""
+        where, args = [], []
+        for column, value in (("material", material), ("penetrator", penetrator), ("spring_count", springs)):
+            if value is not None:
+                where.append(f"{column} = ?")
+                args.append(value)
+        if thickness_mm is not None:
+            where.append("abs(blade_thickness_mm - ?) < 1e-9")
+            args.append(thickness_mm)
+        if tag is not None:
+            where.append("list_contains(tags, ?)")
+            args.append(tag)
+        if since is not None:
+            where.append("run_date >= ?")
+            args.append(since)
+        if until is not None:
+            where.append("run_date <= ?")
+            args.append(until)
+        sql = ("SELECT r.run_id, r.run_date, r.material, r.penetrator, r.blade_thickness_mm, r.spring_count, "
+               "r.sampling_rate_hz, r.duration_s, r.tags, "
+               "(SELECT stage FROM stages s WHERE s.run_id = r.run_id ORDER BY stage_no DESC LIMIT 1) AS latest_stage "
+               "FROM runs r")
+        if where:
+            sql += " WHERE " + " AND ".join(where)
+        sql += " ORDER BY r.ingested_at DESC, r.run_id"
+        with self.connect() as con:
+            cur = con.execute(sql, args)
+            names = [d[0] for d in cur.description]
+            return [dict(zip(names, row)) for row in cur.fetchall()]
+
+    def query(self, sql: str) -> tuple[list[str], list[tuple]]:
+        """Run read-only SQL against the catalog."""
+        with self.connect() as con:
+            try:
+                cur = con.execute(sql)
+            except duckdb.Error as exc:
+                raise StoreError(f"query failed: {str(exc).splitlines()[0]}") from None
+            if cur.description is None:
+                return [], []
+            return [d[0] for d in cur.description], cur.fetchall()
+
+    def run_ids(self) -> list[str]:
+        """Every run id, sorted."""
+        with self.connect() as con:
+            return [r[0] for r in con.execute("SELECT run_id FROM runs ORDER BY run_id").fetchall()]
+
+
+def raw_columns_of(table: pa.Table) -> dict:
+    """The CONTRACT §3 columns of a raw-stage table as float64 numpy arrays."""
+    return {name: table.column(name).to_numpy() for name in RAW_COLUMNS}
+
+
+__all__: Sequence[str] = ("AddedRun", "StageRecord", "Workspace", "RAW_STAGE", "raw_columns_of")
