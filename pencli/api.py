@@ -263,3 +263,69 @@ def export_run(db: str | Path, ref: str, to: str | Path, *, data_format: str = "
     info.setdefault("id", run_id)
     return write_run_folder(to, raw_columns_of(table), ws.run_parameters(run_id), info, data_format=data_format,
                             overwrite=overwrite)
+
+
+# ---------------------------------------------------------------------------- acquisition
+@dataclass(frozen=True)
+class Acquisition:
+    """One shot of the rig, calibrated and trimmed, not yet saved."""
+
+    run: Any
+    """The :class:`~pencli.store.rundata.RunData` to save."""
+    warnings: tuple[str, ...]
+    truth: dict | None
+    """The simulated rig's true figures (None on the real rig); never stored with the run."""
+
+
+def measured_only(material: ParameterSet) -> ParameterSet:
+    """A material set without its Eq. 9 coefficients (what a run records: measured properties)."""
+    from dataclasses import replace
+
+    values = {k: v for k, v in material.values.items() if not k.startswith("coefficients.")}
+    return replace(material, values=values)
+
+
+def acquire(*, springs: int | None, penetrator: str, material: str, energizing: str | None = None,
+            rig: str | Path | None = None, driver: str | None = None, rate_hz: float | None = None,
+            duration_s: float = 2.0, pre_trigger_s: float = 0.2, post_motion_s: float = 0.2,
+            position_cal: str | Path | None = None, force_cal: str | Path | None = None,
+            info: Mapping[str, Any] | None = None, confirm: Callable[[], bool] = lambda: True,
+            progress: Callable[[str, int, int], None] | None = None) -> Acquisition:
+    """Fire one shot on the rig (simulated by default) and return it, unsaved."""
+    import datetime as _dt
+
+    from pencli.acquire.calibration import load_force_calibration, load_position_calibration
+    from pencli.acquire.drivers import ShotSetup, make_driver
+    from pencli.acquire.rig import load_rig
+    from pencli.acquire.session import run_shot
+    from pencli.store.rundata import RunData
+
+    if energizing is None:
+        if springs is None:
+            raise ParameterError("give --springs N (2, 4 or 6) or --energizing PRESET_OR_FILE")
+        energizing = f"springs_{springs}"
+    e = resolve(energizing, "energizing")
+    if springs is not None and int(e.values["spring_count"]) != springs:
+        raise ParameterError(f"--springs {springs} but {e.source} has spring_count {e.values['spring_count']}")
+    p = resolve(penetrator, "penetrator")
+    m = resolve(material, "material")
+    rig_config = load_rig(rig)
+    name = driver or rig_config["driver"]
+    rate = float(rate_hz or rig_config["sampling_rate_hz"])
+    if duration_s <= pre_trigger_s + post_motion_s:
+        raise ParameterError(f"--duration {duration_s:g} s leaves no time for the motion after "
+                             f"{pre_trigger_s:g} s pre-trigger and {post_motion_s:g} s after it")
+    pcal = load_position_calibration(position_cal)
+    fcal = load_force_calibration(force_cal)
+    rig_driver = make_driver(name, rig_config, pcal, fcal)
+    setup = ShotSetup(rate, duration_s, pre_trigger_s, p, m, e)
+    shot = run_shot(rig_driver, setup, pcal, fcal, confirm=confirm, post_motion_s=post_motion_s, progress=progress)
+    now = _dt.datetime.now(_dt.timezone.utc)
+    record = {"id": f"acq-{now.strftime('%Y%m%dT%H%M%S')}", "date": now.date().isoformat()}
+    record.update({k: v for k, v in (info or {}).items() if v not in (None, [], "")})
+    record.update({"driver": name, "rig": rig_config.name, "sampling_rate_hz": rate,
+                   "tare_before_fire": shot.tare, "position_calibration": pcal.source,
+                   "force_calibration": fcal.source})
+    run = RunData(shot.columns, p, measured_only(m), e, record, f"acquire:{name}", "acquire",
+                  {"driver": name, "rig": rig_config.source, "duration_s": duration_s})
+    return Acquisition(run, shot.warnings, getattr(rig_driver, "truth", None))

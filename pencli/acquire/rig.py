@@ -1,0 +1,118 @@
+"""The rig file: which driver, and for the simulated rig its sensors and its hidden world.
+
+A rig file is YAML with ``kind: rig``.  Every key is defined once in
+:data:`RIG_KEYS` (meaning, unit, default); unknown keys are an error.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Mapping
+
+from pencli.acquire.truth import validate_effects
+from pencli.errors import ParameterError
+from pencli.params.load import read_yaml
+
+RIG_KEYS: dict[str, tuple[str, Any]] = {
+    "driver": ("rig driver: sim or nidaq", "sim"),
+    "sampling_rate_hz": ("sampling rate of every channel [Hz]", 30000.0),
+    "force_noise_n": ("white noise of each force channel, standard deviation [N]", 2.0),
+    "torque_noise_nm": ("white noise of each torque channel, standard deviation [N·m]", 0.01),
+    "correlated_noise_n": ("low-frequency (AR(1)) force noise, standard deviation [N]", 0.0),
+    "correlated_noise_ms": ("correlation time of that noise [ms]", 2.0),
+    "force_offsets_n": ("untared offsets of fx, fy, fz [N]", [-13.2, -9.3, -0.8]),
+    "torque_offsets_nm": ("untared offsets of tx, ty, tz [N·m]", [0.07, 0.04, 0.044]),
+    "lateral_fraction": ("side force as a fraction of the axial resistance [–]", 0.02),
+    "true_material": ("preset or file of the true material (default: the run's material)", None),
+    "strength_scale": ("the block's true strength over the recorded strength (block scatter) [–]", 1.0),
+    "effects": ("hidden effects of the true world (CONTRACT §4 names) with parameters", []),
+    "seed": ("seed of the sensor noise (default: fresh each shot)", None),
+    "device": ("nidaq: device name", "Dev1"),
+    "gauge_channels": ("nidaq: the six gauge analog inputs", "Dev1/ai0:5"),
+    "encoder_counter": ("nidaq: counter of the string encoder", "Dev1/ctr0"),
+    "fire_line": ("nidaq: digital line that releases the latch", "Dev1/port0/line0"),
+    "trigger_source": ("nidaq: terminal carrying the release signal (reference trigger)", "/Dev1/PFI0"),
+}
+"""Every rig-file key: (meaning with unit, default)."""
+
+DRIVER_NAMES = ("sim", "nidaq")
+
+
+@dataclass(frozen=True)
+class RigConfig:
+    """A validated rig file."""
+
+    name: str
+    values: Mapping[str, Any] = field(default_factory=dict)
+    source: str = "<default>"
+
+    def __getitem__(self, key: str) -> Any:
+        return self.values[key]
+
+    @property
+    def effects(self):
+        return validate_effects(self.values["effects"], self.source)
+
+
+def _number(where: str, key: str, value: Any, *, positive: bool = False, minimum: float | None = None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ParameterError(f"{where}: key '{key}': got {value!r}; expected a number")
+    if positive and value <= 0:
+        raise ParameterError(f"{where}: key '{key}': got {value!r}; must be > 0")
+    if minimum is not None and value < minimum:
+        raise ParameterError(f"{where}: key '{key}': got {value!r}; must be >= {minimum:g}")
+    return float(value)
+
+
+def validate_rig(data: Any, where: str) -> RigConfig:
+    """Validate a rig mapping; fill defaults."""
+    if not isinstance(data, Mapping) or data.get("kind") != "rig":
+        raise ParameterError(f"{where}: expected a mapping with kind: rig")
+    name = data.get("name")
+    if not isinstance(name, str) or not name:
+        raise ParameterError(f"{where}: key 'name': expected a non-empty string")
+    values = {key: default for key, (_, default) in RIG_KEYS.items()}
+    for key, value in data.items():
+        if key in ("kind", "name", "notes"):
+            continue
+        if key not in RIG_KEYS:
+            raise ParameterError(f"{where}: unknown key '{key}'; valid rig keys: {', '.join(RIG_KEYS)}")
+        values[key] = value
+    if values["driver"] not in DRIVER_NAMES:
+        raise ParameterError(f"{where}: key 'driver': got {values['driver']!r}; expected one of "
+                             f"{', '.join(DRIVER_NAMES)}")
+    _number(where, "sampling_rate_hz", values["sampling_rate_hz"], minimum=1000)
+    for key in ("force_noise_n", "torque_noise_nm", "correlated_noise_n", "lateral_fraction"):
+        _number(where, key, values[key], minimum=0)
+    _number(where, "correlated_noise_ms", values["correlated_noise_ms"], positive=True)
+    _number(where, "strength_scale", values["strength_scale"], positive=True)
+    for key in ("force_offsets_n", "torque_offsets_nm"):
+        offsets = values[key]
+        if not isinstance(offsets, (list, tuple)) or len(offsets) != 3:
+            raise ParameterError(f"{where}: key '{key}': expected a list of 3 numbers")
+        for value in offsets:
+            _number(where, key, value)
+    if values["seed"] is not None and (isinstance(values["seed"], bool) or not isinstance(values["seed"], int)):
+        raise ParameterError(f"{where}: key 'seed': got {values['seed']!r}; expected a whole number")
+    validate_effects(values["effects"], where)
+    return RigConfig(name, values, where)
+
+
+def load_rig(ref: str | Path | None) -> RigConfig:
+    """A rig file path, or ``None`` for the bundled default simulated rig."""
+    if ref is None:
+        path = Path(str(resources.files("pencli.acquire.data").joinpath("sim_default.yaml")))
+    else:
+        path = Path(ref)
+        if not path.is_file():
+            raise ParameterError(f"{path}: no such rig file")
+    return validate_rig(read_yaml(path), str(path))
+
+
+def rig_from_mapping(data: Mapping[str, Any], where: str = "<rig>") -> RigConfig:
+    """A rig from an in-memory mapping (``kind``/``name`` filled in if absent)."""
+    full = {"kind": "rig", "name": "inline", **dict(data)}
+    return validate_rig(full, where)

@@ -1,0 +1,187 @@
+"""The simulated rig: a digital twin with sensor models.
+
+It integrates the true world (:mod:`pencli.acquire.truth`, with any hidden
+effects of the rig file), then measures it the way the real rig does: the
+string encoder quantised to its counts (0.16 mm), the six-axis load cell
+seeing the resistance, the blade-mount inertia and its static weight, with
+offsets and noise, optionally lagging, ringing or drifting; then it
+returns encoder counts and gauge volts through the inverse of the force
+calibration, so the acquisition path calibrates them exactly as it would
+real readings.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Iterator
+
+import numpy as np
+
+from pencli.acquire.calibration import ForceCalibration, PositionCalibration
+from pencli.acquire.drivers import RawBlock, ShotSetup
+from pencli.acquire.rig import RigConfig
+from pencli.acquire.truth import TrueMotion, TrueWorld, true_motion
+from pencli.errors import RigError
+from pencli.params.load import resolve
+from pencli.params.validate import ParameterSet
+
+LEVER_ARM_M = 0.05
+"""Lever of side forces about the sensor's origin, for the torque channels. [m]"""
+
+
+def world_from(penetrator: ParameterSet, material: ParameterSet, energizing: ParameterSet, rig: RigConfig
+               ) -> TrueWorld:
+    """The true world of a shot: the run's blade and launcher, the rig's true material and effects."""
+    truth_material = material
+    if rig["true_material"] is not None:
+        truth_material = resolve(rig["true_material"], "material")
+    mv = truth_material.values
+    missing = [k for k in ("coefficients.strength_factor", "coefficients.sidewall_pressure_kpa",
+                           "coefficients.damping_kpa_s_m", "coefficients.inertia_coefficient") if k not in mv]
+    if missing:
+        raise RigError(f"the simulated rig needs a true material with coefficients; {truth_material.source} lacks "
+                       f"{missing[0]} (set true_material in the rig file)")
+    pv, ev = penetrator.values, energizing.values
+    return TrueWorld(
+        blade_width_m=pv["blade_width_mm"] * 1e-3, blade_thickness_m=pv["blade_thickness_mm"] * 1e-3,
+        tip_angle_rad=math.radians(pv["tip_angle_deg"]), penetration_depth_m=pv["penetration_depth_mm"] * 1e-3,
+        sprung_mass_kg=pv["sprung_mass_kg"], load_cell_mass_kg=pv["load_cell_mass_kg"],
+        density_kg_m3=mv["density_kg_m3"],
+        strength_pa=mv["microstructure_strength_kpa"] * 1e3 * float(rig["strength_scale"]),
+        friction_coefficient=mv["friction_coefficient"], gravity_m_s2=mv.get("gravity_m_s2", 9.81),
+        strength_factor=mv["coefficients.strength_factor"],
+        sidewall_pressure_pa=mv["coefficients.sidewall_pressure_kpa"] * 1e3,
+        damping_pa_s_m=mv["coefficients.damping_kpa_s_m"] * 1e3,
+        inertia_coefficient=mv["coefficients.inertia_coefficient"],
+        spring_count=int(ev["spring_count"]), spring_stiffness_n_m=ev["spring_stiffness_kn_m"] * 1e3,
+        spring_mass_kg=ev["spring_mass_kg"], nominal_length_m=ev["spring_nominal_length_mm"] * 1e-3,
+        compressed_length_m=ev["spring_compressed_length_mm"] * 1e-3, surface_offset_m=ev["surface_offset_mm"] * 1e-3,
+        efficiency=ev["propulsion_efficiency_pct"] / 100.0, effects=rig.effects)
+
+
+def _two_pole_lag(signal: np.ndarray, tau_s: float, rate_hz: float) -> np.ndarray:
+    """Two cascaded first-order low-passes (exact discretisation), starting settled."""
+    from scipy.signal import lfilter
+
+    a = math.exp(-1.0 / (tau_s * rate_hz))
+    out = signal
+    for _ in range(2):
+        out = lfilter([1 - a], [1, -a], out, zi=[out[0] * a])[0]
+    return out
+
+
+def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSetup,
+            position_cal: PositionCalibration, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Encoder counts and the six calibrated channels (untared) over the whole recording."""
+    rate = setup.sampling_rate_hz
+    n_total, n_pre = setup.total_samples, setup.pre_trigger_samples
+    n_motion = motion.time_s.size
+    if n_pre + n_motion > n_total:
+        n_motion = n_total - n_pre  # the recording ends before the motion does
+    idx = np.arange(n_total) - n_pre  # sample index relative to the release
+    t = idx / rate
+    k = np.clip(idx, 0, motion.time_s.size - 1)
+    moving = idx >= 0
+    u = np.where(moving, motion.displacement_m[k], 0.0)
+    acc = np.where(moving & (idx < motion.time_s.size), motion.acceleration_m_s2[k], 0.0)
+    resistance = np.where(moving, motion.resistance_n[k], 0.0)
+    m_lc = world.true_load_cell_mass_kg
+    axial = resistance + m_lc * (acc - world.gravity_m_s2)  # untared: the blade's weight hangs on the cell
+
+    ringing = world.effect("rig_ringing")
+    if ringing and math.isfinite(motion.contact_time_s):
+        tc = t - motion.contact_time_s
+        w0 = 2 * math.pi * ringing["frequency_hz"]
+        zeta = ringing["damping_ratio"]
+        wd = w0 * math.sqrt(max(1 - zeta ** 2, 1e-9))
+        amp = ringing["amplitude_n_per_m_s"] * motion.contact_speed_m_s
+        axial = axial + np.where(tc > 0, amp * np.exp(-zeta * w0 * tc) * np.sin(wd * tc), 0.0)
+    lag = world.effect("sensor_lag")
+    if lag:
+        axial = _two_pole_lag(axial, lag["tau_ms"] * 1e-3, rate)
+    drift = world.effect("force_drift")
+    if drift:
+        tp = np.maximum(t, 0.0)
+        axial = axial + drift["rate_n_per_s"] * tp + drift["curvature_n_per_s2"] * tp ** 2
+
+    noise_f = float(rig["force_noise_n"])
+    noise_t = float(rig["torque_noise_nm"])
+    side = float(rig["lateral_fraction"]) * resistance
+    fo, to = rig["force_offsets_n"], rig["torque_offsets_nm"]
+    forces = np.empty((n_total, 6))
+    forces[:, 0] = fo[0] + 0.8 * side + rng.normal(0, noise_f, n_total)
+    forces[:, 1] = fo[1] + 0.6 * side + rng.normal(0, noise_f, n_total)
+    forces[:, 2] = fo[2] + axial + rng.normal(0, noise_f, n_total)
+    corr = float(rig["correlated_noise_n"])
+    if corr > 0:
+        from scipy.signal import lfilter
+
+        a = math.exp(-1.0 / (float(rig["correlated_noise_ms"]) * 1e-3 * rate))
+        drive = rng.normal(0, corr * math.sqrt(1 - a * a), (n_total, 3))
+        forces[:, :3] += lfilter([1.0], [1.0, -a], drive, axis=0)
+    forces[:, 3] = to[0] - LEVER_ARM_M * 0.6 * side + rng.normal(0, noise_t, n_total)
+    forces[:, 4] = to[1] + LEVER_ARM_M * 0.8 * side + rng.normal(0, noise_t, n_total)
+    forces[:, 5] = to[2] + rng.normal(0, noise_t, n_total)
+    counts = np.round(u * 1e3 * position_cal.counts_per_mm).astype(np.int64)
+    return counts, forces
+
+
+class SimRig:
+    """The ``sim`` driver."""
+
+    name = "sim"
+
+    def __init__(self, rig: RigConfig, position_cal: PositionCalibration, force_cal: ForceCalibration):
+        self.rig = rig
+        self.position_cal = position_cal
+        self.force_cal = force_cal
+        self._inverse = np.linalg.inv(force_cal.matrix)
+        self._setup: ShotSetup | None = None
+        self._recording: tuple[np.ndarray, np.ndarray] | None = None
+        self.truth: dict | None = None
+        self.motion: TrueMotion | None = None
+        self.world: TrueWorld | None = None
+
+    def arm(self, setup: ShotSetup) -> None:
+        self._setup = setup
+        self.world = world_from(setup.penetrator, setup.material, setup.energizing, self.rig)
+        seed = self.rig["seed"]
+        self._rng = np.random.default_rng(seed)
+
+    def _volts(self, forces: np.ndarray) -> np.ndarray:
+        return forces @ self._inverse.T
+
+    def read_idle(self, n_samples: int) -> RawBlock:
+        if self._setup is None or self.world is None:
+            raise RigError("arm the rig before reading it")
+        fo, to = self.rig["force_offsets_n"], self.rig["torque_offsets_nm"]
+        level = np.array([fo[0], fo[1], fo[2] - self.world.true_load_cell_mass_kg * self.world.gravity_m_s2,
+                          to[0], to[1], to[2]])
+        noise = np.concatenate([self._rng.normal(0, float(self.rig["force_noise_n"]), (n_samples, 3)),
+                                self._rng.normal(0, float(self.rig["torque_noise_nm"]), (n_samples, 3))], axis=1)
+        return RawBlock(np.zeros(n_samples, dtype=np.int64), self._volts(level + noise))
+
+    def fire(self) -> None:
+        if self._setup is None or self.world is None:
+            raise RigError("arm the rig before firing")
+        self.motion = true_motion(self.world, self._setup.sampling_rate_hz)
+        counts, forces = measure(self.motion, self.world, self.rig, self._setup, self.position_cal, self._rng)
+        self._recording = (counts, self._volts(forces))
+        m = self.motion
+        self.truth = {
+            "contact_time_s": m.contact_time_s, "contact_speed_m_s": m.contact_speed_m_s,
+            "stop_time_s": m.stop_time_s, "final_depth_mm": m.final_depth_m * 1e3, "end": m.end,
+            "strength_pa": self.world.strength_pa, "load_cell_mass_kg": self.world.true_load_cell_mass_kg,
+            "effects": [{"name": n, **p} for n, p in self.world.effects],
+        }
+
+    def stream(self) -> Iterator[RawBlock]:
+        if self._recording is None:
+            raise RigError("fire before streaming")
+        counts, volts = self._recording
+        block = max(1, int(self._setup.sampling_rate_hz // 10))
+        for start in range(0, counts.size, block):
+            yield RawBlock(counts[start:start + block], volts[start:start + block])
+
+    def disarm(self) -> None:
+        self._recording = None

@@ -1,0 +1,325 @@
+r"""The "real world" of the simulated rig: true physics with hidden effects.
+
+This is deliberately *not* :mod:`pencli.model`.  It is a separate
+implementation of the rig (fixed-step RK4 on its own force law) so that a
+fit or a diagnosis tested on simulated runs is not tested on data made by
+its own code path.  With no effects and the same coefficients it agrees with
+CONTRACT §2 to the accuracy of its integrator; with effects it departs from
+it in ways the model does not know about.
+
+The true forms of the effects deliberately differ from the forms the
+diagnosis catalogue fits (a plateau layer with soft edges where the
+catalogue has a step; a power-law rate dependence where it has a logarithm;
+a two-pole sensor lag where it has one pole; ...), so that recovering them
+does not rely on an exact match.
+
+Units: SI inside (m, s, N, kg, Pa); effect parameters carry their unit in
+their name.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from pencli.errors import ParameterError
+
+# ---------------------------------------------------------------------------- effects
+# An effect is a name (CONTRACT §4) with named parameters.  Each "kind" of
+# effect modifies one ingredient of the true world; TRUE_EFFECTS says which,
+# with defaults and a docstring-like description.
+
+
+@dataclass(frozen=True)
+class EffectSpec:
+    """A hidden effect the simulated world can carry."""
+
+    name: str
+    description: str
+    defaults: Mapping[str, float]
+
+
+TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
+    EffectSpec("strength_layer", "strength takes ratio × S in a layer from depth_mm to depth_mm + thickness_mm "
+               "(a plateau), with smooth edges edge_mm wide", {"depth_mm": 60.0, "ratio": 0.5,
+                                                              "thickness_mm": 1000.0, "edge_mm": 2.0}),
+    EffectSpec("strength_gradient", "strength grows exponentially with depth: S·exp(ln(1 + change_per_100mm)·x/0.1 m)",
+               {"change_per_100mm": 0.5}),
+    EffectSpec("plug_growth", "a crushed plug widens the frontal thickness, saturating: "
+               "T + growth_mm·(1 − exp(−x/length_mm))", {"growth_mm": 1.5, "length_mm": 60.0}),
+    EffectSpec("sidewall_pressure_growth", "sidewall pressure rises with depth as P·(1 + (x/scale_mm)^exponent)",
+               {"scale_mm": 60.0, "exponent": 1.5}),
+    EffectSpec("velocity_friction", "friction falls with sliding speed (Stribeck-like): "
+               "μ·(1 − drop·(1 − exp(−v/speed_m_s)))", {"drop": 0.4, "speed_m_s": 3.0}),
+    EffectSpec("rate_strength", "strength rises with penetration rate as a power law: "
+               "S·(1 + coefficient·(v/1 m/s)^exponent)", {"coefficient": 0.05, "exponent": 1.5}),
+    EffectSpec("load_cell_mass_error", "the mass below the load cell is ratio × the file's value",
+               {"ratio": 1.5}),
+    EffectSpec("sensor_lag", "the force channel passes through two first-order poles of tau_ms each",
+               {"tau_ms": 0.3}),
+    EffectSpec("rig_ringing", "a damped structural resonance is struck at contact: amplitude_n_per_m_s × contact "
+               "speed, frequency_hz, damping_ratio", {"amplitude_n_per_m_s": 40.0, "frequency_hz": 900.0,
+                                                      "damping_ratio": 0.03}),
+    EffectSpec("force_drift", "the force offset drifts during the run: rate_n_per_s·t + curvature_n_per_s2·t²",
+               {"rate_n_per_s": 150.0, "curvature_n_per_s2": 0.0}),
+    EffectSpec("propulsion_loss", "the launcher loses energy: efficiency × (1 − loss) and a guide friction of "
+               "guide_friction_n along the whole travel", {"loss": 0.15, "guide_friction_n": 0.0}),
+    EffectSpec("brittle_bursts", "(outside the diagnosis catalogue) strength collapses and recovers in "
+               "saw-tooth bursts every period_mm of depth, by depth ratio", {"period_mm": 20.0, "ratio": 0.5}),
+)}
+
+
+def validate_effects(effects: Any, where: str) -> tuple[tuple[str, dict[str, float]], ...]:
+    """Check a list of ``{name: ..., param: value}`` mappings; fill defaults."""
+    if effects is None:
+        return ()
+    if not isinstance(effects, (list, tuple)):
+        raise ParameterError(f"{where}: key 'effects': expected a list of mappings with a 'name'")
+    out = []
+    for i, item in enumerate(effects):
+        if not isinstance(item, Mapping) or "name" not in item:
+            raise ParameterError(f"{where}: effects[{i}]: expected a mapping with a 'name'")
+        name = item["name"]
+        spec = TRUE_EFFECTS.get(name)
+        if spec is None:
+            raise ParameterError(f"{where}: effects[{i}]: unknown effect {name!r}; known: {', '.join(TRUE_EFFECTS)}")
+        params = dict(spec.defaults)
+        for key, value in item.items():
+            if key == "name":
+                continue
+            if key not in spec.defaults:
+                raise ParameterError(f"{where}: effects[{i}] ({name}): unknown parameter {key!r}; "
+                                     f"expected: {', '.join(spec.defaults)}")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ParameterError(f"{where}: effects[{i}] ({name}): {key} = {value!r}; expected a number")
+            params[key] = float(value)
+        out.append((name, params))
+    return tuple(out)
+
+
+# ---------------------------------------------------------------------------- the true world
+@dataclass(frozen=True)
+class TrueWorld:
+    """Everything the simulated rig's world is made of, SI.
+
+    ``effects`` are (name, parameters) pairs from :data:`TRUE_EFFECTS`.
+    """
+
+    blade_width_m: float
+    blade_thickness_m: float
+    tip_angle_rad: float
+    penetration_depth_m: float
+    sprung_mass_kg: float
+    load_cell_mass_kg: float
+    density_kg_m3: float
+    strength_pa: float
+    friction_coefficient: float
+    gravity_m_s2: float
+    strength_factor: float
+    sidewall_pressure_pa: float
+    damping_pa_s_m: float
+    inertia_coefficient: float
+    spring_count: int
+    spring_stiffness_n_m: float
+    spring_mass_kg: float
+    nominal_length_m: float
+    compressed_length_m: float
+    surface_offset_m: float
+    efficiency: float
+    effects: tuple[tuple[str, dict[str, float]], ...] = field(default_factory=tuple)
+
+    def effect(self, name: str) -> dict[str, float] | None:
+        """Parameters of effect ``name`` when present."""
+        for effect_name, params in self.effects:
+            if effect_name == name:
+                return params
+        return None
+
+    @property
+    def moving_mass_kg(self) -> float:
+        """Sprung mass plus a third of the springs' mass. [kg]"""
+        return self.sprung_mass_kg + self.spring_count * self.spring_mass_kg / 3.0
+
+    @property
+    def true_load_cell_mass_kg(self) -> float:
+        """The real mass below the load cell (load_cell_mass_error changes it). [kg]"""
+        err = self.effect("load_cell_mass_error")
+        return self.load_cell_mass_kg * (err["ratio"] if err else 1.0)
+
+
+def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
+    """The true resistance R(x, v) [N] for x > 0, effects included."""
+    w, T = world.blade_width_m, world.blade_thickness_m
+    theta, mu0 = world.tip_angle_rad, world.friction_coefficient
+    S0, Cs, P0 = world.strength_pa, world.strength_factor, world.sidewall_pressure_pa
+    C, K, rho = world.damping_pa_s_m, world.inertia_coefficient, world.density_kg_m3
+    layer = world.effect("strength_layer")
+    gradient = world.effect("strength_gradient")
+    plug = world.effect("plug_growth")
+    pgrowth = world.effect("sidewall_pressure_growth")
+    vfric = world.effect("velocity_friction")
+    rate = world.effect("rate_strength")
+    bursts = world.effect("brittle_bursts")
+    sin_t, cos_t = math.sin(theta), math.cos(theta)
+
+    def strength(x: float, v: float) -> float:
+        s = S0
+        if layer:
+            top = layer["depth_mm"] * 1e-3
+            bottom = top + layer["thickness_mm"] * 1e-3
+            edge = max(layer["edge_mm"], 1e-3) * 1e-3
+            inside = 0.5 * (math.tanh((x - top) / edge) - math.tanh((x - bottom) / edge))
+            s *= 1.0 + (layer["ratio"] - 1.0) * inside
+        if gradient:
+            s *= math.exp(math.log1p(gradient["change_per_100mm"]) * x / 0.1)
+        if rate and v > 0:
+            s *= 1.0 + rate["coefficient"] * v ** rate["exponent"]
+        if bursts:
+            phase = (x / (bursts["period_mm"] * 1e-3)) % 1.0
+            s *= 1.0 - (1.0 - bursts["ratio"]) * phase
+        return s
+
+    def friction_coefficient(v: float) -> float:
+        if vfric and v > 0:
+            return mu0 * (1.0 - vfric["drop"] * (1.0 - math.exp(-v / vfric["speed_m_s"])))
+        return mu0
+
+    def sidewall_integral(x: float) -> float:
+        """∫0^x P(z) dz [Pa·m]."""
+        if not pgrowth:
+            return P0 * x
+        a, n = pgrowth["scale_mm"] * 1e-3, pgrowth["exponent"]
+        return P0 * (x + x ** (n + 1) / ((n + 1) * a ** n))
+
+    def thickness(x: float) -> float:
+        if plug:
+            return T + plug["growth_mm"] * 1e-3 * (1.0 - math.exp(-x / (plug["length_mm"] * 1e-3)))
+        return T
+
+    def resistance(x: float, v: float) -> float:
+        if x <= 0.0:
+            return 0.0
+        vp = v if v > 0.0 else 0.0
+        mu = friction_coefficient(vp)
+        t_front = thickness(x)
+        frontal = w * t_front * (Cs * strength(x, vp) * (sin_t + mu * cos_t) + C * vp + K * rho * vp * vp)
+        sidewall = 2.0 * mu * w * sidewall_integral(x)
+        return frontal + sidewall
+
+    return resistance
+
+
+@dataclass(frozen=True)
+class TrueMotion:
+    """The true motion sampled on the recording grid (time 0 = release)."""
+
+    time_s: np.ndarray
+    displacement_m: np.ndarray
+    """From the release position, down positive. [m]"""
+    velocity_m_s: np.ndarray
+    acceleration_m_s2: np.ndarray
+    resistance_n: np.ndarray
+    drive_n: np.ndarray
+    """Spring push + weight of the moving body (what the material must hold at rest). [N]"""
+    contact_time_s: float
+    contact_speed_m_s: float
+    stop_time_s: float
+    final_depth_m: float
+    end: str
+    """``arrest`` or ``full_depth``."""
+
+
+def true_motion(world: TrueWorld, sample_rate_hz: float, *, substeps: int = 8, max_time_s: float = 3.0) -> TrueMotion:
+    """Integrate the true rig from release with fixed-step RK4 on the sampling grid.
+
+    Each sampling interval is split into ``substeps`` RK4 steps; the step that
+    crosses the surface is split exactly at the crossing (found by bisection on
+    the flight, where the force is smooth).  Arrest (v reaching 0 in the
+    material) and full depth end the motion; the body then rests.
+    """
+    m = world.moving_mass_kg
+    stroke = world.nominal_length_m - world.compressed_length_m
+    s0 = world.surface_offset_m
+    loss = world.effect("propulsion_loss")
+    eta = world.efficiency * (1.0 - (loss["loss"] if loss else 0.0))
+    guide = loss["guide_friction_n"] if loss else 0.0
+    kd = eta * world.spring_count * world.spring_stiffness_n_m
+    weight = m * world.gravity_m_s2
+    depth_full = world.penetration_depth_m
+    resistance = _resistance_function(world)
+
+    def drive(u: float) -> float:
+        compression = stroke - u
+        return (kd * compression if compression > 0.0 else 0.0) + weight
+
+    def accel(u: float, v: float) -> float:
+        moving = guide if v > 0.0 else 0.0
+        return (drive(u) - moving - resistance(u - s0, v)) / m
+
+    def rk4(u: float, v: float, h: float) -> tuple[float, float]:
+        k1u, k1v = v, accel(u, v)
+        k2u, k2v = v + 0.5 * h * k1v, accel(u + 0.5 * h * k1u, v + 0.5 * h * k1v)
+        k3u, k3v = v + 0.5 * h * k2v, accel(u + 0.5 * h * k2u, v + 0.5 * h * k2v)
+        k4u, k4v = v + h * k3v, accel(u + h * k3u, v + h * k3v)
+        return u + h * (k1u + 2 * k2u + 2 * k3u + k4u) / 6.0, v + h * (k1v + 2 * k2v + 2 * k3v + k4v) / 6.0
+
+    dt = 1.0 / sample_rate_hz
+    h = dt / substeps
+    n_max = int(max_time_s * sample_rate_hz) + 1
+    us, vs = [0.0], [0.0]
+    u, v, t = 0.0, 0.0, 0.0
+    contact_t, contact_v = math.nan, math.nan
+    end, stop_t = "", math.nan
+    for _ in range(n_max):
+        for _ in range(substeps):
+            if u < s0:
+                u_new, v_new = rk4(u, v, h)
+                if u_new >= s0:  # split the step at the surface
+                    lo, hi = 0.0, h
+                    for _ in range(60):
+                        mid = 0.5 * (lo + hi)
+                        if rk4(u, v, mid)[0] < s0:
+                            lo = mid
+                        else:
+                            hi = mid
+                    u_c, v_c = rk4(u, v, hi)
+                    contact_t, contact_v = t + hi, v_c
+                    u, v = rk4(s0, v_c, h - hi)
+                else:
+                    u, v = u_new, v_new
+            else:
+                u_new, v_new = rk4(u, v, h)
+                if v_new <= 0.0 and u_new > s0:  # arrest: interpolate the zero crossing of v
+                    frac = v / (v - v_new) if v != v_new else 1.0
+                    u = u + frac * (u_new - u)
+                    v = 0.0
+                    end, stop_t = "arrest", t + frac * h
+                    break
+                if u_new - s0 >= depth_full:
+                    frac = (s0 + depth_full - u) / (u_new - u) if u_new != u else 1.0
+                    u, v = s0 + depth_full, 0.0
+                    end, stop_t = "full_depth", t + frac * h
+                    break
+                u, v = u_new, v_new
+            t += h
+        us.append(u)
+        vs.append(v)
+        if end:
+            break
+    else:
+        end, stop_t = "arrest", t  # gave up: treat as at rest where it is
+    u_arr = np.array(us)
+    v_arr = np.array(vs)
+    time = np.arange(u_arr.size) * dt
+    if end:
+        v_arr[-1] = 0.0
+    acc = np.array([accel(a, b) for a, b in zip(u_arr, v_arr)])
+    res = np.array([resistance(a - s0, b) for a, b in zip(u_arr, v_arr)])
+    drv = np.array([drive(a) for a in u_arr])
+    # at rest the body does not move; the material (or the stops) hold the drive
+    acc[-1] = 0.0
+    res[-1] = drv[-1] if end == "arrest" else 0.0
+    return TrueMotion(time, u_arr, v_arr, acc, res, drv, contact_t, contact_v, stop_t, float(u_arr[-1] - s0), end)
