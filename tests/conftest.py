@@ -24,7 +24,7 @@ def workspace(tmp_path, monkeypatch) -> Path:
     return tmp_path
 
 
-def invoke(runner: CliRunner, *args: str):
+def invoke(runner: CliRunner, *args: str, input: str | None = None):
     from pencli.cli import app
 
-    return runner.invoke(app, [str(a) for a in args])
+    return runner.invoke(app, [str(a) for a in args], input=input)

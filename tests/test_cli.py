@@ -78,3 +78,10 @@ def test_predict_json_has_every_contract_key(runner):
                 "energy_strength_j", "energy_friction_j", "energy_damping_j", "energy_inertia_j"):
         assert key in rec
     assert isinstance(rec["full_penetration"], bool)
+
+
+def test_messages_with_brackets_reach_the_user_intact(runner):
+    """Rich markup must not eat '[0.1, 50]' or "pen[daq]" from an error message."""
+    r = invoke(runner, "predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4",
+               "--set", "blade_thickness_mm=60")
+    assert r.exit_code == 1 and "[0.1, 50] mm" in r.stderr

@@ -151,7 +151,7 @@ class TrueWorld:
 
 
 def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
-    """The true resistance R(x, v) [N] for x > 0, effects included."""
+    """The true resistance R(x, v) [N] of a tip in the material, effects included."""
     w, T = world.blade_width_m, world.blade_thickness_m
     theta, mu0 = world.tip_angle_rad, world.friction_coefficient
     S0, Cs, P0 = world.strength_pa, world.strength_factor, world.sidewall_pressure_pa
@@ -200,8 +200,8 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
         return T
 
     def resistance(x: float, v: float) -> float:
-        if x <= 0.0:
-            return 0.0
+        """In contact (the caller knows); x is clipped at the surface."""
+        x = x if x > 0.0 else 0.0
         vp = v if v > 0.0 else 0.0
         mu = friction_coefficient(vp)
         t_front = thickness(x)
@@ -255,15 +255,16 @@ def true_motion(world: TrueWorld, sample_rate_hz: float, *, substeps: int = 8, m
         compression = stroke - u
         return (kd * compression if compression > 0.0 else 0.0) + weight
 
-    def accel(u: float, v: float) -> float:
+    def accel(u: float, v: float, inside: bool) -> float:
         moving = guide if v > 0.0 else 0.0
-        return (drive(u) - moving - resistance(u - s0, v)) / m
+        return (drive(u) - moving - (resistance(u - s0, v) if inside else 0.0)) / m
 
     def rk4(u: float, v: float, h: float) -> tuple[float, float]:
-        k1u, k1v = v, accel(u, v)
-        k2u, k2v = v + 0.5 * h * k1v, accel(u + 0.5 * h * k1u, v + 0.5 * h * k1v)
-        k3u, k3v = v + 0.5 * h * k2v, accel(u + 0.5 * h * k2u, v + 0.5 * h * k2v)
-        k4u, k4v = v + h * k3v, accel(u + h * k3u, v + h * k3v)
+        inside = u >= s0  # a step never crosses the surface: the crossing step is split
+        k1u, k1v = v, accel(u, v, inside)
+        k2u, k2v = v + 0.5 * h * k1v, accel(u + 0.5 * h * k1u, v + 0.5 * h * k1v, inside)
+        k3u, k3v = v + 0.5 * h * k2v, accel(u + 0.5 * h * k2u, v + 0.5 * h * k2v, inside)
+        k4u, k4v = v + h * k3v, accel(u + h * k3u, v + h * k3v, inside)
         return u + h * (k1u + 2 * k2u + 2 * k3u + k4u) / 6.0, v + h * (k1v + 2 * k2v + 2 * k3v + k4v) / 6.0
 
     dt = 1.0 / sample_rate_hz
@@ -316,8 +317,9 @@ def true_motion(world: TrueWorld, sample_rate_hz: float, *, substeps: int = 8, m
     time = np.arange(u_arr.size) * dt
     if end:
         v_arr[-1] = 0.0
-    acc = np.array([accel(a, b) for a, b in zip(u_arr, v_arr)])
-    res = np.array([resistance(a - s0, b) for a, b in zip(u_arr, v_arr)])
+    inside = u_arr >= s0
+    acc = np.array([accel(a, b, c) for a, b, c in zip(u_arr, v_arr, inside)])
+    res = np.array([resistance(a - s0, b) if c else 0.0 for a, b, c in zip(u_arr, v_arr, inside)])
     drv = np.array([drive(a) for a in u_arr])
     # at rest the body does not move; the material (or the stops) hold the drive
     acc[-1] = 0.0

@@ -8,6 +8,7 @@ from typing import List, Optional
 
 import numpy as np
 import typer
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from pencli import api
@@ -71,7 +72,7 @@ def acquire(
                            driver=driver, rate_hz=rate, duration_s=duration, position_cal=position_cal,
                            force_cal=force_cal, info=info, confirm=confirm, progress=progress)
     for warning in shot.warnings:
-        err_console.print(f"[yellow]warning:[/yellow] {warning}")
+        err_console.print(f"[yellow]warning:[/yellow] {escape(warning)}")
     columns = shot.run.columns
     fz = columns["fz_n"]
     pre = columns["time_s"] < 0

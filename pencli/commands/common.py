@@ -12,6 +12,7 @@ from typing import Any, Callable
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from pencli.errors import PenError
 
@@ -32,7 +33,7 @@ def db_path(db: Path | None) -> Path:
 
 def fail(message: str, code: int = 1) -> typer.Exit:
     """Print one red line on stderr; return the Exit to raise."""
-    err_console.print(f"[red]error:[/red] {message}", highlight=False, soft_wrap=True)
+    err_console.print(f"[red]error:[/red] {escape(message)}", highlight=False, soft_wrap=True)
     return typer.Exit(code)
 
 
@@ -56,6 +57,10 @@ class PenTyper(typer.Typer):
 
     def command(self, *args, **kwargs):
         register = super().command(*args, **kwargs)
+        return lambda fn: register(pen_errors(fn))
+
+    def callback(self, *args, **kwargs):
+        register = super().callback(*args, **kwargs)
         return lambda fn: register(pen_errors(fn))
 
 

@@ -8,6 +8,7 @@ from typing import List, Optional
 
 import typer
 import yaml
+from rich.markup import escape
 from rich.table import Table
 
 from pencli import api
@@ -58,7 +59,7 @@ def show(
         print_json([p.to_mapping() for p in found])
         return
     for p in found:
-        console.print(f"[bold]# {p.kind} preset {p.name}[/bold]  [dim]({p.source})[/dim]")
+        console.print(f"[bold]# {p.kind} preset {p.name}[/bold]  [dim]({escape(p.source)})[/dim]")
         typer.echo(yaml.safe_dump(p.to_mapping(), sort_keys=False, allow_unicode=True).rstrip())
 
 
@@ -80,9 +81,9 @@ def validate(
     else:
         for r in results:
             if r.ok:
-                console.print(f"[green]ok[/green]   {r.path} ({r.kind} '{r.name}')", highlight=False)
+                console.print(f"[green]ok[/green]   {escape(r.path)} ({r.kind} '{escape(r.name)}')", highlight=False)
             else:
-                console.print(f"[red]FAIL[/red] {r.message}", highlight=False, soft_wrap=True)
+                console.print(f"[red]FAIL[/red] {escape(r.message)}", highlight=False, soft_wrap=True)
     bad = sum(not r.ok for r in results)
     if bad:
         raise fail(f"{bad} of {len(results)} file(s) invalid")

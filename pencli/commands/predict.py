@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import List, Optional
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from pencli import api
@@ -93,6 +94,6 @@ def render(prediction: api.Prediction, out: Path | None) -> None:
     if record["overrides"]:
         console.print("overrides: " + ", ".join(f"{k}={v:g}" for k, v in record["overrides"].items()))
     if prediction.result.message:
-        console.print(f"[yellow]note:[/yellow] {prediction.result.message}")
+        console.print(f"[yellow]note:[/yellow] {escape(prediction.result.message)}")
     if out is not None:
         console.print(f"trajectory written to {out}")

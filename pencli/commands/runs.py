@@ -9,6 +9,7 @@ from typing import List, Optional
 
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.markup import escape
 from rich.table import Table
 
 from pencli import api
@@ -63,10 +64,10 @@ def ingest(
     else:
         for o in outcomes:
             if o.status == "rejected":
-                err_console.print(f"[red]rejected[/red] {o.message}", highlight=False, soft_wrap=True)
+                err_console.print(f"[red]rejected[/red] {escape(o.message)}", highlight=False, soft_wrap=True)
             else:
                 console.print(f"{'[green]added[/green]   ' if o.status == 'added' else '[dim]existing[/dim]'} "
-                              f"{o.id}  [dim]{o.source}[/dim]", highlight=False)
+                              f"{escape(o.id or '')}  [dim]{escape(o.source)}[/dim]", highlight=False)
         added = sum(o.status == "added" for o in outcomes)
         console.print(f"{added} added, {sum(o.status == 'existing' for o in outcomes)} already present, "
                       f"{len(rejected)} rejected → {catalog}")
@@ -149,7 +150,7 @@ def show(
     row = detail.row
     console.print(f"[bold]{row['run_id']}[/bold]  {row['material']} · {row['penetrator']} · {row['energizing']}  "
                   f"[dim]sha256 {row['content_sha256'][:16]}…[/dim]")
-    console.print(f"source {row['source']} ({row['source_format']}), ingested {row['ingested_at']}, "
+    console.print(f"source {escape(row['source'])} ({row['source_format']}), ingested {row['ingested_at']}, "
                   f"{row['n_samples']} samples at {row['sampling_rate_hz']:.1f} Hz over {row['duration_s']:.3f} s")
     if row.get("info"):
         console.print(f"info: {row['info']}", highlight=False)

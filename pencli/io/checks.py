@@ -68,14 +68,14 @@ def check_run_columns(columns: Mapping[str, np.ndarray], where: str, *, surface_
         bad = ~np.isfinite(values)
         if bad.any():
             i = int(np.argmax(bad))
-            raise DataError(f"{where}: row {_row(i)}: column {name} is {values[i]!r}; expected a finite number")
+            raise DataError(f"{where}: row {_row(i)}: column {name} is {float(values[i])!r}; expected a finite number")
     steps = np.diff(t)
     if (steps <= 0).any():
         i = int(np.argmax(steps <= 0)) + 1
-        raise DataError(f"{where}: row {_row(i)}: time_s {t[i]!r} does not increase (previous row {t[i - 1]!r}); "
+        raise DataError(f"{where}: row {_row(i)}: time_s {float(t[i])!r} does not increase (previous row {float(t[i - 1])!r}); "
                         f"expected strictly increasing time")
     rate = (n - 1) / (t[-1] - t[0])
-    if rate < MIN_RATE_HZ:
+    if rate < MIN_RATE_HZ * (1 - 1e-9):  # exactly 1 kHz computes as 999.9999... from a float span
         raise DataError(f"{where}: sample rate {rate:.1f} Hz from the time span; expected ≥ {MIN_RATE_HZ:g} Hz "
                         f"(is time_s in milliseconds? use --time-unit ms)")
     step = 1.0 / rate
@@ -85,7 +85,7 @@ def check_run_columns(columns: Mapping[str, np.ndarray], where: str, *, surface_
     off = deviation > allowed
     if off.any():
         i = int(np.argmax(off))
-        raise DataError(f"{where}: row {_row(i)}: time_s {t[i]!r} is {deviation[i] / step:.2f} samples off a uniform "
+        raise DataError(f"{where}: row {_row(i)}: time_s {float(t[i])!r} is {deviation[i] / step:.2f} samples off a uniform "
                         f"{rate:.1f} Hz grid; expected uniform sampling (missing or repeated rows?)")
     position = np.asarray(columns["position_mm"], dtype=float)
     span = float(position.max() - position.min())
@@ -102,5 +102,5 @@ def check_run_columns(columns: Mapping[str, np.ndarray], where: str, *, surface_
         if beyond.any():
             i = int(np.argmax(beyond))
             unit = "N" if name.endswith("_n") else "N·m"
-            raise DataError(f"{where}: row {_row(i)}: column {name} is {columns[name][i]!r}, beyond the sensor's "
+            raise DataError(f"{where}: row {_row(i)}: column {name} is {float(columns[name][i])!r}, beyond the sensor's "
                             f"range ±{limit:g} {unit} (saturated, or wrong units?)")

@@ -13,7 +13,6 @@ measures both in the same run).
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
 import tempfile
@@ -101,6 +100,8 @@ def read_csv_data(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
         if "Empty CSV file" in text:
             raise DataError(f"{path}: empty file; expected a header row and data rows") from None
         raise DataError(f"{path}: {_locate_csv_problem(path) or text.splitlines()[0]}") from None
+    if table.num_rows == 0:
+        raise DataError(f"{path}: no data rows (header only); expected a header row and data rows")
     columns: dict[str, np.ndarray] = {}
     for name in table.column_names:
         column = table.column(name)
@@ -303,14 +304,6 @@ def _write_csv(path: Path, columns: Mapping[str, np.ndarray]) -> None:
 
 
 def _write_xlsx(path: Path, columns: Mapping[str, np.ndarray]) -> None:
-    from openpyxl import Workbook
+    from pencli.io.xlsx import write_xlsx
 
-    workbook = Workbook(write_only=True)
-    sheet = workbook.create_sheet("data")
-    sheet.append(list(RAW_COLUMNS))
-    stacked = np.column_stack([np.asarray(columns[name], dtype=np.float64) for name in RAW_COLUMNS])
-    for row in stacked.tolist():
-        sheet.append(row)
-    with contextlib.suppress(AttributeError):
-        workbook.active = 0
-    workbook.save(path)
+    write_xlsx(path, RAW_COLUMNS, np.column_stack([np.asarray(columns[name], dtype=np.float64) for name in RAW_COLUMNS]))

@@ -1,0 +1,146 @@
+"""`pen acquire`: the simulated rig end to end, and the nidaq driver against a fake nidaqmx (issue 3)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+from pencli import api
+from pencli.acquire.calibration import load_force_calibration, load_position_calibration
+from tests import fake_nidaqmx
+from tests.conftest import invoke
+from tests.helpers import snapshot
+
+
+def _raw(workspace, run_id):
+    table, _ = api.workspace(workspace / "runs.duckdb").read_stage(run_id, "raw")
+    return {name: table.column(name).to_numpy() for name in table.column_names}
+
+
+def test_sim_acquire_records_the_run_as_the_paper_describes(workspace, runner):
+    truth_file = workspace / "truth.json"
+    r = invoke(runner, "acquire", "--springs", "2", "-p", "al6061_1mm", "-m", "mpacs_c", "--yes", "--save",
+               "--id", "shot1", "--operator", "me", "--tag", "test", "--truth-out", truth_file, "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["id"] == "shot1"
+    truth = json.loads(truth_file.read_text())
+    cols = _raw(workspace, "shot1")
+    t = cols["time_s"]
+    rate = (t.size - 1) / (t[-1] - t[0])
+    assert rate == pytest.approx(30000, rel=1e-9)
+    assert t[0] == pytest.approx(-0.2, abs=1e-12)  # 0.2 s kept before the release
+    pos = cols["position_mm"]
+    moving = np.flatnonzero(np.diff(pos)) + 1
+    assert t[-1] - t[moving[-1]] == pytest.approx(0.2, abs=2 / rate)  # and 0.2 s after the motion stops
+    steps = np.unique(np.round(np.diff(np.unique(pos)), 9))
+    assert np.allclose(steps / 0.16, np.round(steps / 0.16))  # encoder quantisation 0.16 mm
+    offset = 148.0  # springs_2 stand-off
+    assert pos.max() - offset == pytest.approx(truth["final_depth_mm"], abs=0.16)
+    pre = t < 0
+    assert np.std(cols["fz_n"][pre]) == pytest.approx(2.0, rel=0.1)  # the default rig's noise
+    assert np.mean(cols["fz_n"][pre]) == pytest.approx(-0.8 - 0.389 * 9.81, abs=0.2)  # offset + blade weight
+    detail = api.run_detail(workspace / "runs.duckdb", "shot1")
+    info = json.loads(detail.row["info"])
+    assert info["driver"] == "sim" and info["operator"] == "me" and "tare_before_fire" in info
+    assert "strength_pa" not in json.dumps(info)  # the truth is not stored with the run
+    assert "coefficients" not in detail.parameters["material"]  # a run records measured properties only
+
+
+def test_declining_to_fire_records_nothing(workspace, runner):
+    before = snapshot(workspace)
+    r = invoke(runner, "acquire", "--springs", "4", "--save", input="n\n")
+    assert r.exit_code == 1 and "not fired" in r.stderr
+    assert snapshot(workspace) == before
+
+
+def test_discard_keeps_nothing(workspace, runner):
+    r = invoke(runner, "acquire", "--springs", "6", "--yes", "--discard")
+    assert r.exit_code == 0 and "discarded" in r.output
+    assert not (workspace / "runs.duckdb").exists()
+
+
+def test_rig_file_hidden_effect_changes_the_run_but_not_its_record(workspace, runner):
+    rig = workspace / "rig.yaml"
+    rig.write_text(yaml.safe_dump({"kind": "rig", "name": "layered", "seed": 3, "true_material": "mpacs_c",
+                                   "effects": [{"name": "strength_layer", "depth_mm": 15, "ratio": 0.4}]}))
+    for run_id, extra in (("plain", []), ("layered", ["--rig", rig])):
+        r = invoke(runner, "acquire", "--springs", "2", "-m", "mpacs_c", "--yes", "--save", "--id", run_id, *extra)
+        assert r.exit_code == 0, r.output
+    plain, layered = _raw(workspace, "plain"), _raw(workspace, "layered")
+    assert layered["position_mm"].max() > plain["position_mm"].max() + 5  # a weak layer lets it go deeper
+    params = api.workspace(workspace / "runs.duckdb").run_parameters("layered")
+    assert "effects" not in json.dumps(params)
+
+
+@pytest.mark.parametrize("content,words", [
+    ({"kind": "rig", "name": "x", "sampling_rate": 3}, "unknown key 'sampling_rate'"),
+    ({"kind": "rig", "name": "x", "effects": [{"name": "gremlins"}]}, "unknown effect 'gremlins'"),
+    ({"kind": "rig", "name": "x", "effects": [{"name": "strength_layer", "depht_mm": 3}]}, "depht_mm"),
+    ({"kind": "rig", "name": "x", "driver": "labview"}, "driver"),
+])
+def test_bad_rig_file_is_one_line(workspace, runner, content, words):
+    rig = workspace / "rig.yaml"
+    rig.write_text(yaml.safe_dump(content))
+    r = invoke(runner, "acquire", "--springs", "2", "--yes", "--save", "--rig", rig)
+    assert r.exit_code == 1 and words in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_bad_calibration_file_is_one_line(workspace, runner):
+    cal = workspace / "bad.cal"
+    cal.write_text('<FTSensor><Calibration><Axis Name="Fx" values="1 2 3"/></Calibration></FTSensor>')
+    r = invoke(runner, "acquire", "--springs", "2", "--yes", "--save", "--force-cal", cal)
+    assert r.exit_code == 1 and "Fy" in r.stderr
+
+
+def test_calibration_files_read_ati_xml_and_yaml(tmp_path):
+    ati = load_force_calibration()
+    assert ati.matrix.shape == (6, 6) and ati.matrix[2, 2] == 1800.0
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump({"matrix": np.eye(6).tolist()}))
+    assert np.array_equal(load_force_calibration(tmp_path / "m.yaml").matrix, np.eye(6))
+    assert load_position_calibration().counts_per_mm == 6.25
+
+
+def test_nidaq_driver_uses_the_daqmx_api_and_its_data_becomes_a_run(workspace, runner, monkeypatch):
+    rate, total, pre = 30000.0, 60000, 6000
+    cal = load_force_calibration()
+    rng = np.random.default_rng(0)
+    forces = np.zeros((total, 6))
+    forces[:, 2] = -4.0 + rng.normal(0, 1.0, total)
+    forces[pre + 3000:pre + 3600, 2] += 800.0  # a penetration
+    volts = forces @ np.linalg.inv(cal.matrix).T
+    counts = np.zeros(total + 500)  # the counter task started earlier: its buffer holds more
+    travel = np.clip((np.arange(total) - pre) / 3600.0, 0, 1) * 250.0 * 6.25
+    counts[500:] = np.round(travel)
+    fake_nidaqmx.install(monkeypatch, counts, volts, volts[:3000])
+    rig = workspace / "rig.yaml"
+    rig.write_text(yaml.safe_dump({"kind": "rig", "name": "lab", "driver": "nidaq", "device": "Dev2",
+                                   "gauge_channels": "Dev2/ai0:5", "encoder_counter": "Dev2/ctr1",
+                                   "trigger_source": "/Dev2/PFI3", "fire_line": "Dev2/port0/line7"}))
+    r = invoke(runner, "acquire", "--springs", "4", "--rig", rig, "--yes", "--save", "--id", "real1")
+    assert r.exit_code == 0, r.output
+    calls = {(task, what): (args, kwargs) for task, what, args, kwargs in fake_nidaqmx.CALLS}
+    args, kwargs = calls[("pen_gauges", "triggers.reference_trigger.cfg_dig_edge_ref_trig")]
+    assert args == ("/Dev2/PFI3",) and kwargs["pretrigger_samples"] == pre
+    args, kwargs = calls[("pen_gauges", "timing.cfg_samp_clk_timing")]
+    assert args == (rate,) and kwargs["samps_per_chan"] == total
+    args, kwargs = calls[("pen_encoder", "ci_channels.add_ci_lin_encoder_chan")]
+    assert args == ("Dev2/ctr1",) and kwargs["units"].name == "TICKS"
+    assert calls[("pen_encoder", "timing.cfg_samp_clk_timing")][1]["source"] == "/Dev2/ai/SampleClock"
+    writes = [a[0] for task, what, a, _ in fake_nidaqmx.CALLS if task == "pen_fire" and what == "write"]
+    assert writes[0] is False and True in writes and writes[-1] is False  # latch released, then made safe
+    assert ("pen_gauges", "close") in {(t, w) for t, w, _, _ in fake_nidaqmx.CALLS}
+    cols = _raw(workspace, "real1")
+    assert cols["time_s"][0] == pytest.approx(-0.2)
+    assert cols["position_mm"].max() == pytest.approx(250.0, abs=0.16)
+    assert cols["fz_n"].max() > 700
+
+
+def test_nidaq_without_the_package_says_how_to_install(workspace, runner, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "nidaqmx", None)
+    r = invoke(runner, "acquire", "--springs", "4", "--driver", "nidaq", "--yes", "--save")
+    assert r.exit_code == 1 and "pen[daq]" in r.stderr
