@@ -197,21 +197,48 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
                            ("torque", torque_unit)):
         unit_factor(quantity, unit)
     ws = workspace(db)
-    outcomes: list[IngestOutcome] = []
-    for _, folder, problem in expand_sources(paths):
+    sources = expand_sources(paths)
+
+    def read(item):
+        _, folder, problem = item
         if folder is None:
-            outcome = IngestOutcome(problem.split(":")[0], "rejected", message=problem)
-        else:
-            try:
-                run = read_run_folder(folder, options, parameter_refs)
-                added = ws.add_run(run, command=command)
-            except PenError as exc:
-                outcome = IngestOutcome(str(folder), "rejected", message=str(exc))
+            return None, problem
+        try:
+            return read_run_folder(folder, options, parameter_refs), ""
+        except PenError as exc:
+            return None, str(exc)
+
+    # Read the next runs while the current one is written: parsing releases the GIL, and the
+    # catalog is still opened per run so a concurrent ingest can interleave.
+    from concurrent.futures import ThreadPoolExecutor
+
+    def prefetched(pool, window: int = 2):
+        """Results of read() in order, at most ``window`` runs ahead (bounded memory)."""
+        pending = []
+        for item in sources:
+            pending.append(pool.submit(read, item))
+            if len(pending) > window:
+                yield pending.pop(0).result()
+        for future in pending:
+            yield future.result()
+
+    outcomes: list[IngestOutcome] = []
+    with ThreadPoolExecutor(max_workers=2) as pool, ws.batch():
+        for (_, folder, problem), (run, error) in zip(sources, prefetched(pool)):
+            if folder is None:
+                outcome = IngestOutcome(problem.split(":")[0], "rejected", message=problem)
+            elif run is None:
+                outcome = IngestOutcome(str(folder), "rejected", message=error)
             else:
-                outcome = IngestOutcome(str(folder), "added" if added.created else "existing", added.run_id)
-        outcomes.append(outcome)
-        if progress is not None:
-            progress(outcome)
+                try:
+                    added = ws.add_run(run, command=command)
+                except PenError as exc:
+                    outcome = IngestOutcome(str(folder), "rejected", message=str(exc))
+                else:
+                    outcome = IngestOutcome(str(folder), "added" if added.created else "existing", added.run_id)
+            outcomes.append(outcome)
+            if progress is not None:
+                progress(outcome)
     return outcomes
 
 

@@ -83,6 +83,7 @@ class Workspace:
         if lock_timeout_s is None:
             lock_timeout_s = float(os.environ.get("PEN_LOCK_TIMEOUT_S", DEFAULT_LOCK_TIMEOUT_S))
         self.lock_timeout_s = lock_timeout_s
+        self._batch: dict | None = None
 
     # ------------------------------------------------------------------ connection
     def exists(self) -> bool:
@@ -90,8 +91,42 @@ class Workspace:
         return self.db_path.is_file()
 
     @contextlib.contextmanager
+    def batch(self, hold_s: float = 0.5, pause_s: float = 0.06) -> Iterator["Workspace"]:
+        """Reuse one writing connection for many writes (opening one costs ~14 ms).
+
+        The lock is handed back every ``hold_s`` seconds for ``pause_s``, so a
+        concurrent pen process (which polls every ≤ 50 ms) gets its turn.
+        """
+        self._batch = {"con": None, "since": 0.0, "hold": hold_s, "pause": pause_s}
+        try:
+            yield self
+        finally:
+            con = self._batch["con"]
+            self._batch = None
+            if con is not None:
+                con.close()
+
+    @contextlib.contextmanager
     def connect(self, *, write: bool = False) -> Iterator[duckdb.DuckDBPyConnection]:
         """Open the catalog (creating and migrating it when writing), with a bounded wait on a lock."""
+        if write and self._batch is not None:
+            shared = self._batch
+            if shared["con"] is not None and time.monotonic() - shared["since"] > shared["hold"]:
+                shared["con"].close()
+                shared["con"] = None
+                time.sleep(shared["pause"])  # let a waiting process in
+            if shared["con"] is None:
+                shared["con"] = self._open(write=True)
+                shared["since"] = time.monotonic()
+            yield shared["con"]
+            return
+        con = self._open(write=write)
+        try:
+            yield con
+        finally:
+            con.close()
+
+    def _open(self, *, write: bool) -> duckdb.DuckDBPyConnection:
         if not write and not self.exists():
             raise StoreError(f"{self.db_path}: no workspace here; add runs first (pen ingest PATH or pen acquire), "
                              f"or point --db / $PEN_DB at one")
@@ -114,7 +149,7 @@ class Workspace:
                         f"{self.db_path}: the workspace is locked by another pen process{who} and stayed locked "
                         f"for {self.lock_timeout_s:g} s; wait for it to finish or raise PEN_LOCK_TIMEOUT_S") from None
                 time.sleep(delay)
-                delay = min(delay * 1.5, 0.5)
+                delay = min(delay * 1.5, 0.05)
             except duckdb.Error as exc:
                 raise StoreError(f"{self.db_path}: cannot open the catalog: {str(exc).splitlines()[0]}") from None
         try:
@@ -122,9 +157,10 @@ class Workspace:
                 self._migrate(con)
             else:
                 self._check_version(con)
-            yield con
-        finally:
+        except BaseException:
             con.close()
+            raise
+        return con
 
     def _migrate(self, con: duckdb.DuckDBPyConnection) -> None:
         con.execute("CREATE TABLE IF NOT EXISTS schema_migrations (version INTEGER PRIMARY KEY, name VARCHAR, "
@@ -224,7 +260,7 @@ class Workspace:
         committed = False
         con.execute("BEGIN TRANSACTION")
         try:
-            pq.write_table(table, tmp, compression="zstd")
+            write_parquet(table, tmp)
             if run_rows is not None:
                 self._insert_run(con, run_id, *run_rows, now)
             con.execute("INSERT INTO stages VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
@@ -388,10 +424,41 @@ class Workspace:
                 return [], []
             return [d[0] for d in cur.description], cur.fetchall()
 
+    def compact(self) -> None:
+        """Rewrite the catalog into a fresh file, dropping free blocks (atomic)."""
+        tmp = self.db_path.with_name(f".{self.db_path.name}.compact-{os.getpid()}")
+        with self.connect(write=True):
+            pass  # migrate first
+        error = None
+        try:
+            con = duckdb.connect(str(tmp))
+            try:
+                target = con.execute("SELECT current_database()").fetchone()[0]
+                con.execute(f"ATTACH '{self.db_path}' AS source (READ_ONLY)")
+                con.execute(f'COPY FROM DATABASE source TO "{target}"')
+            finally:
+                con.close()
+            os.replace(tmp, self.db_path)
+        except duckdb.Error as exc:
+            error = exc
+        finally:
+            for path in (tmp, tmp.with_name(tmp.name + ".wal")):
+                with contextlib.suppress(FileNotFoundError):
+                    path.unlink()
+        if error is not None:
+            raise StoreError(f"{self.db_path}: compaction failed: {str(error).splitlines()[0]}")
+
     def run_ids(self) -> list[str]:
         """Every run id, sorted."""
         with self.connect() as con:
             return [r[0] for r in con.execute("SELECT run_id FROM runs ORDER BY run_id").fetchall()]
+
+
+def write_parquet(table: pa.Table, path: Path) -> None:
+    """Parquet as pen writes every stage: zstd, byte-stream-split floats (27 % smaller on noisy channels)."""
+    floats = [f.name for f in table.schema if pa.types.is_floating(f.type)]
+    pq.write_table(table, path, compression="zstd", use_byte_stream_split=floats or False,
+                   use_dictionary=[f.name for f in table.schema if f.name not in floats] or False)
 
 
 def raw_columns_of(table: pa.Table) -> dict:
