@@ -23,6 +23,7 @@ from pencli.io.xlsx import write_xlsx
 from tests.helpers import COLUMNS, synthetic_columns, write_folder
 
 N_RUNS = 40
+N_XLSX = 10
 
 
 def main() -> None:
@@ -41,6 +42,26 @@ def main() -> None:
         print(f"CSV, {N_RUNS} runs of 0.5 s at 30 kHz (15,000 rows x 8):")
         print(f"  pen ingest (read+check+hash+Parquet+catalog): {N_RUNS / pen_s:7.1f} runs/s   (target >= 20)")
         print(f"  pandas.read_csv alone (read only):            {N_RUNS / pandas_s:7.1f} runs/s")
+
+        xfolders = []
+        for i in range(N_XLSX):
+            folder = write_folder(root / "xsrc" / f"run{i:03d}", synthetic_columns(n=15000, rate=30000.0, seed=500 + i))
+            cols = synthetic_columns(n=15000, rate=30000.0, seed=500 + i)
+            write_xlsx(folder / "data.xlsx", COLUMNS, np.column_stack([cols[c] for c in COLUMNS]))
+            (folder / "data.csv").unlink()
+            xfolders.append(folder)
+        t0 = time.perf_counter()
+        outcomes = api.ingest([root / "xsrc"], root / "wsx" / "runs.duckdb")
+        pen_xs = time.perf_counter() - t0
+        assert all(o.status == "added" for o in outcomes)
+        t0 = time.perf_counter()
+        for folder in xfolders:
+            pd.read_excel(folder / "data.xlsx", engine="openpyxl")
+        base_xs = time.perf_counter() - t0
+        print(f"xlsx, {N_XLSX} runs of 0.5 s at 30 kHz:")
+        print(f"  pen ingest:                                   {N_XLSX / pen_xs:7.1f} runs/s")
+        print(f"  pandas.read_excel(engine=openpyxl) alone:     {N_XLSX / base_xs:7.1f} runs/s   "
+              f"ratio {base_xs / pen_xs:.1f}x")
 
         values = np.column_stack([c for c in synthetic_columns(n=30000, rate=30000.0, seed=7).values()])
         path = root / "big.xlsx"

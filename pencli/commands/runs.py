@@ -113,7 +113,7 @@ def runs(
     for col, justify in (("run", "left"), ("date", "left"), ("material", "left"), ("blade", "left"),
                          ("T [mm]", "right"), ("springs", "right"), ("rate [kHz]", "right"),
                          ("duration [s]", "right"), ("stage", "left"), ("tags", "left")):
-        table.add_column(col, justify=justify)
+        table.add_column(escape(col), justify=justify)
     for r in rows:
         table.add_row(r["run_id"], str(r["run_date"] or ""), r["material"], r["penetrator"],
                       f"{r['blade_thickness_mm']:g}", str(r["spring_count"]), f"{r['sampling_rate_hz'] / 1e3:.1f}",
@@ -191,7 +191,7 @@ def query(
         return
     table = Table(show_header=True, header_style="bold")
     for name in names:
-        table.add_column(name)
+        table.add_column(escape(name))
     for r in rows:
         table.add_row(*("" if v is None else str(v) for v in r))
     console.print(table)

@@ -383,7 +383,7 @@ class Workspace:
     def list_runs(self, *, material: str | None = None, penetrator: str | None = None,
                   thickness_mm: float | None = None, springs: int | None = None, tag: str | None = None,
                   since: dt.date | None = None, until: dt.date | None = None) -> list[dict]:
-        """Runs matching every given filter, newest first."""
+        """Runs matching every given filter, by date then id."""
         where, args = [], []
         for column, value in (("material", material), ("penetrator", penetrator), ("spring_count", springs)):
             if value is not None:
@@ -407,7 +407,7 @@ class Workspace:
                "FROM runs r")
         if where:
             sql += " WHERE " + " AND ".join(where)
-        sql += " ORDER BY r.ingested_at DESC, r.run_id"
+        sql += " ORDER BY r.run_date NULLS LAST, r.run_id"
         with self.connect() as con:
             cur = con.execute(sql, args)
             names = [d[0] for d in cur.description]
