@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
-from pencli.errors import ParameterError, PenError
+from pencli.errors import DataError, ParameterError, PenError
 from pencli.model.design import Design, design_from_sets
 from pencli.model.dynamics import SimulationResult, simulate
 from pencli.params.definitions import Kind
@@ -356,3 +356,110 @@ def acquire(*, springs: int | None, penetrator: str, material: str, energizing: 
     run = RunData(shot.columns, p, measured_only(m), e, record, f"acquire:{name}", "acquire",
                   {"driver": name, "rig": rig_config.source, "duration_s": duration_s})
     return Acquisition(run, shot.warnings, getattr(rig_driver, "truth", None))
+
+
+# ---------------------------------------------------------------------------- conditioning
+@dataclass(frozen=True)
+class StageOutcome:
+    """What a conditioning command did to one run."""
+
+    run: str
+    status: str
+    """``done`` or ``rejected``."""
+    run_id: str | None = None
+    stage_no: int | None = None
+    message: str = ""
+    details: dict = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+
+def _each_run(db: str | Path, refs: Sequence[str], work: Callable[[Any, str], StageOutcome]) -> list[StageOutcome]:
+    """Apply ``work(workspace, run_id)`` to every run; a failure rejects that run only."""
+    ws = workspace(db)
+    outcomes = []
+    for ref in expand_run_refs(ws, refs):
+        try:
+            run_id = ws.resolve(ref)
+            outcomes.append(work(ws, run_id))
+        except PenError as exc:
+            outcomes.append(StageOutcome(ref, "rejected", message=str(exc)))
+    return outcomes
+
+
+def expand_run_refs(ws, refs: Sequence[str]) -> list[str]:
+    """Run ids or folders; ``all`` means every run of the workspace."""
+    out: list[str] = []
+    for ref in refs:
+        if ref == "all":
+            out.extend(ws.run_ids())
+        else:
+            out.append(str(ref))
+    return out
+
+
+def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, float] | None = None
+              ) -> list[StageOutcome]:
+    """``pen tare``: offsets from the pre-trigger span, depth from the stand-off, events; a new stage."""
+    import numpy as np
+    import pyarrow as pa
+
+    from pencli.filter.tare import tare
+    from pencli.store.workspace import raw_columns_of
+
+    def work(ws, run_id):
+        table, raw = ws.read_stage(run_id, "raw")
+        params = ws.run_parameters(run_id)
+        tared = tare(raw_columns_of(table), params["energizing"]["surface_offset_mm"],
+                     params["penetrator"]["penetration_depth_mm"], window_ms=window_ms, where=run_id)
+        out = pa.table({"time_s": tared.time_s, "depth_m": tared.depth_m,
+                        **{name: np.asarray(values) for name, values in tared.forces.items()}})
+        record = ws.add_stage(run_id, "tare", out, parent_no=raw.stage_no, command="pen tare",
+                              parameters={"offsets": tared.offsets, "events": tared.events.to_dict(),
+                                          "window_ms": list(window_ms) if window_ms else None})
+        return StageOutcome(run_id, "done", run_id, record.stage_no, details=tared.events.to_dict())
+
+    return _each_run(db, refs, work)
+
+
+def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | None = None,
+                          use_flight_mass: bool = False) -> list[StageOutcome]:
+    """``pen subtract-inertia``: v and a from the encoder, R = F − m_lc·a; a new stage."""
+    import numpy as np
+    import pyarrow as pa
+
+    from pencli.filter.derivatives import DEFAULT_METHOD
+    from pencli.filter.inertia import subtract_inertia
+    from pencli.filter.tare import Events
+
+    chosen = method or DEFAULT_METHOD
+
+    def work(ws, run_id):
+        records = ws.stages(run_id)
+        tares = [r for r in records if r.stage == "tare"]
+        if not tares:
+            raise DataError(f"run '{run_id}' has no tare stage; run `pen tare {run_id}` first")
+        table, parent = ws.read_stage(run_id, tares[-1].stage_no)
+        events = Events(**parent.parameters["events"])
+        m_lc = float(ws.run_parameters(run_id)["penetrator"]["load_cell_mass_kg"])
+        columns = {name: table.column(name).to_numpy() for name in table.column_names}
+        kin = subtract_inertia(columns["time_s"], columns["depth_m"], columns["fz_n"], events, m_lc,
+                               method=chosen, use_flight_mass=use_flight_mass)
+        out = pa.table({"time_s": columns["time_s"], "depth_m": columns["depth_m"],
+                        "velocity_m_s": kin.velocity_m_s, "acceleration_m_s2": kin.acceleration_m_s2,
+                        "force_n": columns["fz_n"], "resistance_n": kin.resistance_n,
+                        **{n: columns[n] for n in ("fx_n", "fy_n", "tx_nm", "ty_nm", "tz_nm")}})
+        estimate = kin.mass_estimate.to_dict() if kin.mass_estimate else None
+        warnings = []
+        if kin.mass_estimate is not None and kin.mass_estimate.disagrees:
+            est = kin.mass_estimate
+            warnings.append(f"{run_id}: the free flight says the load-cell mass is {est.value_kg:.4f} ± "
+                            f"{est.stderr_kg:.4f} kg, not the file's {m_lc:g} kg (use --mass-from flight, or fix "
+                            f"load_cell_mass_kg)")
+        record = ws.add_stage(run_id, "inertia", out, parent_no=parent.stage_no, command="pen subtract-inertia",
+                              parameters={"method": chosen, "load_cell_mass_kg": kin.mass_used_kg,
+                                          "mass_from": "flight" if use_flight_mass else "file",
+                                          "mass_estimate": estimate, "events": events.to_dict()})
+        return StageOutcome(run_id, "done", run_id, record.stage_no, details={"mass_estimate": estimate},
+                            warnings=tuple(warnings))
+
+    return _each_run(db, refs, work)

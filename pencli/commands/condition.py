@@ -1,0 +1,96 @@
+"""``pen tare`` and ``pen subtract-inertia``: conditioning stages."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.markup import escape
+
+from pencli import api
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, print_json
+from pencli.filter.derivatives import DEFAULT_METHOD, METHODS
+
+app = PenTyper()
+
+
+def _report(outcomes: list[api.StageOutcome], json_out: bool, describe) -> None:
+    if json_out:
+        print_json([{"run": o.run, "status": o.status, "id": o.run_id, "stage_no": o.stage_no,
+                     **({"error": o.message} if o.message else {}), **o.details,
+                     "warnings": list(o.warnings)} for o in outcomes])
+    else:
+        for o in outcomes:
+            if o.status == "rejected":
+                err_console.print(f"[red]rejected[/red] {escape(o.message)}", highlight=False, soft_wrap=True)
+            else:
+                console.print(f"[green]done[/green] {o.run_id} → stage {o.stage_no}: {describe(o)}", highlight=False)
+            for warning in o.warnings:
+                err_console.print(f"[yellow]warning:[/yellow] {escape(warning)}", highlight=False, soft_wrap=True)
+    if any(o.status == "rejected" for o in outcomes):
+        raise typer.Exit(1)
+
+
+def _window(text: Optional[str]) -> Optional[tuple[float, float]]:
+    if text is None:
+        return None
+    try:
+        start, end = (float(v) for v in text.split(","))
+    except ValueError:
+        raise typer.BadParameter(f"'{text}' is not START_MS,END_MS", param_hint="--window") from None
+    return start, end
+
+
+@app.command("tare")
+def tare(
+    runs: List[str] = typer.Argument(..., help="Run ids or run folders (runs/*), or 'all'."),
+    window: Optional[str] = typer.Option(None, "--window", metavar="START_MS,END_MS",
+                                         help="Analysis window by hand, time since release [ms] "
+                                              "(default: contact to stop)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one record per run as JSON."),
+    db: Optional[Path] = DbOption,
+) -> None:
+    """Tare the load cell on the pre-trigger span, compute depth, find contact and stop.
+
+    Adds a 'tare' stage to each run: forces and torques minus their pre-trigger
+    means (which also removes the blade's static weight), depth x = position −
+    stand-off [m], and the events: motion start, contact, arrest or full depth,
+    and the analysis window.
+    Example: pen tare runs/* --json
+    """
+    outcomes = api.tare_runs(db_path(db), runs, window_ms=_window(window))
+    _report(outcomes, json_out, lambda o: (f"contact {o.details['contact_s'] * 1e3:.3f} ms at "
+                                           f"{o.details['contact_speed_m_s']:.3f} m/s, {o.details['end'].replace('_', ' ')}"
+                                           f" at {o.details['stop_s'] * 1e3:.3f} ms, depth "
+                                           f"{o.details['final_depth_m'] * 1e3:.2f} mm"))
+
+
+@app.command("subtract-inertia")
+def subtract_inertia(
+    runs: List[str] = typer.Argument(..., help="Run ids or run folders (runs/*), or 'all'."),
+    method: str = typer.Option(DEFAULT_METHOD, "--method", help=f"Derivative method: {', '.join(METHODS)}."),
+    mass_from: str = typer.Option("file", "--mass-from", help="Load-cell mass to subtract: 'file' (penetrator "
+                                                              "file) or 'flight' (estimated from free flight)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one record per run as JSON."),
+    db: Optional[Path] = DbOption,
+) -> None:
+    """Velocity and acceleration from the encoder, then R = F − m_lc·a.
+
+    Adds an 'inertia' stage: velocity [m/s], acceleration [m/s²] and
+    resistance [N]. Also estimates the load-cell mass from the free flight
+    (where R = 0) and warns when it disagrees with the penetrator file.
+    Example: pen subtract-inertia runs/* --mass-from file
+    """
+    if method not in METHODS:
+        raise typer.BadParameter(f"'{method}' is not one of {', '.join(METHODS)}", param_hint="--method")
+    if mass_from not in ("file", "flight"):
+        raise typer.BadParameter(f"'{mass_from}' is not file or flight", param_hint="--mass-from")
+    outcomes = api.subtract_inertia_runs(db_path(db), runs, method=method, use_flight_mass=mass_from == "flight")
+
+    def describe(o):
+        est = o.details.get("mass_estimate")
+        return ("load-cell mass from flight " + (f"{est['value_kg']:.4f} ± {est['stderr_kg']:.4f} kg" if est
+                                                  else "not measurable (flight too short)"))
+
+    _report(outcomes, json_out, describe)

@@ -1,0 +1,108 @@
+r"""Inertia subtraction: penetration resistance from the load-cell force.
+
+The blade and its mount (mass :math:`m_{lc}`) sit between the material and
+the force sensor, so the tared reading is :math:`F = R + m_{lc}\,a` and
+
+.. math:: R = F - m_{lc}\, a
+
+with :math:`a` from the encoder (:mod:`pencli.filter.derivatives`).  In free
+flight :math:`R = 0`, so the same record also measures :math:`m_{lc}`
+(:func:`estimate_load_cell_mass`), a check on the parameter file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from pencli.filter.derivatives import DEFAULT_METHOD, derivatives
+from pencli.filter.tare import Events
+
+
+@dataclass(frozen=True)
+class MassEstimate:
+    """Load-cell mass from the free flight, F = m_lc·a."""
+
+    value_kg: float
+    stderr_kg: float
+    n_samples: int
+    file_value_kg: float
+
+    @property
+    def disagrees(self) -> bool:
+        """Differs from the parameter file by more than 3 standard errors (and 2 %)."""
+        gap = abs(self.value_kg - self.file_value_kg)
+        return gap > 3 * self.stderr_kg and gap > 0.02 * max(self.file_value_kg, 1e-9)
+
+    def to_dict(self) -> dict:
+        return {**asdict(self), "disagrees": self.disagrees}
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Velocity, acceleration and resistance of a tared run, SI."""
+
+    velocity_m_s: np.ndarray
+    acceleration_m_s2: np.ndarray
+    resistance_n: np.ndarray
+    mass_used_kg: float
+    mass_estimate: MassEstimate | None
+
+
+def effective_samples(residuals: np.ndarray) -> float:
+    """n·(1 − ρ1)/(1 + ρ1): samples worth of independent information, from the lag-1 autocorrelation."""
+    r = residuals - residuals.mean()
+    denom = float(np.dot(r, r))
+    if r.size < 3 or denom == 0.0:
+        return float(r.size)
+    rho = float(np.dot(r[:-1], r[1:]) / denom)
+    rho = min(max(rho, 0.0), 0.999)
+    return max(2.0, r.size * (1 - rho) / (1 + rho))
+
+
+def estimate_load_cell_mass(time_s: np.ndarray, force_n: np.ndarray, acceleration_m_s2: np.ndarray,
+                            events: Events, file_value_kg: float) -> MassEstimate | None:
+    """Least-squares m_lc from F = m_lc·a over the free flight (2 ms after the release to 1 ms before contact)."""
+    flight = (time_s > max(events.motion_start_s, 0.0) + 2e-3) & (time_s < events.contact_s - 1e-3)
+    if flight.sum() < 30:
+        return None
+    a = acceleration_m_s2[flight]
+    f = force_n[flight]
+    if float(np.dot(a, a)) == 0.0:
+        return None
+    m = float(np.dot(f, a) / np.dot(a, a))
+    resid = f - m * a
+    n_eff = effective_samples(resid)
+    sigma2 = float(np.dot(resid, resid)) / max(resid.size - 1, 1)
+    stderr = float(np.sqrt(sigma2 / np.dot(a, a) * resid.size / n_eff))
+    return MassEstimate(m, stderr, int(flight.sum()), file_value_kg)
+
+
+def subtract_inertia(time_s: np.ndarray, depth_m: np.ndarray, force_n: np.ndarray, events: Events,
+                     load_cell_mass_kg: float, *, method: str = DEFAULT_METHOD, use_flight_mass: bool = False
+                     ) -> Kinematics:
+    """Velocity, acceleration and R = F − m_lc·a of a tared run.
+
+    Parameters
+    ----------
+    time_s : time since release. [s]
+    depth_m : tip depth. [m]
+    force_n : tared axial force, compression positive. [N]
+    events : from :func:`pencli.filter.tare.detect_events`.
+    load_cell_mass_kg : m_lc from the penetrator file. [kg]
+    method : derivative method (:data:`pencli.filter.derivatives.METHODS`).
+    use_flight_mass : subtract with the mass estimated from the free flight instead.
+    """
+    rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
+    breaks = [int(np.searchsorted(time_s, events.motion_start_s)) - 1,
+              int(np.searchsorted(time_s, events.contact_s)),
+              int(np.searchsorted(time_s, events.stop_s)) + 1]
+    velocity, acceleration = derivatives(depth_m, rate, breaks, method)
+    at_rest = (time_s < events.motion_start_s - 1.0 / rate) | (time_s > events.stop_s)
+    velocity = np.where(at_rest, 0.0, velocity)
+    acceleration = np.where(at_rest, 0.0, acceleration)
+    estimate = estimate_load_cell_mass(time_s, force_n, acceleration, events, load_cell_mass_kg)
+    mass = estimate.value_kg if (use_flight_mass and estimate is not None) else load_cell_mass_kg
+    resistance = force_n - mass * acceleration  # R = F − m_lc·a
+    return Kinematics(velocity, acceleration, resistance, mass, estimate)

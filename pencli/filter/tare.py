@@ -1,0 +1,164 @@
+r"""Tare and event detection (paper Fig. 11: stored and analysed windows).
+
+Pure functions on arrays in contract units in, SI out:
+
+- offsets of the six load-cell channels are their means over the
+  pre-trigger span (the blade at rest); subtracting them removes the
+  sensor offsets *and* the blade's static weight, so the tared axial force
+  is :math:`F = R + m_{lc}\,a` (CONTRACT §2);
+- depth is :math:`x = \text{position} - s_0` (CONTRACT §3), position taken
+  from its pre-trigger level;
+- motion start, contact, arrest or full depth are located to a fraction of
+  a sample: the encoder counts 0.16 mm, so each event is found on a
+  low-order polynomial fitted to the samples around it rather than read off
+  one quantised sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from pencli.errors import DataError
+
+FORCE_CHANNELS = ("fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm")
+PRE_TRIGGER_MARGIN_S = 0.005
+"""Ignore the last 5 ms before the release when taking the tare. [s]"""
+FULL_DEPTH_TOLERANCE_M = 0.5e-3
+"""Within this of the full depth, a stop counts as reaching the hard stops. [m]"""
+
+
+@dataclass(frozen=True)
+class Events:
+    """Where a run's phases begin and end (time since release, SI)."""
+
+    motion_start_s: float
+    """First encoder count after the release. [s]"""
+    contact_s: float
+    """Tip reaches the surface (x = 0). [s]"""
+    contact_speed_m_s: float
+    """Speed at contact from the flight fit. [m/s]"""
+    stop_s: float
+    """Arrest (v = 0) or arrival at the hard stops. [s]"""
+    final_depth_m: float
+    """Depth where the motion stopped. [m]"""
+    end: str
+    """``arrest`` or ``full_depth``."""
+    window_start_s: float
+    """Analysis window, start (default: contact). [s]"""
+    window_end_s: float
+    """Analysis window, end (default: stop). [s]"""
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Tared:
+    """A tared run: SI columns plus its events and offsets."""
+
+    time_s: np.ndarray
+    depth_m: np.ndarray
+    forces: dict[str, np.ndarray]
+    """Tared channels by contract name (N, N·m)."""
+    offsets: dict[str, float]
+    """What was subtracted from each channel (N, N·m)."""
+    events: Events
+
+
+def _fit_crossing(t: np.ndarray, x: np.ndarray, level: float, degree: int = 2) -> tuple[float, float]:
+    """Time where a polynomial fit of x(t) crosses ``level``, and dx/dt there."""
+    t0 = t.mean()
+    coeffs = np.polyfit(t - t0, x, degree)
+    shifted = coeffs.copy()
+    shifted[-1] -= level
+    roots = np.roots(shifted)
+    real = roots[np.isreal(roots)].real + t0
+    inside = real[(real >= t[0] - 1e-3) & (real <= t[-1] + 1e-3)]
+    if inside.size == 0:
+        raise DataError("could not locate the crossing on the position record")
+    crossing = float(inside[np.argmin(np.abs(inside - t[len(t) // 2]))])
+    slope = float(np.polyval(np.polyder(coeffs), crossing - t0))
+    return crossing, slope
+
+
+def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, *, where: str = "run"
+                  ) -> Events:
+    """Locate motion start, contact, stop and the default analysis window.
+
+    Parameters
+    ----------
+    time_s : time since release. [s]
+    depth_m : tip depth x, quantised by the encoder. [m]
+    full_depth_m : the penetrator's full penetration depth. [m]
+    """
+    changes = np.flatnonzero(np.diff(depth_m)) + 1
+    if changes.size < 4:
+        raise DataError(f"{where}: the position barely changes; no motion to analyse")
+    motion_start = float(time_s[changes[0]])
+    inside = np.flatnonzero(depth_m >= 0.0)
+    if inside.size == 0:
+        raise DataError(f"{where}: the tip never reaches the surface (max depth {depth_m.max() * 1e3:.2f} mm); "
+                        f"check surface_offset_mm")
+    first_in = int(inside[0])
+    rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
+    # contact: quadratic through ~1.5 ms of flight ending at the first sample at or below the surface
+    span = max(int(1.5e-3 * rate), 8)
+    lo = max(first_in - span, int(changes[0]))
+    hi = min(first_in + 2, depth_m.size)
+    contact, speed = _fit_crossing(time_s[lo:hi], depth_m[lo:hi], 0.0)
+    contact = min(max(contact, float(time_s[lo])), float(time_s[first_in]))
+
+    last_change = int(changes[-1])
+    final_depth = float(depth_m[last_change])
+    if final_depth >= full_depth_m - FULL_DEPTH_TOLERANCE_M:
+        end = "full_depth"
+        stop = float(time_s[last_change])
+    else:
+        end = "arrest"
+        # arrest: v -> 0, so x(t) is a parabola near the stop; its vertex is the stop.
+        span = max(int(3e-3 * rate), 12)
+        lo = max(last_change - span, first_in)
+        seg_t, seg_x = time_s[lo:last_change + 1], depth_m[lo:last_change + 1]
+        if seg_t.size >= 5:
+            t0 = seg_t.mean()
+            a, b, _ = np.polyfit(seg_t - t0, seg_x, 2)
+            vertex = t0 - b / (2 * a) if a < 0 else float(time_s[last_change])
+            stop = float(np.clip(vertex, time_s[last_change], time_s[min(last_change + span, time_s.size - 1)]))
+        else:
+            stop = float(time_s[last_change])
+    if stop <= contact:
+        raise DataError(f"{where}: the motion stops ({stop * 1e3:.2f} ms) before contact ({contact * 1e3:.2f} ms)")
+    return Events(motion_start, contact, speed, stop, final_depth, end, contact, stop)
+
+
+def tare(columns: dict[str, np.ndarray], surface_offset_mm: float, full_depth_mm: float, *,
+         window_ms: tuple[float, float] | None = None, where: str = "run") -> Tared:
+    """Tare the load cell on the pre-trigger span and locate the run's events.
+
+    Parameters
+    ----------
+    columns : raw CONTRACT §3 columns (s, mm, N, N·m).
+    surface_offset_mm : stand-off s0. [mm]
+    full_depth_mm : penetration depth at the hard stops. [mm]
+    window_ms : analysis window override (start, end), time since release. [ms]
+    """
+    t = np.asarray(columns["time_s"], dtype=float)
+    pre = t < -PRE_TRIGGER_MARGIN_S
+    if pre.sum() < 16:
+        raise DataError(f"{where}: only {int(pre.sum())} pre-trigger samples (time_s < "
+                        f"{-PRE_TRIGGER_MARGIN_S * 1e3:g} ms); the tare needs the blade at rest before the release")
+    offsets = {name: float(np.mean(columns[name][pre])) for name in FORCE_CHANNELS}
+    forces = {name: np.asarray(columns[name], dtype=float) - offsets[name] for name in FORCE_CHANNELS}
+    position = np.asarray(columns["position_mm"], dtype=float)
+    position_zero = float(np.median(position[pre]))
+    depth = (position - position_zero - surface_offset_mm) * 1e-3  # CONTRACT §3: x = position − offset
+    events = detect_events(t, depth, full_depth_mm * 1e-3, where=where)
+    if window_ms is not None:
+        start, end = (w * 1e-3 for w in window_ms)
+        if not (t[0] <= start < end <= t[-1]):
+            raise DataError(f"{where}: --window {window_ms[0]:g},{window_ms[1]:g} ms is not inside the record "
+                            f"({t[0] * 1e3:.1f} to {t[-1] * 1e3:.1f} ms) or not increasing")
+        events = Events(**{**events.to_dict(), "window_start_s": start, "window_end_s": end})
+    return Tared(t, depth, forces, offsets, events)
