@@ -463,3 +463,37 @@ def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | 
                             warnings=tuple(warnings))
 
     return _each_run(db, refs, work)
+
+
+# ---------------------------------------------------------------------------- fitting
+def _sets_from_mappings(params: Mapping[str, dict], run_id: str) -> tuple[ParameterSet, ParameterSet, ParameterSet]:
+    from pencli.params.validate import validate_mapping
+
+    return tuple(validate_mapping(params[kind], f"run {run_id} ({kind})", expected_kind=kind,
+                                  allow_out_of_range=True) for kind in ("penetrator", "material", "energizing"))
+
+
+def load_series(db: str | Path, refs: Sequence[str]) -> list:
+    """Each run's latest stage as a :class:`~pencli.fit.resistance.RunSeries` (needs an inertia stage)."""
+    from pencli.filter.tare import Events
+    from pencli.fit.resistance import RunSeries
+
+    ws = workspace(db)
+    out = []
+    for ref in expand_run_refs(ws, refs):
+        run_id = ws.resolve(ref)
+        table, stage = ws.read_stage(run_id)
+        if "resistance_n" not in table.column_names:
+            raise DataError(f"run '{run_id}': its latest stage is '{stage.stage}', which has no resistance; run "
+                            f"`pen tare {run_id}` and `pen subtract-inertia {run_id}` first")
+        events = Events(**stage.parameters["events"])
+        t = table.column("time_s").to_numpy()
+        window = (t >= events.window_start_s) & (t <= events.window_end_s)
+        if window.sum() < 10:
+            raise DataError(f"run '{run_id}': only {int(window.sum())} samples in the analysis window")
+        p, m, e = _sets_from_mappings(ws.run_parameters(run_id), run_id)
+        out.append(RunSeries(run_id, design_from_sets(p, m, e), t[window], table.column("depth_m").to_numpy()[window],
+                             table.column("velocity_m_s").to_numpy()[window],
+                             table.column("resistance_n").to_numpy()[window], events.contact_s, events.stop_s,
+                             events.end, events.contact_speed_m_s))
+    return out

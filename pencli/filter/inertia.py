@@ -50,15 +50,25 @@ class Kinematics:
     mass_estimate: MassEstimate | None
 
 
-def effective_samples(residuals: np.ndarray) -> float:
-    """n·(1 − ρ1)/(1 + ρ1): samples worth of independent information, from the lag-1 autocorrelation."""
-    r = residuals - residuals.mean()
+def effective_samples(residuals: np.ndarray, max_lag: int = 2000) -> float:
+    """n / τ, τ = 1 + 2 Σ ρ_k summed until the autocorrelation first drops below zero.
+
+    Samples worth of independent information: residuals of 30 kHz records are
+    correlated over milliseconds, and counting them as independent would make
+    every uncertainty far too small.
+    """
+    r = np.asarray(residuals, dtype=float) - float(np.mean(residuals))
+    n = r.size
     denom = float(np.dot(r, r))
-    if r.size < 3 or denom == 0.0:
-        return float(r.size)
-    rho = float(np.dot(r[:-1], r[1:]) / denom)
-    rho = min(max(rho, 0.0), 0.999)
-    return max(2.0, r.size * (1 - rho) / (1 + rho))
+    if n < 3 or denom == 0.0:
+        return float(n)
+    size = 1 << int(np.ceil(np.log2(2 * n)))
+    spectrum = np.fft.rfft(r, size)
+    acf = np.fft.irfft(spectrum * np.conj(spectrum), size)[: min(n, max_lag)] / denom
+    negative = np.flatnonzero(acf <= 0.0)
+    cut = int(negative[0]) if negative.size else acf.size
+    tau = 1.0 + 2.0 * float(np.sum(acf[1:cut]))
+    return float(min(max(n / max(tau, 1.0), 2.0), n))
 
 
 def estimate_load_cell_mass(time_s: np.ndarray, force_n: np.ndarray, acceleration_m_s2: np.ndarray,

@@ -25,6 +25,9 @@ from pencli.errors import DataError
 FORCE_CHANNELS = ("fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm")
 PRE_TRIGGER_MARGIN_S = 0.005
 """Ignore the last 5 ms before the release when taking the tare. [s]"""
+WINDOW_TRIM_S = 0.5e-3
+"""The default analysis window starts this long after contact and ends this long before the stop
+(the paper's inner limits, Fig. 11): derivatives of the encoder are least reliable at those instants. [s]"""
 FULL_DEPTH_TOLERANCE_M = 0.5e-3
 """Within this of the full depth, a stop counts as reaching the hard stops. [m]"""
 
@@ -46,9 +49,9 @@ class Events:
     end: str
     """``arrest`` or ``full_depth``."""
     window_start_s: float
-    """Analysis window, start (default: contact). [s]"""
+    """Analysis window, start (default: contact + WINDOW_TRIM_S). [s]"""
     window_end_s: float
-    """Analysis window, end (default: stop). [s]"""
+    """Analysis window, end (default: stop − WINDOW_TRIM_S). [s]"""
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -130,7 +133,8 @@ def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, 
             stop = float(time_s[last_change])
     if stop <= contact:
         raise DataError(f"{where}: the motion stops ({stop * 1e3:.2f} ms) before contact ({contact * 1e3:.2f} ms)")
-    return Events(motion_start, contact, speed, stop, final_depth, end, contact, stop)
+    trim = WINDOW_TRIM_S if stop - contact > 4 * WINDOW_TRIM_S else 0.0
+    return Events(motion_start, contact, speed, stop, final_depth, end, contact + trim, stop - trim)
 
 
 def tare(columns: dict[str, np.ndarray], surface_offset_mm: float, full_depth_mm: float, *,

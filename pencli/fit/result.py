@@ -1,0 +1,119 @@
+"""Result objects of a fit: coefficients with uncertainties, per-run statistics, warnings."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+COEFFICIENTS: tuple[str, ...] = ("strength_factor", "sidewall_pressure_kpa", "damping_kpa_s_m", "inertia_coefficient")
+"""The four Eq. 9 coefficients, by their CONTRACT §1 names (under ``coefficients.``)."""
+
+TERM_OF: dict[str, str] = {"strength_factor": "strength", "sidewall_pressure_kpa": "friction",
+                           "damping_kpa_s_m": "damping", "inertia_coefficient": "inertia"}
+COEFFICIENT_OF: dict[str, str] = {term: coeff for coeff, term in TERM_OF.items()}
+
+
+@dataclass(frozen=True)
+class Coefficient:
+    """One fitted coefficient (file units: –, kPa, kPa·s/m, –)."""
+
+    name: str
+    value: float
+    stderr: float | None
+    """Standard error from the curvature, inflated for correlated residuals; None when fixed."""
+    ci95: tuple[float, float] | None
+    bootstrap_ci95: tuple[float, float] | None
+    """2.5–97.5 % of refits on runs resampled with replacement."""
+    vary: bool
+    """False when fixed (``--fix``) or its term is switched off."""
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class RunFit:
+    """How well the fit describes one run (over its analysis window)."""
+
+    run_id: str
+    n_samples: int
+    rms_n: float
+    """RMS of measured − modelled resistance. [N]"""
+    nrmse: float
+    """rms_n over the run's peak measured resistance. [–]"""
+    r2: float
+    peak_resistance_n: float
+    penetration_time_s: float | None = None
+    """Measured, contact to stop. [s]"""
+    model_penetration_time_s: float | None = None
+    """Dynamic mode: the fully predicted run's. [s]"""
+    position_rms_mm: float | None = None
+    """Dynamic mode: RMS of measured − predicted depth. [mm]"""
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fit of the Eq. 9 coefficients over runs of one material."""
+
+    material: str
+    mode: str
+    """``resistance`` or ``dynamic``."""
+    terms: tuple[str, ...]
+    coefficients: dict[str, Coefficient]
+    correlation: np.ndarray
+    """Correlation of the varying coefficients, in the order of ``varying``."""
+    varying: tuple[str, ...]
+    runs: tuple[RunFit, ...]
+    n_samples: int
+    n_effective: float
+    """Samples worth of independent information (residuals at 30 kHz are correlated)."""
+    aic: float
+    bic: float
+    loro_rms_n: float | None
+    """Mean leave-one-run-out RMS: fit on the other runs, score on the one left out. [N]"""
+    ranges: dict
+    """What the fit saw: contact speeds [m/s], depths [mm], blade thicknesses and widths [mm], strengths [kPa]."""
+    warnings: tuple[str, ...] = ()
+    success: bool = True
+    message: str = ""
+    fixed: dict = field(default_factory=dict)
+
+    def values(self) -> dict[str, float]:
+        return {name: c.value for name, c in self.coefficients.items()}
+
+    def to_dict(self) -> dict:
+        """The CONTRACT §6 record (material, coefficients, stderr) and everything else."""
+        def clean(x):
+            if isinstance(x, float) and not math.isfinite(x):
+                return None
+            return x
+
+        corr = {a: {b: clean(float(self.correlation[i, j])) for j, b in enumerate(self.varying)}
+                for i, a in enumerate(self.varying)}
+        return {
+            "material": self.material,
+            "mode": self.mode,
+            "terms": list(self.terms),
+            "coefficients": {n: c.value for n, c in self.coefficients.items()},
+            "stderr": {n: clean(c.stderr) if c.stderr is not None else None for n, c in self.coefficients.items()},
+            "ci95": {n: list(c.ci95) if c.ci95 else None for n, c in self.coefficients.items()},
+            "bootstrap_ci95": {n: list(c.bootstrap_ci95) if c.bootstrap_ci95 else None
+                               for n, c in self.coefficients.items()},
+            "fixed": dict(self.fixed),
+            "correlation": corr,
+            "runs": [r.to_dict() for r in self.runs],
+            "n_samples": self.n_samples,
+            "n_effective": self.n_effective,
+            "aic": self.aic,
+            "bic": self.bic,
+            "loro_rms_n": self.loro_rms_n,
+            "ranges": self.ranges,
+            "warnings": list(self.warnings),
+            "success": self.success,
+            "message": self.message,
+        }
