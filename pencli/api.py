@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
-from pencli.errors import DataError, ParameterError, PenError
+from pencli.errors import DataError, ParameterError, PenError, StoreError
 from pencli.model.design import Design, design_from_sets
 from pencli.model.dynamics import SimulationResult, simulate
 from pencli.params.definitions import Kind
@@ -30,10 +30,13 @@ class Prediction:
     energizing: ParameterSet
     design: Design
     result: SimulationResult
+    warnings: tuple[str, ...] = ()
+    """Where the design leaves what the material's fit saw (``fitted_ranges``)."""
 
     def to_dict(self) -> dict:
         """CONTRACT §5 record plus where the parameters came from."""
         record = self.result.to_dict()
+        record["warnings"] = list(self.warnings)
         record["penetrator"] = self.penetrator.name
         record["material"] = self.material.name
         record["energizing"] = self.energizing.name
@@ -76,7 +79,31 @@ def predict(penetrator: str | Path, material: str | Path, energizing: str | Path
                                   allow_out_of_range=allow_out_of_range)
     design = design_from_sets(p, m, e)
     result = simulate(design, terms, speed_at_contact_m_s=speed_at_contact_m_s, output_rate_hz=output_rate_hz)
-    return Prediction(p, m, e, design, result)
+    return Prediction(p, m, e, design, result, outside_fitted_ranges(p, m, result))
+
+
+def outside_fitted_ranges(penetrator: ParameterSet, material: ParameterSet, result: SimulationResult) -> tuple[str, ...]:
+    """Warnings for every quantity of this prediction outside what the material's fit saw."""
+    ranges = material.fitted_ranges
+    if not ranges:
+        return ()
+    s = result.summary
+    asked = {
+        "contact_speed_m_s": (s.contact_speed_m_s, "m/s", "contact speed"),
+        "depth_mm": (s.final_depth_mm, "mm", "depth"),
+        "blade_thickness_mm": (penetrator.values["blade_thickness_mm"], "mm", "blade thickness"),
+        "blade_width_mm": (penetrator.values["blade_width_mm"], "mm", "blade width"),
+        "microstructure_strength_kpa": (material.values["microstructure_strength_kpa"], "kPa", "strength"),
+    }
+    out = []
+    for key, (value, unit, label) in asked.items():
+        if key in ranges:
+            lo, hi = ranges[key]
+            slack = 1e-6 * max(abs(lo), abs(hi), 1.0)
+            if value < lo - slack or value > hi + slack:
+                out.append(f"{label} {value:.4g} {unit} is outside what {material.name}'s fit saw ({lo:.4g}–{hi:.4g} "
+                           f"{unit}); the coefficients are extrapolated")
+    return tuple(out)
 
 
 def write_prediction_trajectory(prediction: Prediction, path: str | Path) -> Path:
@@ -387,13 +414,21 @@ def _each_run(db: str | Path, refs: Sequence[str], work: Callable[[Any, str], St
 
 
 def expand_run_refs(ws, refs: Sequence[str]) -> list[str]:
-    """Run ids or folders; ``all`` means every run of the workspace."""
+    """Run ids, run folders or id patterns (``gb-*``); ``all`` means every run of the workspace."""
+    import fnmatch
+
     out: list[str] = []
     for ref in refs:
-        if ref == "all":
+        text = str(ref)
+        if text == "all":
             out.extend(ws.run_ids())
+        elif any(c in text for c in "*?[") and not Path(text).exists():
+            matched = fnmatch.filter(ws.run_ids(), text)
+            if not matched:
+                raise StoreError(f"no run id matches '{text}' in {ws.db_path}")
+            out.extend(matched)
         else:
-            out.append(str(ref))
+            out.append(text)
     return out
 
 
@@ -492,8 +527,116 @@ def load_series(db: str | Path, refs: Sequence[str]) -> list:
         if window.sum() < 10:
             raise DataError(f"run '{run_id}': only {int(window.sum())} samples in the analysis window")
         p, m, e = _sets_from_mappings(ws.run_parameters(run_id), run_id)
-        out.append(RunSeries(run_id, design_from_sets(p, m, e), t[window], table.column("depth_m").to_numpy()[window],
-                             table.column("velocity_m_s").to_numpy()[window],
-                             table.column("resistance_n").to_numpy()[window], events.contact_s, events.stop_s,
-                             events.end, events.contact_speed_m_s))
+        record = {name: table.column(name).to_numpy() for name in ("time_s", "depth_m", "velocity_m_s",
+                                                                   "resistance_n")}
+        out.append(RunSeries(run_id, design_from_sets(p, m, e), t[window], record["depth_m"][window],
+                             record["velocity_m_s"][window], record["resistance_n"][window], events.contact_s,
+                             events.stop_s, events.end, events.contact_speed_m_s, record))
     return out
+
+
+@dataclass(frozen=True)
+class FitOutcome:
+    """A fit, where it was recorded, and (with --all-subsets) BAM's table."""
+
+    result: Any
+    """:class:`~pencli.fit.result.FitResult`."""
+    version: int | None
+    material_file: dict
+    out: Path | None = None
+    subsets: tuple = ()
+    warnings: tuple[str, ...] = ()
+
+
+def parse_fix(items: Sequence[str]) -> dict[str, float]:
+    """``damping=0`` or ``coefficients.damping_kpa_s_m=0`` → {coefficient: value} (file units)."""
+    from pencli.fit.result import COEFFICIENT_OF, COEFFICIENTS
+
+    out: dict[str, float] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip().removeprefix("coefficients.")
+        name = COEFFICIENT_OF.get(key, key)
+        if not sep or name not in COEFFICIENTS:
+            raise ParameterError(f"--fix {item!r}: expected TERM=VALUE with a term ({', '.join(COEFFICIENT_OF)}) or a "
+                                 f"coefficient ({', '.join(COEFFICIENTS)})")
+        try:
+            value = float(text)
+        except ValueError:
+            raise ParameterError(f"--fix {item!r}: '{text}' is not a number") from None
+        if value < 0 or value != value:
+            raise ParameterError(f"--fix {item!r}: coefficients are ≥ 0")
+        out[name] = value
+    return out
+
+
+def material_file_from_fit(name: str, series: Sequence, result) -> dict:
+    """A CONTRACT §1 material mapping carrying the fitted coefficients and what the fit saw."""
+    import statistics
+
+    from pencli import __version__ as pen_version
+
+    props = {
+        "density_kg_m3": statistics.median(s.design.density_kg_m3 for s in series),
+        "microstructure_strength_kpa": statistics.median(s.design.strength_pa / 1e3 for s in series),
+        "friction_coefficient": statistics.median(s.design.friction_coefficient for s in series),
+        "gravity_m_s2": statistics.median(s.design.gravity_m_s2 for s in series),
+    }
+    return {
+        "kind": "material",
+        "name": name,
+        "notes": (f"Fitted by pen {pen_version} ({result.mode} mode, terms {', '.join(result.terms)}) over "
+                  f"{len(series)} run(s): {', '.join(s.run_id for s in series)}. Measured properties are the "
+                  f"runs' medians."),
+        **{k: float(v) for k, v in props.items()},
+        "coefficients": {k: float(v) for k, v in result.values().items()},
+        "fitted_ranges": {k: [float(a), float(b)] for k, (a, b) in result.ranges.items()},
+    }
+
+
+def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resistance",
+        terms: str | Sequence[str] | None = None, fix: Sequence[str] = (), all_subsets: bool = False,
+        bootstrap: int = 200, out: str | Path | None = None, record: bool = True,
+        command: str = "pen fit") -> FitOutcome:
+    """``pen fit``: Eq. 9 coefficients over runs, recorded as a new material version."""
+    import pyarrow as pa
+    import yaml
+
+    from pencli.fit.compare import model_vs_data
+    from pencli.fit.dynamic import fit_dynamic
+    from pencli.fit.resistance import all_subsets as fit_all_subsets
+    from pencli.fit.resistance import fit_resistance
+    from pencli.io.atomic import write_atomic
+
+    if mode not in ("resistance", "dynamic"):
+        raise ParameterError(f"--mode {mode!r}: expected resistance or dynamic")
+    series = load_series(db, refs)
+    fixed = parse_fix(fix)
+    notes = []
+    if len(series) == 1 and "damping_kpa_s_m" not in fixed:
+        fixed["damping_kpa_s_m"] = 0.0  # paper §5: single-run fits hold damping at 0
+        notes.append("single run: damping held at 0 (paper §5); --fix damping=VALUE to choose otherwise")
+    names = sorted({s.design and _run_material(db, s.run_id) for s in series})
+    if len(names) > 1:
+        notes.append(f"runs of several materials fitted together: {', '.join(names)}")
+    result = fit_resistance(series, material, terms=terms, fixed=fixed, bootstrap=bootstrap)
+    if mode == "dynamic":
+        result = fit_dynamic(series, material, result.values(), terms=terms, fixed=fixed)
+    subsets = tuple(fit_all_subsets(series, material, terms=terms, fixed=fixed)) if all_subsets else ()
+    mapping = material_file_from_fit(material, series, result)
+    version = None
+    if record:
+        table = pa.table(model_vs_data(series, result.values(), result.terms))
+        version = workspace(db).add_material_version(material, result.to_dict(), mapping,
+                                                     [s.run_id for s in series], table, command=command)
+        mapping["notes"] += f" Catalog: {material} version {version}."
+    out_path = None
+    if out is not None:
+        out_path = Path(out)
+        text = yaml.safe_dump(mapping, sort_keys=False, allow_unicode=True)
+        write_atomic(out_path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return FitOutcome(result, version, mapping, out_path, subsets, tuple(notes))
+
+
+def _run_material(db: str | Path, run_id: str) -> str:
+    return str(workspace(db).run_parameters(run_id)["material"].get("name"))

@@ -10,7 +10,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, print_json
+from pencli.commands.common import DbOption, PenTyper, console, err_console, print_json
 from pencli.model.resistance import TERMS
 
 app = PenTyper()
@@ -67,6 +67,8 @@ def predict(
                              output_rate_hz=rate)
     if out is not None:
         api.write_prediction_trajectory(prediction, out)
+    for warning in prediction.warnings:
+        err_console.print(f"[yellow]warning:[/yellow] {escape(warning)}", highlight=False, soft_wrap=True)
     if json_out:
         print_json(prediction.to_dict())
         return

@@ -40,6 +40,9 @@ UNIT_SCALE = {"strength_factor": 1.0, "sidewall_pressure_kpa": 1e3, "damping_kpa
               "inertia_coefficient": 1.0}
 """SI value of one file unit of each coefficient (kPa → Pa)."""
 
+TYPICAL = {"strength_factor": 1.0, "sidewall_pressure_kpa": 10.0, "damping_kpa_s_m": 10.0, "inertia_coefficient": 30.0}
+"""Typical magnitudes (file units): scales for the optimiser and for judging an uncertainty near zero."""
+
 SEPARATE = {
     frozenset({"strength_factor", "sidewall_pressure_kpa"}):
         "strength/friction trade-off: add runs with another blade thickness (frontal strength scales with T, "
@@ -73,6 +76,8 @@ class RunSeries:
     stop_s: float
     end: str
     contact_speed_m_s: float
+    record: Mapping[str, np.ndarray] | None = None
+    """The whole record (time_s, depth_m, velocity_m_s, resistance_n), for model-against-data tables."""
 
     @property
     def penetration_time_s(self) -> float:
@@ -137,7 +142,7 @@ def ranges_of(series: Sequence[RunSeries]) -> dict:
 
     return {
         "contact_speed_m_s": span([s.contact_speed_m_s for s in series]),
-        "depth_mm": [0.0, float(max(np.max(s.depth_m) for s in series) * 1e3)],
+        "depth_mm": [0.0, float(max(np.max((s.record or {"depth_m": s.depth_m})["depth_m"]) for s in series) * 1e3)],
         "blade_thickness_mm": span([s.design.blade_thickness_m * 1e3 for s in series]),
         "blade_width_mm": span([s.design.blade_width_m * 1e3 for s in series]),
         "microstructure_strength_kpa": span([s.design.strength_pa / 1e3 for s in series]),
@@ -146,7 +151,7 @@ def ranges_of(series: Sequence[RunSeries]) -> dict:
 
 def fit_resistance(series: Sequence[RunSeries], material: str, *, terms: Iterable[str] | str | None = None,
                    fixed: Mapping[str, float] | None = None, bootstrap: int = 200, seed: int = 0,
-                   leave_one_out: bool = True) -> FitResult:
+                   leave_one_out: bool = True, n_effective: float | None = None) -> FitResult:
     """Fit Cs, P, C, K simultaneously over ``series`` (resistance mode).
 
     Parameters
@@ -156,6 +161,7 @@ def fit_resistance(series: Sequence[RunSeries], material: str, *, terms: Iterabl
     terms : Eq. 9 terms switched on (others are 0).
     fixed : coefficients held at a value (file units), e.g. ``{"damping_kpa_s_m": 0}``.
     bootstrap : refits on runs resampled with replacement (0: none).
+    n_effective : sample count for AIC/BIC; models compared must share one (default: from these residuals).
     """
     if not series:
         raise FitError("no runs to fit")
@@ -236,8 +242,9 @@ def fit_resistance(series: Sequence[RunSeries], material: str, *, terms: Iterabl
         loro = float(np.mean(scores))
 
     rss_norm = float(rw @ rw) / float(np.sum(p.weights ** 2))  # mean squared residual, runs weighted equally
-    aic = n_eff * np.log(rss_norm) + 2 * n_params
-    bic = n_eff * np.log(rss_norm) + n_params * np.log(n_eff)
+    n_ic = n_effective or n_eff
+    aic = n_ic * np.log(rss_norm) + 2 * n_params
+    bic = n_ic * np.log(rss_norm) + n_params * np.log(n_ic)
     warnings = determinacy_warnings(coefficients, varying, corr, len(series))
     return FitResult(material, "resistance", chosen, coefficients, corr, varying, tuple(runs), len(p.y), n_eff,
                      float(aic), float(bic), loro, ranges_of(series), tuple(warnings), True, "", held)
@@ -257,9 +264,9 @@ def determinacy_warnings(coefficients: Mapping[str, Coefficient], varying: Seque
         c = coefficients[name]
         if c.stderr is None or not np.isfinite(c.stderr):
             warnings.append(f"{name} is not determined by these runs")
-        elif c.value > 0 and c.stderr > 0.5 * c.value:
-            warnings.append(f"{name} = {c.value:.4g} ± {c.stderr:.2g} is poorly determined "
-                            f"(relative error {c.stderr / c.value:.0%})")
+        elif c.stderr > 0.5 * abs(c.value) and c.stderr > 0.05 * TYPICAL[name]:
+            relative = f"relative error {c.stderr / abs(c.value):.0%}" if c.value else "at its bound of 0"
+            warnings.append(f"{name} = {c.value:.4g} ± {c.stderr:.2g} is poorly determined ({relative})")
     if n_runs == 1:
         warnings.append("single-run fit: the coefficients describe this run; fit several runs of different blades "
                         "and speeds before trusting them elsewhere")
@@ -268,15 +275,21 @@ def determinacy_warnings(coefficients: Mapping[str, Coefficient], varying: Seque
 
 def all_subsets(series: Sequence[RunSeries], material: str, *, terms: Iterable[str] | str | None = None,
                 fixed: Mapping[str, float] | None = None) -> list[FitResult]:
-    """BAM's table: the fit for every non-empty combination of the enabled terms (resistance mode)."""
+    """BAM's table: the fit for every non-empty combination of the enabled terms (resistance mode).
+
+    AIC and BIC share the effective sample count of the fit with every enabled
+    term, so they compare models on the same data.
+    """
     chosen = parse_terms(terms)
+    full = fit_resistance(series, material, terms=chosen, fixed=fixed, bootstrap=0, leave_one_out=False)
     out = []
     for k in range(1, len(chosen) + 1):
         for subset in itertools.combinations(chosen, k):
             held = {n: v for n, v in (fixed or {}).items() if TERM_OF[n] in subset}
             if all(COEFFICIENT_OF[t] in held for t in subset):
                 continue
-            out.append(fit_resistance(series, material, terms=subset, fixed=held, bootstrap=0))
+            out.append(fit_resistance(series, material, terms=subset, fixed=held, bootstrap=0,
+                                      n_effective=full.n_effective))
     return out
 
 

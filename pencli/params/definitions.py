@@ -194,6 +194,12 @@ OPTIONAL_TOP_KEYS: dict[str, str] = {
 }
 """Keys pen adds to every kind beyond CONTRACT §1 (allowed: 'add freely')."""
 
+RANGE_KEYS: dict[str, str] = {
+    "contact_speed_m_s": "m/s", "depth_mm": "mm", "blade_thickness_mm": "mm", "blade_width_mm": "mm",
+    "microstructure_strength_kpa": "kPa",
+}
+"""``fitted_ranges:`` of a material file written by ``pen fit``: [min, max] of what the fit saw."""
+
 
 def params_of(kind: Kind) -> tuple[Param, ...]:
     """The parameters of one kind, in definition order."""

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from pencli.params.definitions import OPTIONAL_TOP_KEYS, Kind, Param, params_of
+from pencli.params.definitions import OPTIONAL_TOP_KEYS, RANGE_KEYS, Kind, Param, params_of
 
 
 def _property(param: Param) -> dict[str, Any]:
@@ -49,6 +49,12 @@ def json_schema(kind: Kind) -> dict[str, Any]:
             required.append(param.key)
     for group, props in nested.items():
         properties[group] = {"type": "object", "properties": props, "additionalProperties": False}
+    if kind == "material":
+        pair = {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2}
+        properties["fitted_ranges"] = {
+            "type": "object", "description": "what `pen fit` saw: [min, max] per quantity (predict warns outside)",
+            "properties": {key: {**pair, "x-unit": unit} for key, unit in RANGE_KEYS.items()},
+            "additionalProperties": False}
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": f"https://pen.invalid/schema/{kind}.schema.json",

@@ -17,6 +17,7 @@ from pencli.params.definitions import (
     BY_KEY,
     KINDS,
     OPTIONAL_TOP_KEYS,
+    RANGE_KEYS,
     RULES,
     Kind,
     Param,
@@ -48,6 +49,8 @@ class ParameterSet:
     source: str = "<memory>"
     notes: str = ""
     overrides: Mapping[str, float] = field(default_factory=dict)
+    fitted_ranges: Mapping[str, tuple[float, float]] | None = None
+    """Material files from ``pen fit``: what the fit saw, for ``predict`` to warn outside it."""
 
     def get(self, key: str, default: float | None = None) -> float | None:
         """Value of ``key`` in file units, or ``default`` when absent."""
@@ -67,6 +70,8 @@ class ParameterSet:
                 out.setdefault(group, {})[sub] = value
             else:
                 out[param.key] = value
+        if self.fitted_ranges:
+            out["fitted_ranges"] = {k: list(v) for k, v in self.fitted_ranges.items()}
         return out
 
     def with_values(self, updates: Mapping[str, float], *, allow_out_of_range: bool = False,
@@ -148,9 +153,12 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
     if not isinstance(notes, str):
         raise ParameterError(f"{source}: key 'notes': got {notes!r}; expected a string")
 
+    fitted_ranges = None
+    if "fitted_ranges" in data and kind == "material":
+        fitted_ranges = _fitted_ranges(data["fitted_ranges"], source)
     flat: dict[str, Any] = {}
     for key, value in data.items():
-        if key in ("kind", "name") or key in OPTIONAL_TOP_KEYS:
+        if key in ("kind", "name") or key in OPTIONAL_TOP_KEYS or (key == "fitted_ranges" and kind == "material"):
             continue
         if key == "coefficients" and kind == "material":
             if value is None:
@@ -190,4 +198,18 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
             first = rule.keys[0]
             shown = ", ".join(f"{k}={values[k]:g}" for k in rule.keys)
             raise ParameterError(f"{source}: key '{first}': got {shown}; {first} {rule.message}")
-    return ParameterSet(kind=kind, name=name, values=values, source=source, notes=notes)
+    return ParameterSet(kind=kind, name=name, values=values, source=source, notes=notes, fitted_ranges=fitted_ranges)
+
+
+def _fitted_ranges(value: Any, source: str) -> dict[str, tuple[float, float]]:
+    if not isinstance(value, Mapping):
+        raise ParameterError(f"{source}: key 'fitted_ranges': expected a mapping of [min, max] pairs")
+    out = {}
+    for key, pair in value.items():
+        if key not in RANGE_KEYS:
+            raise ParameterError(f"{source}: key 'fitted_ranges.{key}': unknown; valid: {', '.join(RANGE_KEYS)}")
+        if (not isinstance(pair, (list, tuple)) or len(pair) != 2
+                or not all(_is_number(v) and math.isfinite(v) for v in pair) or pair[0] > pair[1]):
+            raise ParameterError(f"{source}: key 'fitted_ranges.{key}': got {pair!r}; expected [min, max]")
+        out[key] = (float(pair[0]), float(pair[1]))
+    return out

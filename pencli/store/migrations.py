@@ -54,6 +54,25 @@ MIGRATIONS: tuple[tuple[int, str, str], ...] = (
             PRIMARY KEY (run_id, stage_no)
         );
     """),
+    (2, "fitted material versions", """
+        CREATE TABLE materials (
+            material         VARCHAR NOT NULL,
+            version          INTEGER NOT NULL,
+            created_at       TIMESTAMP NOT NULL,
+            mode             VARCHAR NOT NULL,
+            terms            VARCHAR[] NOT NULL,
+            coefficients     JSON NOT NULL,
+            stderr           JSON NOT NULL,
+            fit              JSON NOT NULL,
+            source_runs      VARCHAR[] NOT NULL,
+            ranges           JSON NOT NULL,
+            material_file    JSON NOT NULL,
+            model_data_path  VARCHAR,
+            command          VARCHAR NOT NULL,
+            pen_version      VARCHAR NOT NULL,
+            PRIMARY KEY (material, version)
+        );
+    """),
 )
 
 LATEST = MIGRATIONS[-1][0]

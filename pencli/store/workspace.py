@@ -189,9 +189,7 @@ class Workspace:
         if version is None or version > LATEST:
             raise StoreError(f"{self.db_path}: catalog schema version {version} is not one this pen reads "
                              f"(up to {LATEST})")
-        if version < LATEST:
-            raise StoreError(f"{self.db_path}: catalog schema version {version} is older than this pen's "
-                             f"({LATEST}); any writing command (e.g. pen ingest) upgrades it")
+        # an older catalog is read as it is (migrations only add); writing commands upgrade it
 
     # ------------------------------------------------------------------ runs
     def add_run(self, run: RunData, *, command: str) -> AddedRun:
@@ -423,6 +421,61 @@ class Workspace:
             if cur.description is None:
                 return [], []
             return [d[0] for d in cur.description], cur.fetchall()
+
+    # ------------------------------------------------------------------ fitted materials
+    def add_material_version(self, material: str, fit: Mapping[str, Any], material_file: Mapping[str, Any],
+                             source_runs: Sequence[str], model_data: pa.Table | None, *, command: str) -> int:
+        """Record a fit as the next version of ``material``; its model-vs-data table goes to fits/ (atomic)."""
+        with self.connect(write=True) as con:
+            last = con.execute("SELECT max(version) FROM materials WHERE material = ?", [material]).fetchone()[0]
+            version = (last or 0) + 1
+            rel = None
+            final = tmp = None
+            if model_data is not None:
+                folder = self.db_path.parent / "fits"
+                folder.mkdir(parents=True, exist_ok=True)
+                final = folder / f"{_ID_SAFE.sub('-', material)}-v{version}.parquet"
+                tmp = folder / f".{final.name}.{os.getpid()}.tmp"
+                rel = str(final.relative_to(self.db_path.parent))
+            committed = False
+            con.execute("BEGIN TRANSACTION")
+            try:
+                if model_data is not None:
+                    meta = {b"pen:material": material.encode(), b"pen:version": str(version).encode(),
+                            b"pen:fit": json.dumps(fit, default=str).encode(), b"pen:command": command.encode()}
+                    write_parquet(model_data.replace_schema_metadata(meta), tmp)
+                con.execute("INSERT INTO materials VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+                    material, version, _now(), fit["mode"], list(fit["terms"]), json.dumps(fit["coefficients"]),
+                    json.dumps(fit["stderr"]), json.dumps(fit, default=str), list(source_runs),
+                    json.dumps(fit["ranges"]), json.dumps(material_file), rel, command, __version__])
+                if model_data is not None:
+                    os.replace(tmp, final)
+                con.execute("COMMIT")
+                committed = True
+            finally:
+                if not committed:
+                    with contextlib.suppress(Exception):
+                        con.execute("ROLLBACK")
+                    for path in (tmp, final):
+                        if path is not None:
+                            with contextlib.suppress(FileNotFoundError):
+                                path.unlink()
+        return version
+
+    def material_versions(self, material: str | None = None) -> list[dict]:
+        """Fitted material versions (newest last)."""
+        sql = "SELECT * FROM materials"
+        args: list = []
+        if material is not None:
+            sql += " WHERE material = ?"
+            args.append(material)
+        with self.connect() as con:
+            try:
+                cur = con.execute(sql + " ORDER BY material, version", args)
+            except duckdb.CatalogException:  # a catalog from before migration 2
+                return []
+            names = [d[0] for d in cur.description]
+            return [dict(zip(names, row)) for row in cur.fetchall()]
 
     def compact(self) -> None:
         """Rewrite the catalog into a fresh file, dropping free blocks (atomic)."""
