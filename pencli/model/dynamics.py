@@ -257,7 +257,7 @@ def _event(fn, direction: float):
     return fn
 
 
-def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float):
+def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float, rtol: float = _RTOL):
     """Integrate from contact; returns (segments, end, t_end, y_end)."""
     mass = design.effective_mass_kg
     stroke, offset = design.stroke_m, design.surface_offset_m
@@ -276,7 +276,7 @@ def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: fl
     if release_depth > 0.0 and release_depth < depth:
         stops.append(_event(lambda _t, s: s[0] - release_depth, 1.0))
     while True:
-        sol = solve_ivp(rhs, (t, t0 + _T_MAX_S), y, method="DOP853", rtol=_RTOL, atol=atol,
+        sol = solve_ivp(rhs, (t, t0 + _T_MAX_S), y, method="DOP853", rtol=rtol, atol=atol,
                         events=stops, dense_output=True)
         hit = [i for i, times in enumerate(sol.t_events) if len(times)]
         if not hit:
@@ -321,7 +321,8 @@ def _peak(law: ResistanceLaw, segments) -> tuple[float, float]:
 
 
 def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
-             speed_at_contact_m_s: float | None = None, output_rate_hz: float = 50_000.0) -> SimulationResult:
+             speed_at_contact_m_s: float | None = None, output_rate_hz: float = 50_000.0,
+             rtol: float = _RTOL) -> SimulationResult:
     """Simulate one shot of the rig (CONTRACT §2).
 
     Parameters
@@ -335,6 +336,8 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         (BAM's "speed at comet contact"); the springs keep their geometry. [m/s]
     output_rate_hz
         Sampling rate of the returned trajectory (events are added exactly). [Hz]
+    rtol
+        Relative tolerance of the penetration integration (default 1e-10; fits use less).
 
     Returns
     -------
@@ -357,7 +360,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         t_contact, v_contact = 0.0, float(speed_at_contact_m_s)
         u_start, initial_ke = design.surface_offset_m, 0.5 * mass * v_contact ** 2
 
-    segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact)
+    segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact, rtol)
     x_end, v_end = float(y_end[0]), float(y_end[1])
     full = end == "full_depth"
 
