@@ -70,6 +70,36 @@ class StageRecord:
     created_at: dt.datetime
 
 
+@contextlib.contextmanager
+def _atomically(con: duckdb.DuckDBPyConnection, tmp: Path | None, final: Path | None,
+                new_folder: Path | None = None) -> Iterator[None]:
+    """A transaction whose commit also moves ``tmp`` to ``final``.
+
+    The body writes ``tmp`` and inserts rows; then the file is renamed into
+    place and the transaction commits.  Any failure (Ctrl-C included) rolls
+    back and removes both files and, when given, the run folder just made.
+    """
+    committed = False
+    con.execute("BEGIN TRANSACTION")
+    try:
+        yield
+        if tmp is not None and final is not None:
+            os.replace(tmp, final)
+        con.execute("COMMIT")
+        committed = True
+    finally:
+        if not committed:
+            with contextlib.suppress(Exception):
+                con.execute("ROLLBACK")
+            for path in (tmp, final):
+                if path is not None:
+                    with contextlib.suppress(FileNotFoundError):
+                        path.unlink()
+            if new_folder is not None:
+                with contextlib.suppress(OSError):
+                    new_folder.rmdir()
+
+
 def _now() -> dt.datetime:
     return dt.datetime.now(dt.timezone.utc).replace(tzinfo=None, microsecond=0)
 
@@ -255,28 +285,13 @@ class Workspace:
         merged = dict(table.schema.metadata or {})
         merged.update({k.encode(): v.encode() for k, v in meta.items()})
         table = table.replace_schema_metadata(merged)
-        committed = False
-        con.execute("BEGIN TRANSACTION")
-        try:
+        with _atomically(con, tmp, final, folder if created_folder else None):
             write_parquet(table, tmp)
             if run_rows is not None:
                 self._insert_run(con, run_id, *run_rows, now)
             con.execute("INSERT INTO stages VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
                 run_id, stage_no, record["stage"], record.get("parent"), str(final.relative_to(self.runs_dir.parent)),
                 digest, record["command"], json.dumps(record["parameters"], default=str), __version__, now])
-            os.replace(tmp, final)
-            con.execute("COMMIT")
-            committed = True
-        finally:
-            if not committed:
-                with contextlib.suppress(Exception):
-                    con.execute("ROLLBACK")
-                for path in (tmp, final):
-                    with contextlib.suppress(FileNotFoundError):
-                        path.unlink()
-                if created_folder:
-                    with contextlib.suppress(OSError):
-                        folder.rmdir()
         return StageRecord(run_id, stage_no, record["stage"], record.get("parent"), final, digest,
                            record["command"], record["parameters"], __version__, now)
 
@@ -437,9 +452,7 @@ class Workspace:
                 final = folder / f"{_ID_SAFE.sub('-', material)}-v{version}.parquet"
                 tmp = folder / f".{final.name}.{os.getpid()}.tmp"
                 rel = str(final.relative_to(self.db_path.parent))
-            committed = False
-            con.execute("BEGIN TRANSACTION")
-            try:
+            with _atomically(con, tmp, final):
                 if model_data is not None:
                     meta = {b"pen:material": material.encode(), b"pen:version": str(version).encode(),
                             b"pen:fit": json.dumps(fit, default=str).encode(), b"pen:command": command.encode()}
@@ -448,18 +461,6 @@ class Workspace:
                     material, version, _now(), fit["mode"], list(fit["terms"]), json.dumps(fit["coefficients"]),
                     json.dumps(fit["stderr"]), json.dumps(fit, default=str), list(source_runs),
                     json.dumps(fit["ranges"]), json.dumps(material_file), rel, command, __version__])
-                if model_data is not None:
-                    os.replace(tmp, final)
-                con.execute("COMMIT")
-                committed = True
-            finally:
-                if not committed:
-                    with contextlib.suppress(Exception):
-                        con.execute("ROLLBACK")
-                    for path in (tmp, final):
-                        if path is not None:
-                            with contextlib.suppress(FileNotFoundError):
-                                path.unlink()
         return version
 
     def material_versions(self, material: str | None = None) -> list[dict]:
