@@ -640,3 +640,40 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
 
 def _run_material(db: str | Path, run_id: str) -> str:
     return str(workspace(db).run_parameters(run_id)["material"].get("name"))
+
+
+# ---------------------------------------------------------------------------- diagnosis
+def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
+    """Each run's inertia stage as a :class:`~pencli.diagnose.effects.DiagnosisRun`."""
+    import numpy as np
+
+    from pencli.diagnose.effects import DiagnosisRun
+    from pencli.filter.tare import Events
+
+    ws = workspace(db)
+    out = []
+    for ref in expand_run_refs(ws, refs):
+        run_id = ws.resolve(ref)
+        table, stage = ws.read_stage(run_id)
+        if "resistance_n" not in table.column_names:
+            raise DataError(f"run '{run_id}': its latest stage is '{stage.stage}'; run `pen tare {run_id}` and "
+                            f"`pen subtract-inertia {run_id}` first")
+        events = Events(**stage.parameters["events"])
+        col = {name: table.column(name).to_numpy() for name in ("time_s", "depth_m", "velocity_m_s",
+                                                                 "acceleration_m_s2", "force_n", "resistance_n")}
+        pre = col["time_s"] < -5e-3
+        noise = float(np.std(col["resistance_n"][pre])) if pre.sum() > 10 else 1.0
+        p, m, e = _sets_from_mappings(ws.run_parameters(run_id), run_id)
+        out.append(DiagnosisRun(run_id, design_from_sets(p, m, e), col["time_s"], col["depth_m"], col["velocity_m_s"],
+                                col["acceleration_m_s2"], col["force_n"], col["resistance_n"], events.motion_start_s,
+                                events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
+                                events.end, events.contact_speed_m_s, float(stage.parameters["load_cell_mass_kg"]),
+                                noise))
+    return out
+
+
+def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | None = None):
+    """``pen diagnose``: where the model and the runs part, which effect, how far it closes."""
+    from pencli.diagnose.engine import diagnose as run_diagnosis
+
+    return run_diagnosis(load_diagnosis_runs(db, refs), effects=effects)

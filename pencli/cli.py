@@ -7,6 +7,7 @@ import typer
 from pencli import __version__
 from pencli.commands import acquire as acquire_cmd
 from pencli.commands import condition as condition_cmd
+from pencli.commands import diagnose as diagnose_cmd
 from pencli.commands import fit as fit_cmd
 from pencli.commands import params as params_cmd
 from pencli.commands import predict as predict_cmd
@@ -22,7 +23,7 @@ app = PenTyper(
 )
 app.add_typer(params_cmd.app, name="params")
 app.add_typer(runs_cmd.runs_app, name="runs")
-for module in (predict_cmd, runs_cmd, acquire_cmd, condition_cmd, fit_cmd):
+for module in (predict_cmd, runs_cmd, acquire_cmd, condition_cmd, fit_cmd, diagnose_cmd):
     app.registered_commands.extend(module.app.registered_commands)
 
 

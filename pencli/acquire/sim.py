@@ -95,14 +95,16 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
         zeta = ringing["damping_ratio"]
         wd = w0 * math.sqrt(max(1 - zeta ** 2, 1e-9))
         amp = ringing["amplitude_n_per_m_s"] * motion.contact_speed_m_s
-        axial = axial + np.where(tc > 0, amp * np.exp(-zeta * w0 * tc) * np.sin(wd * tc), 0.0)
+        modes = (amp * np.exp(-zeta * w0 * np.maximum(tc, 0)) * np.sin(wd * tc)
+                 + 0.3 * amp * np.exp(-2 * zeta * w0 * np.maximum(tc, 0)) * np.sin(2.7 * wd * tc))
+        axial = axial + np.where(tc > 0, modes, 0.0)
     lag = world.effect("sensor_lag")
     if lag:
         axial = _two_pole_lag(axial, lag["tau_ms"] * 1e-3, rate)
     drift = world.effect("force_drift")
     if drift:
         tp = np.maximum(t, 0.0)
-        axial = axial + drift["rate_n_per_s"] * tp + drift["curvature_n_per_s2"] * tp ** 2
+        axial = axial + drift["amplitude_n"] * (1.0 - np.exp(-tp / drift["time_constant_s"]))
 
     noise_f = float(rig["force_noise_n"])
     noise_t = float(rig["torque_noise_nm"])

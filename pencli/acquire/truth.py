@@ -45,7 +45,7 @@ class EffectSpec:
 TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
     EffectSpec("strength_layer", "strength takes ratio × S in a layer from depth_mm to depth_mm + thickness_mm "
                "(a plateau), with smooth edges edge_mm wide", {"depth_mm": 60.0, "ratio": 0.5,
-                                                              "thickness_mm": 1000.0, "edge_mm": 2.0}),
+                                                              "thickness_mm": 50.0, "edge_mm": 2.0}),
     EffectSpec("strength_gradient", "strength grows exponentially with depth: S·exp(ln(1 + change_per_100mm)·x/0.1 m)",
                {"change_per_100mm": 0.5}),
     EffectSpec("plug_growth", "a crushed plug widens the frontal thickness, saturating: "
@@ -60,13 +60,13 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
                {"ratio": 1.5}),
     EffectSpec("sensor_lag", "the force channel passes through two first-order poles of tau_ms each",
                {"tau_ms": 0.3}),
-    EffectSpec("rig_ringing", "a damped structural resonance is struck at contact: amplitude_n_per_m_s × contact "
-               "speed, frequency_hz, damping_ratio", {"amplitude_n_per_m_s": 40.0, "frequency_hz": 900.0,
-                                                      "damping_ratio": 0.03}),
-    EffectSpec("force_drift", "the force offset drifts during the run: rate_n_per_s·t + curvature_n_per_s2·t²",
-               {"rate_n_per_s": 150.0, "curvature_n_per_s2": 0.0}),
+    EffectSpec("rig_ringing", "two damped structural modes are struck at contact: amplitude_n_per_m_s × contact "
+               "speed at frequency_hz, and 0.3 of it at 2.7 × frequency_hz (twice the decay)",
+               {"amplitude_n_per_m_s": 40.0, "frequency_hz": 900.0, "damping_ratio": 0.03}),
+    EffectSpec("force_drift", "the force offset drifts from the release on: amplitude_n·(1 − exp(−t/time_constant_s))",
+               {"amplitude_n": 30.0, "time_constant_s": 0.05}),
     EffectSpec("propulsion_loss", "the launcher loses energy: efficiency × (1 − loss) and a guide friction of "
-               "guide_friction_n along the whole travel", {"loss": 0.15, "guide_friction_n": 0.0}),
+               "guide_friction_n along the whole travel", {"loss": 0.15, "guide_friction_n": 10.0}),
     EffectSpec("brittle_bursts", "(outside the diagnosis catalogue) strength collapses and recovers in "
                "saw-tooth bursts every period_mm of depth, by depth ratio", {"period_mm": 20.0, "ratio": 0.5}),
 )}

@@ -15,6 +15,7 @@ instants.
 
 from __future__ import annotations
 
+import warnings
 from typing import Callable, Sequence
 
 import numpy as np
@@ -65,7 +66,10 @@ def spline(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float 
                 v[lo:hi] = np.gradient(x[lo:hi], t[lo:hi])
                 a[lo:hi] = np.gradient(v[lo:hi], t[lo:hi])
             continue
-        spl = make_splrep(t[lo:hi], x[lo:hi], k=5, s=n * sigma ** 2)
+        with warnings.catch_warnings():
+            # FITPACK may return its closest approximation when s is tight for quantised data; that is fine here
+            warnings.simplefilter("ignore", RuntimeWarning)
+            spl = make_splrep(t[lo:hi], x[lo:hi], k=5, s=n * sigma ** 2)
         v[lo:hi] = spl(t[lo:hi], 1)
         a[lo:hi] = spl(t[lo:hi], 2)
     return v, a

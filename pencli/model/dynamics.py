@@ -236,7 +236,8 @@ def _spring_force(design: Design, x):
     return design.drive_stiffness_n_m * np.maximum(compression, 0.0)
 
 
-def _make_rhs(law: ResistanceLaw, mass: float, stiffness: float, stroke: float, offset: float, gravity: float):
+def _make_rhs(law: ResistanceLaw, mass: float, stiffness: float, stroke: float, offset: float, gravity: float,
+              extra=None):
     a0, a1, b, d = law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2
     weight = mass * gravity
 
@@ -246,7 +247,10 @@ def _make_rhs(law: ResistanceLaw, mass: float, stiffness: float, stroke: float, 
         compression = stroke - x - offset
         spring = stiffness * compression if compression > 0.0 else 0.0
         resist = a0 + a1 * x + (b + d * vp) * vp  # Eq. 9 in contact
-        return [v, (spring + weight - resist) / mass, b * vp * vp, d * vp * vp * vp]
+        if extra is None:
+            return [v, (spring + weight - resist) / mass, b * vp * vp, d * vp * vp * vp]
+        more = extra(x, vp)
+        return [v, (spring + weight - resist - more) / mass, b * vp * vp, d * vp * vp * vp, more * vp]
 
     return rhs
 
@@ -257,19 +261,20 @@ def _event(fn, direction: float):
     return fn
 
 
-def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float, rtol: float = _RTOL):
+def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float, rtol: float = _RTOL,
+                           extra=None):
     """Integrate from contact; returns (segments, end, t_end, y_end)."""
     mass = design.effective_mass_kg
     stroke, offset = design.stroke_m, design.surface_offset_m
     depth = design.penetration_depth_m
-    rhs = _make_rhs(law, mass, design.drive_stiffness_n_m, stroke, offset, design.gravity_m_s2)
-    y = np.array([0.0, v0, 0.0, 0.0])
+    rhs = _make_rhs(law, mass, design.drive_stiffness_n_m, stroke, offset, design.gravity_m_s2, extra)
+    y = np.array([0.0, v0, 0.0, 0.0] + ([0.0] if extra is not None else []))
     t = t0
     segments = []
     release_depth = stroke - offset  # > 0: springs still push at contact
     if v0 <= 0.0 and rhs(t, y)[1] <= 0.0:
         return segments, "arrest", t, y  # the drive cannot overcome the static resistance
-    atol = np.array([1e-13, 1e-12, 1e-11, 1e-11])
+    atol = np.array([1e-13, 1e-12, 1e-11, 1e-11, 1e-11][:y.size])
     ev_full = _event(lambda _t, s: s[0] - depth, 1.0)
     ev_arrest = _event(lambda _t, s: s[1], -1.0)
     stops = [ev_full, ev_arrest]
@@ -297,11 +302,14 @@ def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: fl
         t, y = t_hit, y_hit
 
 
-def _peak(law: ResistanceLaw, segments) -> tuple[float, float]:
+def _peak(law: ResistanceLaw, segments, extra=None) -> tuple[float, float]:
     """Largest R over the penetration and the depth where it occurs. [N, m]"""
+    extra_v = None if extra is None else np.vectorize(extra, otypes=[float])
+
     def resistance(state):
         x, v = state[0], np.maximum(state[1], 0.0)
-        return law.strength_n + law.friction_n_m * x + (law.damping_n_s_m + law.inertia_n_s2_m2 * v) * v
+        r = law.strength_n + law.friction_n_m * x + (law.damping_n_s_m + law.inertia_n_s2_m2 * v) * v
+        return r if extra_v is None else r + extra_v(x, v)
 
     best_r, best_x = -math.inf, 0.0
     for t_start, t_end, dense, steps in segments:
@@ -322,7 +330,7 @@ def _peak(law: ResistanceLaw, segments) -> tuple[float, float]:
 
 def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
              speed_at_contact_m_s: float | None = None, output_rate_hz: float = 50_000.0,
-             rtol: float = _RTOL) -> SimulationResult:
+             rtol: float = _RTOL, extra_resistance=None) -> SimulationResult:
     """Simulate one shot of the rig (CONTRACT §2).
 
     Parameters
@@ -338,6 +346,9 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         Sampling rate of the returned trajectory (events are added exactly). [Hz]
     rtol
         Relative tolerance of the penetration integration (default 1e-10; fits use less).
+    extra_resistance
+        Optional ``f(x [m], v [m/s]) -> N`` added to R in the material (a diagnosis effect's
+        term); its dissipated energy is booked in the balance and its force in ``resistance_n``.
 
     Returns
     -------
@@ -360,7 +371,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         t_contact, v_contact = 0.0, float(speed_at_contact_m_s)
         u_start, initial_ke = design.surface_offset_m, 0.5 * mass * v_contact ** 2
 
-    segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact, rtol)
+    segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact, rtol, extra_resistance)
     x_end, v_end = float(y_end[0]), float(y_end[1])
     full = end == "full_depth"
 
@@ -373,15 +384,17 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
                                                    - max(design.stroke_m - u_end, 0.0) ** 2)
     gravity_j = mass * design.gravity_m_s2 * (u_end - u_start)
     final_ke = 0.5 * mass * v_end ** 2
-    balance = initial_ke + spring_j + gravity_j - (final_ke + e_strength + e_friction + e_damping + e_inertia)
+    e_extra = float(y_end[4]) if len(y_end) > 4 else 0.0
+    balance = initial_ke + spring_j + gravity_j - (final_ke + e_strength + e_friction + e_damping + e_inertia
+                                                   + e_extra)
 
     if segments:
-        peak_n, peak_x = _peak(law, segments)
+        peak_n, peak_x = _peak(law, segments, extra_resistance)
     else:  # stopped at the surface
         peak_n, peak_x = law.strength_n, 0.0
 
     trajectory = _sample(design, law, flight, segments, speed_at_contact_m_s is None, t_contact, v_contact,
-                         t_end, y_end, output_rate_hz)
+                         t_end, y_end, output_rate_hz, extra_resistance)
     summary = Summary(
         contact_speed_m_s=v_contact,
         penetration_time_s=t_end - t_contact,
@@ -423,7 +436,7 @@ def _no_contact(design: Design, chosen: tuple[str, ...], flight: Flight) -> Simu
                             message="the body never reaches the surface")
 
 
-def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_end, y_end, rate_hz):
+def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_end, y_end, rate_hz, extra=None):
     """Uniformly sampled trajectory, with contact and the end included exactly."""
     step = 1.0 / rate_hz
     mass = design.effective_mass_kg
@@ -438,7 +451,7 @@ def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_
         parts_phase.append(np.zeros(tf.size, dtype=np.int8))
     for t_start, t_stop, dense, _ in segments:
         tp = np.arange(t_start, t_stop, step)
-        states = dense(tp) if tp.size else np.zeros((4, 0))
+        states = dense(tp) if tp.size else np.zeros((len(y_end), 0))
         parts_t.append(tp)
         parts_x.append(states[0])
         parts_v.append(states[1])
@@ -459,6 +472,8 @@ def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_
     mask = in_material.astype(float)
     strength, friction, damping, inertia = strength * mask, friction * mask, damping * mask, inertia * mask
     resistance = strength + friction + damping + inertia
+    if extra is not None:
+        resistance = resistance + mask * np.vectorize(extra, otypes=[float])(x, np.maximum(v, 0.0))
     spring = _spring_force(design, x)
     a = np.where(in_material, (spring + mass * design.gravity_m_s2 - resistance) / mass, a_flight)
     load_cell = resistance + design.load_cell_mass_kg * a

@@ -1,0 +1,86 @@
+"""``pen diagnose``: where the model and the runs part, which unmodelled effect, how far it closes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from pencli import api
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console
+from pencli.diagnose.effects import EFFECTS
+
+app = PenTyper()
+
+
+def _fmt_params(params: dict) -> str:
+    return ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items())
+
+
+@app.command("diagnose")
+def diagnose(
+    runs: List[str] = typer.Argument(..., help="Run ids, run folders or id patterns, or 'all'; each tared and "
+                                               "inertia-subtracted (at least 3 runs)."),
+    json_file: Optional[Path] = typer.Option(None, "--json", help="Write the CONTRACT §4 report to this file "
+                                                                  "('-' for stdout)."),
+    effects: Optional[str] = typer.Option(None, "--effects", help="Only these catalogue effects, comma-separated "
+                                                                  f"(default all: {', '.join(EFFECTS)})."),
+    db: Optional[Path] = DbOption,
+) -> None:
+    """Diagnose the sim-to-real gap: where it lies, which effect causes it, how far it shrinks.
+
+    Fits the reference model (a strength factor per run for block scatter,
+    shared P, C, K), then adds each catalogue effect in turn, refits on the
+    other runs and scores on the run left out. Verdict: an effect, 'none' (no
+    gap beyond noise) or 'unexplained' (a gap no effect closes by half).
+    Example: pen diagnose 'mc-*' --json diagnosis.json
+    """
+    chosen = [e.strip() for e in effects.split(",")] if effects else None
+    result = api.diagnose(db_path(db), runs, effects=chosen)
+    report = result.to_dict()
+    if json_file is not None:
+        text = json.dumps(report, indent=2, default=float)
+        if str(json_file) == "-":
+            typer.echo(text)
+            return
+        from pencli.io.atomic import write_atomic
+
+        write_atomic(json_file, lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
+    base = report["baseline"]
+    colour = {"none": "green", "unexplained": "red"}.get(result.verdict, "yellow")
+    console.print(f"[bold]verdict: [{colour}]{result.verdict}[/{colour}][/bold]"
+                  + (f"  (with {', '.join(result.verdict_effects[1:])})" if len(result.verdict_effects) > 1 else "")
+                  + f"   over {len(result.runs)} runs")
+    console.print(f"baseline held-out RMS {base['heldout_rms_n']:.1f} N (NRMSE {base['heldout_nrmse']:.3f}) = "
+                  f"{base['gap_ratio']:.1f} × noise floor {result.noise_floor_n:.1f} N; contact speed off by "
+                  f"{100 * base['contact_speed_error_rms']:.2f} % RMS")
+    for item in result.where[:3]:
+        depth = f", depth {item['depth_mm'][0]:g}–{item['depth_mm'][1]:g} mm" if item.get("depth_mm") else ""
+        share = f", {100 * item['share_of_gap']:.0f} % of the gap" if item.get("share_of_gap") is not None else ""
+        console.print(f"where: {item['phase']}{depth}, t {item['time_ms'][0]:g}–{item['time_ms'][1]:g} ms{share}"
+                      + ("" if item.get("above_noise") else " (within noise)"))
+    table = Table(header_style="bold", title="effects, best first")
+    for col in ("effect", "held-out RMS [N]", "shrink", "significant", "parameters", "trajectory change"):
+        table.add_column(escape(col), justify="right" if col in ("held-out RMS [N]", "shrink") else "left")
+    for e in result.effects[:6]:
+        change = e.trajectory_change
+        text = ""
+        if change.get("penetration_time_pct") is not None:
+            text = (f"t_pen {change['penetration_time_pct']:+.1f} %, depth {change['final_depth_mm']:+.1f} mm, "
+                    f"peak {change['peak_resistance_pct']:+.1f} %")
+        elif change.get("note"):
+            text = "none (measurement)"
+        table.add_row(e.name, f"{e.heldout_rms_n:.1f}", f"{e.shrink_pct:.0f} %", "yes" if e.significant else "",
+                      escape(_fmt_params(e.params)), text)
+    console.print(table)
+    for amb in result.ambiguities:
+        err_console.print(f"[yellow]cannot tell apart:[/yellow] {amb['effects'][0]} and {amb['effects'][1]}; "
+                          f"to separate them: {escape(amb['separate_with'])}", highlight=False, soft_wrap=True)
+    for note in result.notes:
+        console.print(f"note: {escape(note)}", highlight=False)
+    if json_file is not None:
+        console.print(f"report written to {json_file}")

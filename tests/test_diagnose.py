@@ -1,0 +1,104 @@
+"""`pen diagnose` on simulated-rig campaigns whose hidden effects the diagnoser never sees (issue 5).
+
+Campaigns are made at test time from seeds by the sim driver; the true
+forms differ from the catalogue's terms (a plateau layer against a step, a
+two-pole lag against one, guide friction on top of a lower efficiency, ...).
+`bench/bench_diagnose.py` runs the larger set.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from pencli import api
+from pencli.diagnose.effects import EFFECTS
+from tests.campaigns import make_campaign
+from tests.conftest import invoke
+
+SIX = [("1", 2), ("1", 6), ("1.5", 4), ("2", 2), ("2", 6), ("1.5", 6)]
+BLOCKS = [5600, 6000, 6400, 7200, 8200, 5900]
+
+
+def campaign(tmp_path, effects, seed, material="mpacs_c"):
+    db = make_campaign(tmp_path, material, seed=seed, shots=SIX, effects=effects,
+                       block_kpa=BLOCKS if material == "mpacs_c" else None)
+    api.tare_runs(db, ["all"])
+    api.subtract_inertia_runs(db, ["all"])
+    return db
+
+
+def test_null_campaign_with_block_scatter_is_none(tmp_path):
+    result = api.diagnose(campaign(tmp_path, [], 31), ["all"])
+    assert result.verdict == "none"
+    assert not any(e.significant for e in result.effects)
+
+
+def test_grill_brick_null_is_none(tmp_path):
+    assert api.diagnose(campaign(tmp_path, [], 32, "grill_brick"), ["all"]).verdict == "none"
+
+
+def test_plateau_layer_is_found_as_a_strength_layer_where_it_is(tmp_path):
+    result = api.diagnose(campaign(tmp_path, [{"name": "strength_layer", "depth_mm": 40, "ratio": 0.6}], 33), ["all"])
+    assert result.verdict == "strength_layer"
+    layer = result.effects[0]
+    assert layer.name == "strength_layer" and layer.shrink_pct >= 50
+    assert 35 <= layer.params["depth_mm"] <= 45
+    assert layer.params["ratio"] < 0.9
+    top = result.where[0]
+    assert top["phase"] == "penetration" and top["depth_mm"][1] >= 40
+    change = layer.trajectory_change  # a weaker layer lets the blade go deeper, or get to full depth sooner
+    assert change["final_depth_mm"] > 0 or change["penetration_time_pct"] < 0
+
+
+def test_wrong_load_cell_mass_is_found_in_the_force_chain(tmp_path):
+    result = api.diagnose(campaign(tmp_path, [{"name": "load_cell_mass_error", "ratio": 1.5}], 34), ["all"])
+    assert result.verdict == "load_cell_mass_error"
+    assert result.effects[0].params["ratio"] == pytest.approx(1.5, rel=0.1)
+    assert "measurement" in result.effects[0].trajectory_change["note"]
+
+
+def test_propulsion_loss_is_a_drive_side_gap(tmp_path):
+    result = api.diagnose(campaign(tmp_path, [{"name": "propulsion_loss", "loss": 0.2}], 35), ["all"])
+    assert result.verdict == "propulsion_loss"
+    assert result.baseline["drive_gap"]
+    loss = next(e for e in result.effects if e.name == "propulsion_loss")
+    assert 0.1 < loss.params["loss"] < 0.35  # truth: 20 % less efficiency plus 10 N guide friction
+
+
+def test_effect_outside_the_catalogue_is_unexplained(tmp_path):
+    result = api.diagnose(campaign(tmp_path, [{"name": "brittle_bursts", "period_mm": 20, "ratio": 0.5}], 36),
+                          ["all"])
+    assert result.verdict == "unexplained"
+    assert result.where and result.where[0]["phase"] in ("penetration", "contact")
+
+
+def test_two_effects_are_both_found(tmp_path):
+    effects = [{"name": "strength_layer", "depth_mm": 50, "ratio": 0.5, "thickness_mm": 300},
+               {"name": "load_cell_mass_error", "ratio": 1.5}]
+    result = api.diagnose(campaign(tmp_path, effects, 37), ["all"])
+    found = set(result.verdict_effects) | {e.name for e in result.effects[:2] if e.significant}
+    assert {"strength_layer", "load_cell_mass_error"} <= found
+
+
+def test_cli_writes_the_contract_json_and_refuses_bad_input(tmp_path, runner):
+    db = campaign(tmp_path, [{"name": "rig_ringing", "amplitude_n_per_m_s": 60}], 38)
+    out = tmp_path / "d.json"
+    r = invoke(runner, "diagnose", "all", "--db", db, "--json", out)
+    assert r.exit_code == 0, r.output
+    report = json.loads(out.read_text())
+    assert set(report) >= {"runs", "baseline", "where", "effects", "verdict"}
+    assert set(report["baseline"]) >= {"heldout_rms_n", "heldout_nrmse"}
+    assert report["verdict"] in set(EFFECTS) | {"none", "unexplained"}
+    for effect in report["effects"]:
+        assert set(effect) >= {"name", "params", "heldout_rms_n", "shrink_pct", "significant"}
+        assert effect["name"] in EFFECTS
+    shrinks = [e["shrink_pct"] for e in report["effects"] if e["significant"]]
+    assert shrinks == sorted(shrinks, reverse=True)
+    for item in report["where"]:
+        assert item["phase"] in ("flight", "contact", "penetration", "rest")
+    two = invoke(runner, "diagnose", "r00*", "r01*", "--db", db)
+    assert two.exit_code == 1 and "at least 3 runs" in two.stderr
+    bad = invoke(runner, "diagnose", "all", "--db", db, "--effects", "gremlins")
+    assert bad.exit_code == 1 and "gremlins" in bad.stderr
