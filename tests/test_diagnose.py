@@ -102,3 +102,17 @@ def test_cli_writes_the_contract_json_and_refuses_bad_input(tmp_path, runner):
     assert two.exit_code == 1 and "at least 3 runs" in two.stderr
     bad = invoke(runner, "diagnose", "all", "--db", db, "--effects", "gremlins")
     assert bad.exit_code == 1 and "gremlins" in bad.stderr
+
+
+def test_diagnosis_figure_is_written_and_not_blank(tmp_path, runner):
+    import numpy as np
+    from matplotlib.image import imread
+
+    db = campaign(tmp_path, [{"name": "sensor_lag", "tau_ms": 0.3}], 39)
+    png = tmp_path / "d.png"
+    r = invoke(runner, "diagnose", "all", "--db", db, "--plot", png)
+    assert r.exit_code == 0, r.output
+    pixels = imread(png)
+    assert pixels.shape[0] > 300 and np.std(pixels) > 0.05  # drawn on, not an empty canvas
+    bad = invoke(runner, "diagnose", "all", "--db", db, "--plot", tmp_path / "d.gif")
+    assert bad.exit_code == 2 and not (tmp_path / "d.gif").exists()

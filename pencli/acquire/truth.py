@@ -48,8 +48,8 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
                                                               "thickness_mm": 50.0, "edge_mm": 2.0}),
     EffectSpec("strength_gradient", "strength grows exponentially with depth: S·exp(ln(1 + change_per_100mm)·x/0.1 m)",
                {"change_per_100mm": 0.5}),
-    EffectSpec("plug_growth", "a crushed plug widens the frontal thickness, saturating: "
-               "T + growth_mm·(1 − exp(−x/length_mm))", {"growth_mm": 1.5, "length_mm": 60.0}),
+    EffectSpec("plug_growth", "a crushed plug widens the frontal thickness, saturating hyperbolically: "
+               "T + growth_mm·(x/length_mm)/(1 + x/length_mm)", {"growth_mm": 1.5, "length_mm": 30.0}),
     EffectSpec("sidewall_pressure_growth", "sidewall pressure rises with depth as P·(1 + (x/scale_mm)^exponent)",
                {"scale_mm": 60.0, "exponent": 1.5}),
     EffectSpec("velocity_friction", "friction falls with sliding speed (Stribeck-like): "
@@ -196,7 +196,8 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
 
     def thickness(x: float) -> float:
         if plug:
-            return T + plug["growth_mm"] * 1e-3 * (1.0 - math.exp(-x / (plug["length_mm"] * 1e-3)))
+            ratio = x / (plug["length_mm"] * 1e-3)
+            return T + plug["growth_mm"] * 1e-3 * ratio / (1.0 + ratio)
         return T
 
     def resistance(x: float, v: float) -> float:

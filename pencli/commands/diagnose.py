@@ -29,6 +29,8 @@ def diagnose(
                                                                   "('-' for stdout)."),
     effects: Optional[str] = typer.Option(None, "--effects", help="Only these catalogue effects, comma-separated "
                                                                   f"(default all: {', '.join(EFFECTS)})."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Draw held-out residuals against depth and time, "
+                                                             "before and after the verdict's effect (PNG or PDF)."),
     db: Optional[Path] = DbOption,
 ) -> None:
     """Diagnose the sim-to-real gap: where it lies, which effect causes it, how far it shrinks.
@@ -39,8 +41,14 @@ def diagnose(
     gap beyond noise) or 'unexplained' (a gap no effect closes by half).
     Example: pen diagnose 'mc-*' --json diagnosis.json
     """
+    if plot is not None and plot.suffix.lower() not in (".png", ".pdf"):
+        raise typer.BadParameter(f"'{plot}' must end in .png or .pdf", param_hint="--plot")
     chosen = [e.strip() for e in effects.split(",")] if effects else None
     result = api.diagnose(db_path(db), runs, effects=chosen)
+    if plot is not None:
+        from pencli.report.diagnosis import plot_diagnosis
+
+        plot_diagnosis(result, plot)
     report = result.to_dict()
     if json_file is not None:
         text = json.dumps(report, indent=2, default=float)
@@ -84,3 +92,5 @@ def diagnose(
         console.print(f"note: {escape(note)}", highlight=False)
     if json_file is not None:
         console.print(f"report written to {json_file}")
+    if plot is not None:
+        console.print(f"figure written to {plot}")

@@ -148,9 +148,12 @@ def _gradient(run, b, p):
 
 
 def _plug(run, b, p):
-    # every frontal term scales with the frontal thickness T + g·x: one column, the baseline's frontal force × x/T
+    # every frontal term scales with the frontal thickness T + g·L·(1 − exp(−x/L)):
+    # one column, the baseline's frontal force × L·(1 − exp(−x/L))/T
     frontal = b.frontal if b.frontal is not None else b.strength
-    return None, (frontal * b.x / run.design.blade_thickness_m)[:, None], _no_offset(b)
+    length = p["length_mm"] * 1e-3
+    widening = length * -np.expm1(-np.maximum(b.x, 0.0) / length)
+    return None, (frontal * widening / run.design.blade_thickness_m)[:, None], _no_offset(b)
 
 
 def _pressure_growth(run, b, p):
@@ -211,10 +214,10 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            lambda c, p, run: (lambda x, v, k1=float(c[0]) * _strength_n(run), k2=float(c[1]) * _strength_n(run):
                               k1 * x + k2 * x * x)),
     Effect("plug_growth", "law",
-           "A crushed plug widens the effective frontal thickness with depth, T + g·x. Signature: every frontal term "
-           "grows with depth, more so for thin blades (relative to T).",
-           [{}], _plug,
-           lambda c, p, base: {"growth_mm_per_100mm": float(c[0]) * 100.0},
+           "A crushed plug widens the effective frontal thickness with depth, saturating: T + g·L·(1 − exp(−x/L)). "
+           "Signature: every frontal term grows with depth, early, and more so for thin blades (relative to T).",
+           [{"length_mm": L} for L in (10.0, 20.0, 40.0, 80.0, 160.0, 1000.0)], _plug,
+           lambda c, p, base: {"growth_mm": float(c[0]) * p["length_mm"], "length_mm": p["length_mm"]},
            None),
     Effect("sidewall_pressure_growth", "law",
            "Sidewall pressure rises with depth, P·(1 + β·x): friction grows faster than x. Signature: a misfit "

@@ -284,6 +284,9 @@ class Diagnosis:
     notes: tuple[str, ...] = ()
     success: bool = True
     message: str = ""
+    series: tuple[dict, ...] = ()
+    """Per run, for figures: time_s, depth_m, time_since_contact_s and the held-out residual [N] of the
+    baseline and of the verdict's first effect (not in the JSON)."""
 
     def to_dict(self) -> dict:
         return {
@@ -386,16 +389,17 @@ def _trajectory_change(effect: Effect, cand: Candidate, preps: Sequence[_Prepare
     else:
         k = cand.names.index(effect.name)
         coefs = cand.shared[3:][_coef_slice(cand.names, k)]
-        if effect.name == "plug_growth":  # the frontal force grows by g·x/T: scale the frontal terms
+        if effect.name == "plug_growth":  # the frontal force grows by g·L·(1 − exp(−x/L))/T
             g = float(coefs[0])
             T = run.design.blade_thickness_m
+            length = cand.params[effect.name]["length_mm"] * 1e-3
             law = base_design
             frontal = (lambda x, v, d=law: (d.strength_factor * d.blade_width_m * d.blade_thickness_m * d.strength_pa
                                             * (math.sin(d.tip_angle_rad) + d.friction_coefficient
                                                * math.cos(d.tip_angle_rad))
                                             + d.blade_width_m * d.blade_thickness_m * (d.damping_pa_s_m * v
                                             + d.inertia_coefficient * d.density_kg_m3 * v * v)))
-            extra = (lambda x, v, f=frontal: f(x, v) * g * x / T)
+            extra = (lambda x, v, f=frontal: f(x, v) * g * length * -math.expm1(-max(x, 0.0) / length) / T)
         else:
             extra = effect.extra(coefs, cand.params[effect.name], run)
         after = simulate(base_design, rtol=1e-8, extra_resistance=extra).summary
@@ -545,8 +549,16 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     }
     if best_pair is not None:
         baseline["best_pair"] = {"effects": list(best_pair[0]), "shrink_pct": best_pair[1]}
+    after = candidates.get(verdict_effects[0]) if verdict_effects else None
+    series = []
+    for i, prep in enumerate(preps):
+        ctx = prep.run.context
+        t = prep.run.time_s[ctx][prep.use]
+        series.append({"run_id": prep.run.run_id, "time_s": t, "depth_m": prep.run.depth_m[ctx][prep.use],
+                       "time_since_contact_s": t - prep.run.contact_s, "baseline_residual_n": base.residuals[i],
+                       "effect_residual_n": after.residuals[i] if after is not None else None})
     return Diagnosis(tuple(r.run_id for r in runs), baseline, tuple(where), tuple(final_reports), verdict,
-                     tuple(verdict_effects), tuple(ambiguities), floor, tuple(notes))
+                     tuple(verdict_effects), tuple(ambiguities), floor, tuple(notes), series=tuple(series))
 
 
 def _best_pair(preps, base: Candidate, candidates: Mapping[str, Candidate], reports) -> tuple[tuple[str, str], float] | None:
