@@ -21,45 +21,7 @@ import time
 from pathlib import Path
 
 from pencli import api
-from tests.campaigns import make_campaign
-
-SIX = [("1", 2), ("1", 6), ("1.5", 4), ("2", 2), ("2", 6), ("1.5", 6)]
-BLOCKS = [5600, 6000, 6400, 7200, 8200, 5900]
-
-# (label, material, effects, expected verdict set)
-SINGLE = {
-    "strength_layer": [{"depth_mm": 40, "ratio": 0.6}, {"depth_mm": 60, "ratio": 1.6}],
-    "strength_gradient": [{"change_per_100mm": 1.5}, {"change_per_100mm": 3.0}],
-    "plug_growth": [{"growth_mm": 1.5}, {"growth_mm": 3.0}],
-    "sidewall_pressure_growth": [{"scale_mm": 60}, {"scale_mm": 30}],
-    "velocity_friction": [{"drop": 0.4}, {"drop": 0.6}],
-    "rate_strength": [{"coefficient": 0.1}, {"coefficient": 0.2}],
-    "load_cell_mass_error": [{"ratio": 1.5}, {"ratio": 0.7}],
-    "sensor_lag": [{"tau_ms": 0.3}, {"tau_ms": 0.8}],
-    "rig_ringing": [{"amplitude_n_per_m_s": 40}, {"amplitude_n_per_m_s": 80}],
-    "force_drift": [{"amplitude_n": 80}, {"amplitude_n": 150}],
-    "propulsion_loss": [{"loss": 0.15}, {"loss": 0.3}],
-}
-PAIRS = [
-    [{"name": "strength_layer", "depth_mm": 50, "ratio": 0.5, "thickness_mm": 300},
-     {"name": "load_cell_mass_error", "ratio": 1.5}],
-    [{"name": "rig_ringing", "amplitude_n_per_m_s": 60}, {"name": "sidewall_pressure_growth", "scale_mm": 40}],
-    [{"name": "propulsion_loss", "loss": 0.2}, {"name": "strength_layer", "depth_mm": 40, "ratio": 1.5, "thickness_mm": 300}],
-]
-
-
-def campaigns(quick: bool):
-    out = []
-    for i in range(2 if quick else 4):
-        out.append((f"null-{i}", "mpacs_c" if i % 2 == 0 else "grill_brick", [], {"none"}))
-    for name, magnitudes in SINGLE.items():
-        for k, params in enumerate(magnitudes[:1] if quick else magnitudes):
-            out.append((f"{name}-{k}", "mpacs_c", [{"name": name, **params}], {name}))
-    for k, pair in enumerate(PAIRS[:1] if quick else PAIRS):
-        out.append((f"pair-{k}", "mpacs_c", pair, {e["name"] for e in pair}))
-    out.append(("outside", "mpacs_c", [{"name": "brittle_bursts", "period_mm": 20, "ratio": 0.5}], {"unexplained"}))
-    return out
-
+from tests.campaigns import BLOCKS, SIX, diagnosis_campaigns, judge, make_campaign
 
 def run_one(label, material, effects, seed):
     with tempfile.TemporaryDirectory() as tmp:
@@ -72,25 +34,10 @@ def run_one(label, material, effects, seed):
         return result, time.perf_counter() - t0
 
 
-def judge(result, truth: set[str]) -> tuple[bool, float | None]:
-    """(correct, shrink of the verdict) by the issue's rules."""
-    if truth == {"none"} or truth == {"unexplained"}:
-        return result.verdict in truth, None
-    first = result.effects[0].name if result.effects else None
-    twins = {name for amb in result.ambiguities for name in amb["effects"] if first in amb["effects"]}
-    if len(truth) == 1:
-        ok = first in truth or (truth & twins and first in twins)
-    else:
-        found = set(result.verdict_effects) | ({first} if first else set())
-        ok = truth <= found
-    shrink = next((e.shrink_pct for e in result.effects if e.name == result.verdict), None)
-    return bool(ok), shrink
-
-
 def main() -> None:
     quick = "--quick" in sys.argv
     rows, times = [], []
-    for seed, (label, material, effects, truth) in enumerate(campaigns(quick)):
+    for seed, (label, material, effects, truth) in enumerate(diagnosis_campaigns(quick)):
         result, seconds = run_one(label, material, effects, 500 + seed)
         ok, shrink = judge(result, truth)
         times.append(seconds)

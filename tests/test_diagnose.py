@@ -116,3 +116,29 @@ def test_diagnosis_figure_is_written_and_not_blank(tmp_path, runner):
     assert pixels.shape[0] > 300 and np.std(pixels) > 0.05  # drawn on, not an empty canvas
     bad = invoke(runner, "diagnose", "all", "--db", db, "--plot", tmp_path / "d.gif")
     assert bad.exit_code == 2 and not (tmp_path / "d.gif").exists()
+
+
+def test_the_whole_catalogue_at_two_magnitudes_nulls_pairs_and_an_outside_effect(tmp_path):
+    """Issue 5's test set, generated from seeds here (the bench uses other seeds): every catalogue
+    effect at two magnitudes, nulls with block scatter, two-effect campaigns, an outside effect."""
+    import statistics
+
+    from tests.campaigns import diagnosis_campaigns, judge
+
+    outcomes = []
+    for i, (label, material, effects, truth) in enumerate(diagnosis_campaigns()):
+        db = make_campaign(tmp_path / label, material, seed=900 + i, shots=SIX, effects=effects,
+                           block_kpa=BLOCKS if material == "mpacs_c" else None)
+        api.tare_runs(db, ["all"])
+        api.subtract_inertia_runs(db, ["all"])
+        result = api.diagnose(db, ["all"])
+        ok, shrink = judge(result, truth)
+        outcomes.append((label, truth, result.verdict, ok, shrink))
+    singles = [o for o in outcomes if len(o[1]) == 1 and o[1] not in ({"none"}, {"unexplained"})]
+    summary = [(o[0], o[2], o[3]) for o in outcomes]
+    assert sum(o[3] for o in singles) >= 0.9 * len(singles), summary
+    assert all(o[2] == "none" for o in outcomes if o[1] == {"none"}), summary
+    assert all(o[3] for o in outcomes if o[1] == {"unexplained"}), summary
+    assert all(o[3] for o in outcomes if len(o[1]) > 1), summary
+    shrinks = [o[4] for o in outcomes if o[4] is not None and o[2] not in ("none", "unexplained")]
+    assert statistics.median(shrinks) >= 60, summary

@@ -322,6 +322,19 @@ def _where(preps: Sequence[_Prepared], residuals: Sequence[np.ndarray], floor: f
                 d["x"].append(x[sel])
                 d["v"].append(v[sel])
                 d["tc"].append(t[sel] - run.contact_s)
+        # rest: after the stop the material holds the drive (arrest) or the stops take it (full depth)
+        rest = (run.time_s > run.stop_s + 20e-3) & (run.time_s < run.stop_s + 150e-3)
+        if rest.sum() > 10:
+            d_ = run.design
+            x_end = float(np.median(run.depth_m[rest]))
+            held = (d_.drive_stiffness_n_m * max(d_.stroke_m - x_end - d_.surface_offset_m, 0.0)
+                    + d_.effective_mass_kg * d_.gravity_m_s2) if run.end == "arrest" else 0.0
+            d = phases.setdefault("rest", {"r": [], "t": [], "x": [], "v": [], "tc": []})
+            d["r"].append(run.resistance_n[rest] - held)
+            d["t"].append(run.time_s[rest])
+            d["x"].append(run.depth_m[rest])
+            d["v"].append(np.zeros(int(rest.sum())))
+            d["tc"].append(run.time_s[rest] - run.contact_s)
     excess = {}
     for name, d in phases.items():
         r = np.concatenate(d["r"])
@@ -337,7 +350,7 @@ def _where(preps: Sequence[_Prepared], residuals: Sequence[np.ndarray], floor: f
         v = np.concatenate(d["v"])
         tc = np.concatenate(d["tc"])
         weight = r ** 2
-        band = _dense_band(x, weight) if name != "flight" else None
+        band = _dense_band(x, weight) if name not in ("flight", "rest") else None
         time_band = _dense_band(t, weight)
         out.append({
             "phase": name,
