@@ -508,10 +508,20 @@ def _sets_from_mappings(params: Mapping[str, dict], run_id: str) -> tuple[Parame
                                   allow_out_of_range=True) for kind in ("penetrator", "material", "energizing"))
 
 
-def load_series(db: str | Path, refs: Sequence[str]) -> list:
-    """Each run's latest stage as a :class:`~pencli.fit.resistance.RunSeries` (needs an inertia stage)."""
+@dataclass(frozen=True)
+class _Conditioned:
+    """A run's latest (inertia) stage with what every analysis needs from the catalogue."""
+
+    run_id: str
+    columns: dict
+    stage: Any
+    events: Any
+    sets: tuple
+
+
+def _conditioned_runs(db: str | Path, refs: Sequence[str], names: Sequence[str]) -> list[_Conditioned]:
+    """Each run's latest stage, which must be an inertia stage, with its events and parameter sets."""
     from pencli.filter.tare import Events
-    from pencli.fit.resistance import RunSeries
 
     ws = workspace(db)
     out = []
@@ -521,17 +531,26 @@ def load_series(db: str | Path, refs: Sequence[str]) -> list:
         if "resistance_n" not in table.column_names:
             raise DataError(f"run '{run_id}': its latest stage is '{stage.stage}', which has no resistance; run "
                             f"`pen tare {run_id}` and `pen subtract-inertia {run_id}` first")
-        events = Events(**stage.parameters["events"])
-        t = table.column("time_s").to_numpy()
+        columns = {name: table.column(name).to_numpy() for name in names}
+        out.append(_Conditioned(run_id, columns, stage, Events(**stage.parameters["events"]),
+                                _sets_from_mappings(ws.run_parameters(run_id), run_id)))
+    return out
+
+
+def load_series(db: str | Path, refs: Sequence[str]) -> list:
+    """Each run's latest stage as a :class:`~pencli.fit.resistance.RunSeries` (needs an inertia stage)."""
+    from pencli.fit.resistance import RunSeries
+
+    out = []
+    for c in _conditioned_runs(db, refs, ("time_s", "depth_m", "velocity_m_s", "resistance_n")):
+        events, record = c.events, c.columns
+        t = record["time_s"]
         window = (t >= events.window_start_s) & (t <= events.window_end_s)
         if window.sum() < 10:
-            raise DataError(f"run '{run_id}': only {int(window.sum())} samples in the analysis window")
-        p, m, e = _sets_from_mappings(ws.run_parameters(run_id), run_id)
-        record = {name: table.column(name).to_numpy() for name in ("time_s", "depth_m", "velocity_m_s",
-                                                                   "resistance_n")}
-        out.append(RunSeries(run_id, design_from_sets(p, m, e), t[window], record["depth_m"][window],
+            raise DataError(f"run '{c.run_id}': only {int(window.sum())} samples in the analysis window")
+        out.append(RunSeries(c.run_id, design_from_sets(*c.sets), t[window], record["depth_m"][window],
                              record["velocity_m_s"][window], record["resistance_n"][window], events.contact_s,
-                             events.stop_s, events.end, events.contact_speed_m_s, record))
+                             events.stop_s, events.end, events.contact_speed_m_s, record, c.sets[1].name))
     return out
 
 
@@ -616,7 +635,7 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
     if len(series) == 1 and "damping_kpa_s_m" not in fixed:
         fixed["damping_kpa_s_m"] = 0.0  # paper §5: single-run fits hold damping at 0
         notes.append("single run: damping held at 0 (paper §5); --fix damping=VALUE to choose otherwise")
-    names = sorted({s.design and _run_material(db, s.run_id) for s in series})
+    names = sorted({s.material for s in series})
     if len(names) > 1:
         notes.append(f"runs of several materials fitted together: {', '.join(names)}")
     result = fit_resistance(series, material, terms=terms, fixed=fixed, bootstrap=bootstrap)
@@ -638,36 +657,23 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
     return FitOutcome(result, version, mapping, out_path, subsets, tuple(notes))
 
 
-def _run_material(db: str | Path, run_id: str) -> str:
-    return str(workspace(db).run_parameters(run_id)["material"].get("name"))
-
-
 # ---------------------------------------------------------------------------- diagnosis
 def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
     """Each run's inertia stage as a :class:`~pencli.diagnose.effects.DiagnosisRun`."""
     import numpy as np
 
     from pencli.diagnose.effects import DiagnosisRun
-    from pencli.filter.tare import Events
 
-    ws = workspace(db)
     out = []
-    for ref in expand_run_refs(ws, refs):
-        run_id = ws.resolve(ref)
-        table, stage = ws.read_stage(run_id)
-        if "resistance_n" not in table.column_names:
-            raise DataError(f"run '{run_id}': its latest stage is '{stage.stage}'; run `pen tare {run_id}` and "
-                            f"`pen subtract-inertia {run_id}` first")
-        events = Events(**stage.parameters["events"])
-        col = {name: table.column(name).to_numpy() for name in ("time_s", "depth_m", "velocity_m_s",
-                                                                 "acceleration_m_s2", "force_n", "resistance_n")}
+    names = ("time_s", "depth_m", "velocity_m_s", "acceleration_m_s2", "force_n", "resistance_n")
+    for c in _conditioned_runs(db, refs, names):
+        col, events = c.columns, c.events
         pre = col["time_s"] < -5e-3
         noise = float(np.std(col["resistance_n"][pre])) if pre.sum() > 10 else 1.0
-        p, m, e = _sets_from_mappings(ws.run_parameters(run_id), run_id)
-        out.append(DiagnosisRun(run_id, design_from_sets(p, m, e), col["time_s"], col["depth_m"], col["velocity_m_s"],
+        out.append(DiagnosisRun(c.run_id, design_from_sets(*c.sets), col["time_s"], col["depth_m"], col["velocity_m_s"],
                                 col["acceleration_m_s2"], col["force_n"], col["resistance_n"], events.motion_start_s,
                                 events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
-                                events.end, events.contact_speed_m_s, float(stage.parameters["load_cell_mass_kg"]),
+                                events.end, events.contact_speed_m_s, float(c.stage.parameters["load_cell_mass_kg"]),
                                 noise))
     return out
 

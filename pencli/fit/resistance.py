@@ -78,6 +78,8 @@ class RunSeries:
     contact_speed_m_s: float
     record: Mapping[str, np.ndarray] | None = None
     """The whole record (time_s, depth_m, velocity_m_s, resistance_n), for model-against-data tables."""
+    material: str = ""
+    """The ``name:`` of the run's material file."""
 
     @property
     def penetration_time_s(self) -> float:

@@ -397,23 +397,11 @@ class Workspace:
                   thickness_mm: float | None = None, springs: int | None = None, tag: str | None = None,
                   since: dt.date | None = None, until: dt.date | None = None) -> list[dict]:
         """Runs matching every given filter, by date then id."""
-        where, args = [], []
-        for column, value in (("material", material), ("penetrator", penetrator), ("spring_count", springs)):
-            if value is not None:
-                where.append(f"{column} = ?")
-                args.append(value)
-        if thickness_mm is not None:
-            where.append("abs(blade_thickness_mm - ?) < 1e-9")
-            args.append(thickness_mm)
-        if tag is not None:
-            where.append("list_contains(tags, ?)")
-            args.append(tag)
-        if since is not None:
-            where.append("run_date >= ?")
-            args.append(since)
-        if until is not None:
-            where.append("run_date <= ?")
-            args.append(until)
+        conditions = (("material = ?", material), ("penetrator = ?", penetrator), ("spring_count = ?", springs),
+                      ("abs(blade_thickness_mm - ?) < 1e-9", thickness_mm), ("list_contains(tags, ?)", tag),
+                      ("run_date >= ?", since), ("run_date <= ?", until))
+        where = [condition for condition, value in conditions if value is not None]
+        args = [value for _, value in conditions if value is not None]
         sql = ("SELECT r.run_id, r.run_date, r.material, r.penetrator, r.blade_thickness_mm, r.spring_count, "
                "r.sampling_rate_hz, r.duration_s, r.tags, "
                "(SELECT stage FROM stages s WHERE s.run_id = r.run_id ORDER BY stage_no DESC LIMIT 1) AS latest_stage "
