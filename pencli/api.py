@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import glob
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
@@ -683,3 +684,252 @@ def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | No
     from pencli.diagnose.engine import diagnose as run_diagnosis
 
     return run_diagnosis(load_diagnosis_runs(db, refs), effects=effects)
+
+
+# ---------------------------------------------------------------------------- sweeps
+CHUNK = 100_000
+"""Designs per chunk: bounded memory (~0.2 GB a chunk in flight) whatever the sweep's size."""
+
+
+def _run_chunk(base: dict, columns: dict) -> dict:
+    """One chunk through the batch simulator (top level, so processes and dask can ship it)."""
+    from pencli.predict.batch import simulate_batch
+    from pencli.predict.sweep import si_designs
+
+    designs, speed = si_designs(base, columns)
+    return simulate_batch(designs, speed_at_contact_m_s=speed).to_dict()
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """A finished sweep: where its table is and a summary."""
+
+    n_designs: int
+    variables: dict
+    summary: dict
+    path: Path | None
+    sweep_id: int | None
+    seconds: float
+
+
+def evaluate_columns(base: dict, columns: dict, *, engine: str = "local", scheduler: str | None = None,
+                     workers: int = 2, progress: Callable[[int, int], None] | None = None):
+    """Yield (chunk columns, results) in order; local processes or a dask cluster do the work."""
+    import numpy as np
+
+    n = len(next(iter(columns.values())))
+    starts = list(range(0, n, CHUNK))
+    chunks = [{k: np.asarray(v[s:s + CHUNK]) for k, v in columns.items()} for s in starts]
+    done = 0
+    if engine == "dask":
+        try:
+            from dask.distributed import Client, LocalCluster
+        except ImportError:
+            raise ParameterError("--engine dask needs the dask extra: pip install 'pen[dask]'") from None
+        cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=False,
+                                                      dashboard_address=None)
+        client = Client(scheduler or cluster)
+        try:
+            futures = client.map(_run_chunk, [base] * len(chunks), chunks, pure=False)
+            for chunk, future in zip(chunks, futures):
+                result = future.result()
+                done += len(next(iter(chunk.values())))
+                if progress:
+                    progress(done, n)
+                yield chunk, result
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        return
+    if engine != "local":
+        raise ParameterError(f"--engine {engine!r}: expected local or dask")
+    if len(chunks) == 1 or workers <= 1:
+        results = (_run_chunk(base, c) for c in chunks)
+        for chunk, result in zip(chunks, results):
+            done += len(next(iter(chunk.values())))
+            if progress:
+                progress(done, n)
+            yield chunk, result
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        for chunk, result in zip(chunks, pool.map(_run_chunk, [base] * len(chunks), chunks)):
+            done += len(next(iter(chunk.values())))
+            if progress:
+                progress(done, n)
+            yield chunk, result
+
+
+def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str] = (), resolution: int = 20,
+          sample: str | None = None, n: int = 1000, seed: int = 0, overrides: Sequence[str] = (),
+          out: str | Path | None = None, db: str | Path | None = None, engine: str = "local",
+          scheduler: str | None = None, workers: int = 2, progress: Callable[[int, int], None] | None = None,
+          speed_at_contact_m_s: float | None = None, command: str = "pen sweep") -> SweepOutcome:
+    """``pen sweep``: the CONTRACT §5 figures over a grid or a sample of designs, streamed to Parquet."""
+    import time as _time
+
+    import numpy as np
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from pencli.predict.sweep import SPEED, grid, parse_vary
+    from pencli.predict.sweep import sample as draw
+
+    if not vary:
+        raise ParameterError("give at least one --vary KEY=... (e.g. --vary friction_coefficient=+40%,-30%)")
+    if resolution < 2:
+        raise ParameterError(f"--resolution {resolution}: at least 2 points per variable")
+    p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides)
+    base = {**p.values, **m.values, **e.values}
+    base[SPEED] = (float(speed_at_contact_m_s) if speed_at_contact_m_s is not None else
+                   float(simulate(design_from_sets(p, m, e), output_rate_hz=1000.0).summary.contact_speed_m_s))
+    variables = [parse_vary(spec, base, resolution) for spec in vary]
+    if sample:
+        columns = draw({v.key: (float(v.values.min()), float(v.values.max())) for v in variables}, n, sample, seed)
+    else:
+        columns = grid(variables)
+    total = len(next(iter(columns.values())))
+    if speed_at_contact_m_s is not None and SPEED not in columns:
+        columns[SPEED] = np.full(total, float(speed_at_contact_m_s))
+    ws = workspace(db) if db is not None else None
+    target = Path(out) if out is not None else (ws.sweep_path() if ws is not None else None)
+    started = _time.perf_counter()
+    writer = None
+    tmp = None
+    stats = {"full_penetration": 0, "penetration_time_s": [np.inf, -np.inf], "peak_resistance_n": [np.inf, -np.inf],
+             "final_depth_mm": [np.inf, -np.inf]}
+    try:
+        if target is not None:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+        for chunk, result in evaluate_columns(base, columns, engine=engine, scheduler=scheduler, workers=workers,
+                                              progress=progress):
+            table = pa.table({**{k: np.asarray(v, dtype=float) for k, v in chunk.items()},
+                              **{k: np.asarray(v) for k, v in result.items()}})
+            if tmp is not None:
+                if writer is None:
+                    meta = {b"pen:version": __import__("pencli").__version__.encode(),
+                            b"pen:base": json.dumps(base).encode(),
+                            b"pen:variables": json.dumps([v.key for v in variables]).encode()}
+                    writer = pq.ParquetWriter(tmp, table.schema.with_metadata(meta), compression="zstd")
+                writer.write_table(table)
+            stats["full_penetration"] += int(np.sum(result["full_penetration"]))
+            for key in ("penetration_time_s", "peak_resistance_n", "final_depth_mm"):
+                stats[key] = [min(stats[key][0], float(np.min(result[key]))), max(stats[key][1], float(np.max(result[key])))]
+        if writer is not None:
+            writer.close()
+            writer = None
+            os.replace(tmp, target)
+    finally:
+        if writer is not None:
+            writer.close()
+        if tmp is not None and tmp.exists():
+            tmp.unlink()
+    seconds = _time.perf_counter() - started
+    sweep_id = None
+    path = Path(target) if target is not None else None
+    varied = {v.key: {"unit": v.unit, "min": float(v.values.min()), "max": float(v.values.max()),
+                      "points": int(v.values.size)} for v in variables}
+    if ws is not None and out is None and path is not None:
+        sweep_id, path = ws.add_sweep(path, penetrator=p.name, material=m.name, energizing=e.name,
+                                      variables=varied, n_designs=total, command=command)
+    summary = {"n_designs": total, "full_penetration_share": stats["full_penetration"] / total,
+               "penetration_time_s": stats["penetration_time_s"], "peak_resistance_n": stats["peak_resistance_n"],
+               "final_depth_mm": stats["final_depth_mm"], "designs_per_s": total / seconds if seconds else None}
+    return SweepOutcome(total, varied, summary, path, sweep_id, seconds)
+
+
+@dataclass(frozen=True)
+class SensitivityRow:
+    """One line of the Appendix C table: a variable at a relative step."""
+
+    key: str
+    step: float
+    value: float
+    unit: str
+    penetration_time_s: float | None
+    peak_resistance_n: float | None
+    residual_ke_j: float | None
+    """None (blank) where full depth is not reached, as in the paper."""
+    end: str = ""
+    """How the run ended: arrest, full_depth, or invalid (e.g. compressed length ≥ nominal length)."""
+
+
+def sensitivity(penetrator: str = "appendix_c", material: str = "grill_brick", energizing: str = "appendix_c", *,
+                steps: Sequence[float] = (-0.5, -0.2, 0.2, 0.5), keys: Sequence[str] | None = None,
+                overrides: Sequence[str] = ()) -> list[SensitivityRow]:
+    """The paper's Appendix C study: each design variable moved alone; blank where full depth is not reached."""
+    import numpy as np
+
+    from pencli.params.definitions import BY_KEY
+    from pencli.predict.batch import simulate_batch
+    from pencli.predict.sweep import SENSITIVITY_KEYS, one_at_a_time, si_designs
+
+    p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides)
+    base = {**p.values, **m.values, **e.values}
+    chosen = list(keys or SENSITIVITY_KEYS)
+    rows, columns = one_at_a_time(base, chosen, [0.0, *steps])
+    designs, _ = si_designs(base, columns)
+    result = simulate_batch(designs)
+    figures, figures_end = result.figures, result.end
+    out = []
+    for i, (key, step) in enumerate(rows):
+        if step == 0.0 and key != chosen[0]:
+            continue
+        full = bool(figures["full_penetration"][i])
+        out.append(SensitivityRow("(default)" if step == 0.0 else key, step, float(columns[key][i]),
+                                  BY_KEY[key].unit, float(figures["penetration_time_s"][i]) if full else None,
+                                  float(figures["peak_resistance_n"][i]) if full else None,
+                                  float(figures["residual_ke_j"][i]) if full else None, str(figures_end[i])))
+    return out
+
+
+@dataclass(frozen=True)
+class SolveOutcome:
+    """An inverse question answered on the batch simulator."""
+
+    key: str
+    want: str
+    condition: str
+    value: float | None
+    resolution: float
+    unit: str
+
+
+def solve(penetrator: str, material: str, energizing: str, *, target: str, until: str,
+          search: tuple[float, float] | None = None, overrides: Sequence[str] = ()) -> SolveOutcome:
+    """``--solve max:KEY --until COND``: the largest (or least) value of a §1 key for which COND holds.
+
+    E.g. the largest microstructure strength a launcher penetrates to full depth
+    (``max:microstructure_strength_kpa --until full_penetration``), the least spring stiffness reaching
+    100 mm (``min:spring_stiffness_kn_m --until depth_mm>=100``), the thickest blade under 2 kN
+    (``max:blade_thickness_mm --until peak_n<=2000``). Assumes the condition flips once over the range.
+    """
+    import numpy as np
+
+    from pencli.params.definitions import BY_KEY
+    from pencli.predict.batch import simulate_batch
+    from pencli.predict.sweep import CONDITIONS, parse_condition, si_designs, solve_boundary
+
+    want, _, key = target.partition(":")
+    if want not in ("max", "min") or key not in BY_KEY:
+        raise ParameterError(f"--solve {target!r}: expected max:KEY or min:KEY with a CONTRACT §1 key")
+    name, threshold = parse_condition(until)
+    p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides)
+    base = {**p.values, **m.values, **e.values}
+    param = BY_KEY[key]
+    if search is None:
+        lo = param.range_min if param.range_min is not None else base[key] / 10
+        hi = param.range_max if param.range_max is not None else base[key] * 10
+        lo = max(lo, base[key] / 20) if lo <= 0 else lo
+        hi = min(hi, base[key] * 20)
+        search = (lo if lo > 0 or not param.hard_min_exclusive else base[key] / 20, hi)
+
+    def holds(values):
+        designs, _ = si_designs(base, {key: np.asarray(values)})
+        return CONDITIONS[name](simulate_batch(designs).figures, threshold)
+
+    value, width = solve_boundary(holds, float(search[0]), float(search[1]), want)
+    return SolveOutcome(key, want, until, value, width, param.unit)

@@ -73,6 +73,20 @@ MIGRATIONS: tuple[tuple[int, str, str], ...] = (
             PRIMARY KEY (material, version)
         );
     """),
+    (3, "design-space sweeps", """
+        CREATE TABLE sweeps (
+            sweep_id     INTEGER PRIMARY KEY,
+            created_at   TIMESTAMP NOT NULL,
+            penetrator   VARCHAR NOT NULL,
+            material     VARCHAR NOT NULL,
+            energizing   VARCHAR NOT NULL,
+            variables    JSON NOT NULL,
+            n_designs    BIGINT NOT NULL,
+            path         VARCHAR NOT NULL,
+            command      VARCHAR NOT NULL,
+            pen_version  VARCHAR NOT NULL
+        );
+    """),
 )
 
 LATEST = MIGRATIONS[-1][0]

@@ -466,6 +466,26 @@ class Workspace:
             names = [d[0] for d in cur.description]
             return [dict(zip(names, row)) for row in cur.fetchall()]
 
+    # ------------------------------------------------------------------ sweeps
+    def sweep_path(self) -> Path:
+        """A fresh Parquet path under sweeps/ for the next sweep (the file is written by the caller)."""
+        folder = self.db_path.parent / "sweeps"
+        folder.mkdir(parents=True, exist_ok=True)
+        return folder / f".pending-{os.getpid()}-{time.time_ns()}.parquet"
+
+    def add_sweep(self, pending: Path, *, penetrator: str, material: str, energizing: str, variables: Mapping,
+                  n_designs: int, command: str) -> tuple[int, Path]:
+        """Index a finished sweep file: rename it to sweeps/sweep-<id>.parquet and add its row (atomic)."""
+        with self.connect(write=True) as con:
+            last = con.execute("SELECT max(sweep_id) FROM sweeps").fetchone()[0]
+            sweep_id = (last or 0) + 1
+            final = pending.with_name(f"sweep-{sweep_id}.parquet")
+            with _atomically(con, pending, final):
+                con.execute("INSERT INTO sweeps VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+                    sweep_id, _now(), penetrator, material, energizing, json.dumps(variables), n_designs,
+                    str(final.relative_to(self.db_path.parent)), command, __version__])
+        return sweep_id, final
+
     def compact(self) -> None:
         """Rewrite the catalog into a fresh file, dropping free blocks (atomic)."""
         tmp = self.db_path.with_name(f".{self.db_path.name}.compact-{os.getpid()}")

@@ -1,0 +1,170 @@
+"""Design-space sweeps on the batch simulator: variables, grids, samples, sensitivity, inverse solves.
+
+Pure: takes the base design as a mapping of CONTRACT §1 keys (file units)
+and variable specifications; returns arrays.  Chunking, processes, files and
+progress live at the edge (``pencli.api.sweep``).
+
+A variable is any CONTRACT §1 key, or ``speed_at_contact`` [m/s] (BAM's
+"speed at comet contact": the flight is skipped and the blade starts at the
+surface with that speed).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from pencli.errors import ParameterError
+from pencli.params.definitions import BY_KEY
+from pencli.predict.batch import designs_from
+
+SPEED = "speed_at_contact"
+"""The extra sweep variable: speed at contact [m/s]."""
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One swept quantity: its key and the values it takes (file units)."""
+
+    key: str
+    values: np.ndarray
+
+    @property
+    def unit(self) -> str:
+        return "m/s" if self.key == SPEED else BY_KEY[self.key].unit
+
+
+def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variable:
+    """``KEY=+20%,-50%`` (BAM ± deltas), ``KEY=LO:HI`` (range) or ``KEY=V1,V2,...`` (list).
+
+    Percentages are of the base value; ranges and deltas get ``resolution`` points.
+    """
+    if "=" not in spec:
+        raise ParameterError(f"--vary {spec!r}: expected KEY=+20%,-50% or KEY=LO:HI or KEY=V1,V2,...")
+    key, _, text = (part.strip() for part in spec.partition("="))
+    if key != SPEED and key not in BY_KEY:
+        raise ParameterError(f"--vary {spec!r}: unknown key '{key}'; any CONTRACT §1 key or {SPEED}")
+    try:
+        if "%" in text:
+            deltas = [float(p.strip().rstrip("%")) / 100.0 for p in text.split(",")]
+            if len(deltas) != 2:
+                raise ValueError
+            lo, hi = sorted(base[key] * (1 + dlt) for dlt in deltas)
+            values = np.linspace(lo, hi, resolution)
+        elif ":" in text:
+            lo, hi = (float(p) for p in text.split(":"))
+            values = np.linspace(lo, hi, resolution)
+        else:
+            values = np.array([float(p) for p in text.split(",")])
+    except (ValueError, KeyError):
+        raise ParameterError(f"--vary {spec!r}: could not read the values") from None
+    if key == "spring_count":
+        values = np.unique(np.round(values))
+    return Variable(key, np.asarray(values, dtype=float))
+
+
+def grid(variables: Sequence[Variable]) -> dict[str, np.ndarray]:
+    """Every combination of the variables' values (first variable slowest)."""
+    mesh = np.meshgrid(*[v.values for v in variables], indexing="ij")
+    return {v.key: m.ravel() for v, m in zip(variables, mesh)}
+
+
+def sample(ranges: Mapping[str, tuple[float, float]], n: int, method: str, seed: int = 0) -> dict[str, np.ndarray]:
+    """``n`` designs by Latin hypercube (``lhs``) or uniform random sampling within the ranges."""
+    rng = np.random.default_rng(seed)
+    keys = list(ranges)
+    if method == "lhs":
+        u = (rng.permuted(np.tile(np.arange(n), (len(keys), 1)), axis=1).T + rng.random((n, len(keys)))) / n
+    elif method == "random":
+        u = rng.random((n, len(keys)))
+    else:
+        raise ParameterError(f"--sample {method!r}: expected lhs or random")
+    return {k: ranges[k][0] + u[:, i] * (ranges[k][1] - ranges[k][0]) for i, k in enumerate(keys)}
+
+
+def si_designs(base: Mapping[str, float], columns: Mapping[str, np.ndarray]) -> tuple[dict, np.ndarray | None]:
+    """Batch input (SI) from the base mapping and the varied columns (file units); plus speeds at contact."""
+    n = len(next(iter(columns.values()))) if columns else 1
+    fields: dict[str, np.ndarray | float] = {}
+    for key, param in BY_KEY.items():
+        value = columns[key] if key in columns else base.get(key, math.nan)
+        value = np.asarray(value, dtype=float)
+        fields[param.si_name] = value * param.si_scale if param.dtype is not int else value
+    for key, param in BY_KEY.items():
+        if key in columns:
+            _check(param, columns[key])
+    fields = {k: np.broadcast_to(v, (n,)) for k, v in fields.items()}
+    speed = columns.get(SPEED)
+    return designs_from(fields), (None if speed is None else np.asarray(speed, dtype=float))
+
+
+def _check(param, values: np.ndarray) -> None:
+    bad = [float(v) for v in np.atleast_1d(values) if param.hard_violation(float(v))]
+    if bad:
+        raise ParameterError(f"sweep: {param.key} takes {bad[0]:g} {param.unit}; it must be {param.hard_text}")
+
+
+SENSITIVITY_KEYS = ("blade_width_mm", "blade_thickness_mm", "tip_angle_deg", "spring_mass_kg", "spring_stiffness_kn_m",
+                    "spring_nominal_length_mm", "spring_compressed_length_mm", "surface_offset_mm",
+                    "penetration_depth_mm")
+"""The design variables of the paper's Appendix C study."""
+
+
+def one_at_a_time(base: Mapping[str, float], keys: Sequence[str], steps: Sequence[float]) -> tuple[list, dict]:
+    """Rows (key, relative step) and columns for a one-at-a-time study around ``base``."""
+    rows, columns = [], {k: [] for k in keys}
+    for key in keys:
+        for step in steps:
+            rows.append((key, step))
+            for k in keys:
+                columns[k].append(base[k] * (1 + step) if k == key else base[k])
+    return rows, {k: np.array(v) for k, v in columns.items()}
+
+
+CONDITIONS: dict[str, Callable[[dict, float], np.ndarray]] = {
+    "full_penetration": lambda f, x: f["full_penetration"],
+    "depth_mm": lambda f, x: f["final_depth_mm"] >= x,
+    "peak_n": lambda f, x: f["peak_resistance_n"] <= x,
+}
+"""Conditions an inverse solve can ask for: reach full depth, reach a depth [mm], stay under a peak [N]."""
+
+
+def parse_condition(text: str) -> tuple[str, float]:
+    """``full_penetration``, ``depth_mm>=100`` or ``peak_n<=2000``."""
+    if text == "full_penetration":
+        return text, math.nan
+    match = re.fullmatch(r"(depth_mm)\s*>=\s*([0-9.eE+-]+)|(peak_n)\s*<=\s*([0-9.eE+-]+)", text.strip())
+    if not match:
+        raise ParameterError(f"--until {text!r}: expected full_penetration, depth_mm>=VALUE or peak_n<=VALUE")
+    name = match.group(1) or match.group(3)
+    return name, float(match.group(2) or match.group(4))
+
+
+def solve_boundary(evaluate: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, want: str,
+                   points: int = 64, rounds: int = 4) -> tuple[float | None, float]:
+    """The largest (``want='max'``) or smallest (``'min'``) value in [lo, hi] where ``evaluate`` holds.
+
+    ``evaluate`` maps an array of candidate values to a boolean array (the batch simulator does the
+    work). Each round evaluates ``points`` values and narrows to the cell where the condition flips,
+    assuming it flips once.  Returns (value or None if it never holds, cell width).
+    """
+    for _ in range(rounds):
+        values = np.linspace(lo, hi, points)
+        ok = np.asarray(evaluate(values), dtype=bool)
+        if not ok.any():
+            return None, hi - lo
+        if want == "max":
+            i = int(np.flatnonzero(ok)[-1])
+            if i == points - 1:
+                return float(values[i]), 0.0
+            lo, hi = values[i], values[i + 1]
+        else:
+            i = int(np.flatnonzero(ok)[0])
+            if i == 0:
+                return float(values[0]), 0.0
+            lo, hi = values[i - 1], values[i]
+    return float(lo if want == "max" else hi), float(hi - lo)

@@ -1,0 +1,167 @@
+"""Batch simulator and `pen sweep` (issue 6)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import fields
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from pencli import api
+from pencli.model.design import Design, design_from_sets
+from pencli.model.dynamics import simulate
+from pencli.params.load import load_preset
+from pencli.predict.batch import designs_from, simulate_batch
+from tests.conftest import invoke
+
+
+def random_designs(n: int, seed: int) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    width = rng.uniform(0.03, 0.3, n)
+    nominal = rng.uniform(0.3, 0.7, n)
+    sprung = rng.uniform(0.5, 8.0, n)
+    return designs_from({
+        "blade_width_m": width, "blade_thickness_m": width * rng.uniform(0.005, 0.05, n),
+        "tip_angle_rad": np.radians(rng.uniform(10, 90, n)), "penetration_depth_m": rng.uniform(0.03, 0.3, n),
+        "sprung_mass_kg": sprung, "load_cell_mass_kg": sprung * rng.uniform(0, 0.5, n),
+        "density_kg_m3": rng.uniform(50, 1000, n), "strength_pa": 10 ** rng.uniform(5, 7.5, n),
+        "friction_coefficient": rng.uniform(0, 1.2, n), "gravity_m_s2": rng.choice([0.0, 9.81, 1.6], n),
+        "strength_factor": rng.uniform(0.1, 2.5, n), "sidewall_pressure_pa": rng.uniform(0, 6e5, n),
+        "damping_pa_s_m": rng.choice([0.0, 0.0, 1e5], n) * rng.random(n), "inertia_coefficient": rng.uniform(0, 80, n),
+        "spring_count": rng.choice([1, 2, 4, 6], n).astype(float), "spring_stiffness_n_m": rng.uniform(500, 1.5e4, n),
+        "spring_mass_kg": rng.uniform(0, 1.5, n), "nominal_length_m": nominal,
+        "compressed_length_m": nominal * rng.uniform(0.3, 0.95, n), "surface_offset_m": rng.uniform(0, 0.35, n),
+        "efficiency": rng.uniform(0.5, 1.0, n)})
+
+
+def scalar(d: dict[str, np.ndarray], i: int, speed=None):
+    design = Design(**{f.name: (int(d[f.name][i]) if f.name == "spring_count" else float(d[f.name][i]))
+                       for f in fields(Design)})
+    return simulate(design, speed_at_contact_m_s=speed, output_rate_hz=2000.0).summary
+
+
+def test_batch_agrees_with_the_scalar_simulator_on_10000_random_designs():
+    d = random_designs(10_000, 7)
+    speeds = np.where(np.arange(10_000) % 5 == 0, np.random.default_rng(8).uniform(0, 15, 10_000), np.nan)
+    flight = np.isnan(speeds)
+    batch = simulate_batch({k: v[flight] for k, v in d.items()}).figures
+    batch_s = simulate_batch({k: v[~flight] for k, v in d.items()}, speed_at_contact_m_s=speeds[~flight]).figures
+    kinds = {"arrest": 0, "full_depth": 0, "springs_spent_before_contact": 0, "speed_given": 0}
+    for pos, i in enumerate(np.flatnonzero(flight)):
+        ref = scalar(d, i)
+        kinds[ref.end] = kinds.get(ref.end, 0) + 1
+        kinds["springs_spent_before_contact"] += bool(d["surface_offset_m"][i] > d["nominal_length_m"][i]
+                                                      - d["compressed_length_m"][i])
+        assert batch["full_penetration"][pos] == ref.full_penetration, i
+        for key in ("penetration_time_s", "final_depth_mm", "contact_speed_m_s"):
+            want = getattr(ref, key)
+            assert batch[key][pos] == pytest.approx(want, rel=1e-4, abs=1e-12), (i, key)
+    for pos, i in enumerate(np.flatnonzero(~flight)):
+        ref = scalar(d, i, speeds[i])
+        kinds["speed_given"] += 1
+        for key in ("penetration_time_s", "final_depth_mm"):
+            assert batch_s[key][pos] == pytest.approx(getattr(ref, key), rel=1e-4, abs=1e-9), (i, key)
+    assert min(kinds.values()) > 100, kinds  # every case is exercised
+
+
+def test_figure10_sweep_reproduces_point_predictions(tmp_path, runner):
+    out = tmp_path / "f10.parquet"
+    r = invoke(runner, "sweep", "-p", "figure10", "-m", "figure10", "-e", "figure10", "--speed-at-contact", "7.155133",
+               "--vary", "speed_at_contact=+20%,-50%", "--vary", "friction_coefficient=+40%,-30%", "--resolution", "20",
+               "--out", out, "--json")
+    assert r.exit_code == 0, r.output
+    table = pq.read_table(out).to_pydict()
+    assert len(table["speed_at_contact"]) == 400
+    speeds = sorted(set(table["speed_at_contact"]))
+    assert speeds[0] == pytest.approx(7.155133 * 0.5) and speeds[-1] == pytest.approx(7.155133 * 1.2)
+    assert sorted(set(table["friction_coefficient"]))[0] == pytest.approx(0.4 * 0.7)
+    for i in (0, 137, 399):
+        p = api.predict("figure10", "figure10", "figure10", speed_at_contact_m_s=table["speed_at_contact"][i],
+                        overrides=[f"friction_coefficient={table['friction_coefficient'][i]!r}"]).result.summary
+        assert table["penetration_time_s"][i] == pytest.approx(p.penetration_time_s, rel=1e-4)
+        assert table["final_depth_mm"][i] == pytest.approx(p.final_depth_mm, rel=1e-4)
+
+
+def test_sweep_is_indexed_in_the_workspace(workspace, runner):
+    r = invoke(runner, "sweep", "--vary", "blade_thickness_mm=1,1.5,2", "--vary", "spring_stiffness_kn_m=8:12",
+               "--resolution", "5", "--json")
+    record = json.loads(r.stdout)
+    assert record["n_designs"] == 15 and record["sweep_id"] == 1
+    assert (workspace / record["path"]).is_file()
+    q = invoke(runner, "runs", "query", "SELECT n_designs, penetrator FROM sweeps", "--json")
+    assert json.loads(q.stdout) == [{"n_designs": 15, "penetrator": "appendix_c"}]
+
+
+def test_appendix_c_sensitivity_table(runner):
+    rows = api.sensitivity()
+    default = rows[0]
+    ref = simulate(design_from_sets(load_preset("appendix_c", "penetrator"), load_preset("grill_brick", "material"),
+                                    load_preset("appendix_c", "energizing"))).summary
+    assert default.key == "(default)" and default.penetration_time_s == pytest.approx(ref.penetration_time_s, rel=1e-4)
+    blanks = [r for r in rows if r.penetration_time_s is None]
+    assert blanks and all(r.end in ("arrest", "invalid") for r in blanks)
+    wider = next(r for r in rows if r.key == "blade_width_mm" and r.step == 0.5)
+    assert wider.peak_resistance_n > default.peak_resistance_n
+    r = invoke(runner, "sweep", "--sensitivity")
+    assert r.exit_code == 0 and "spring_stiffness_kn_m" in r.output.replace("…", "") or "spring_stif" in r.output
+
+
+@pytest.mark.parametrize("target,until,check", [
+    ("max:microstructure_strength_kpa", "full_penetration", lambda s: s.full_penetration),
+    ("min:spring_stiffness_kn_m", "depth_mm>=100", lambda s: s.final_depth_mm >= 100),
+    ("max:blade_thickness_mm", "peak_n<=1500", lambda s: s.peak_resistance_n <= 1500),
+])
+def test_inverse_solves_are_right_on_either_side(target, until, check):
+    answer = api.solve("al6061_1mm", "mpacs_c", "springs_4", target=target, until=until)
+    assert answer.value is not None
+    inside = answer.value - (answer.resolution if answer.want == "max" else -answer.resolution) * 0.5
+    outside = answer.value + (2 * answer.resolution + 1e-3 * abs(answer.value)) * (1 if answer.want == "max" else -1)
+    for value, expect in ((inside, True), (outside, False)):
+        p = api.predict("al6061_1mm", "mpacs_c", "springs_4", overrides=[f"{answer.key}={value!r}"],
+                        allow_out_of_range=True).result.summary
+        assert check(p) == expect, (value, p)
+
+
+def test_latin_hypercube_is_stratified(tmp_path):
+    from pencli.predict.sweep import sample
+
+    cols = sample({"a": (0.0, 1.0), "b": (10.0, 20.0)}, 50, "lhs", seed=3)
+    for key, (lo, hi) in (("a", (0, 1)), ("b", (10, 20))):
+        bins = np.floor((cols[key] - lo) / (hi - lo) * 50).astype(int)
+        assert sorted(bins) == list(range(50))
+
+
+def test_chunks_do_not_change_results(tmp_path, monkeypatch):
+    args = dict(vary=["blade_width_mm=100:200", "friction_coefficient=0.2:0.8"], resolution=40)
+    one = api.sweep("appendix_c", "mpacs_c", "appendix_c", out=tmp_path / "one.parquet", workers=1, **args)
+    monkeypatch.setattr(api, "CHUNK", 300)
+    many = api.sweep("appendix_c", "mpacs_c", "appendix_c", out=tmp_path / "many.parquet", workers=2, **args)
+    assert one.n_designs == many.n_designs == 1600
+    assert pq.read_table(tmp_path / "one.parquet").equals(pq.read_table(tmp_path / "many.parquet"))
+
+
+def test_dask_engine_gives_identical_results(tmp_path, monkeypatch):
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr(api, "CHUNK", 500)
+    args = dict(vary=["blade_thickness_mm=1:2", "surface_offset_mm=50:250"], resolution=30)
+    local = api.sweep("appendix_c", "grill_brick", "appendix_c", out=tmp_path / "local.parquet", **args)
+    dask = api.sweep("appendix_c", "grill_brick", "appendix_c", out=tmp_path / "dask.parquet", engine="dask",
+                     workers=2, **args)
+    assert local.n_designs == dask.n_designs == 900
+    assert pq.read_table(tmp_path / "local.parquet").equals(pq.read_table(tmp_path / "dask.parquet"))
+
+
+@pytest.mark.parametrize("args,words", [
+    (["--vary", "blade_colour=1:2"], "unknown key"),
+    (["--vary", "blade_width_mm=wide"], "could not read"),
+    (["--vary", "blade_width_mm=-10:100", "--resolution", "3"], "must be > 0"),
+    ([], "at least one --vary"),
+    (["--solve", "biggest:blade_width_mm"], "max:KEY"),
+    (["--solve", "max:blade_width_mm", "--until", "depth>3"], "--until"),
+])
+def test_bad_sweeps_are_one_line(workspace, runner, args, words):
+    r = invoke(runner, "sweep", *args)
+    assert r.exit_code == 1 and words in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.output
+    assert not (workspace / "sweeps").exists() or not any((workspace / "sweeps").iterdir())
