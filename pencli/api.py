@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
+import numpy as np
+
 from pencli.errors import DataError, ParameterError, PenError, StoreError
 from pencli.model.design import Design, design_from_sets
 from pencli.model.dynamics import SimulationResult, simulate
@@ -933,3 +935,234 @@ def solve(penetrator: str, material: str, energizing: str, *, target: str, until
 
     value, width = solve_boundary(holds, float(search[0]), float(search[1]), want)
     return SolveOutcome(key, want, until, value, width, param.unit)
+
+
+# ---------------------------------------------------------------------------- reports
+REFERENCE_ESTIMATES = {  # paper Table 1, "other mechanical properties for reference"
+    "grill_brick": ((0.5, 0.75), (1000.0, 1000.0)),
+    "mpacs_b": ((0.75, 2.0), (100.0, 125.0)),
+    "mpacs_c": ((5.0, 8.0), (200.0, 250.0)),
+    "mpacs_d": ((20.0, 25.0), (700.0, 850.0)),
+}
+"""Cone penetration resistance [MPa] and unconfined compressive strength [kPa] by material (Fig. 16)."""
+
+
+def _flat(mapping: Mapping[str, Any]) -> list[list[Any]]:
+    from pencli.params.definitions import BY_KEY
+
+    rows = []
+    for key, value in mapping.items():
+        if isinstance(value, dict) and key == "coefficients":
+            for sub, v in value.items():
+                rows.append([f"coefficients.{sub}", v, BY_KEY[f"coefficients.{sub}"].unit])
+        elif key in BY_KEY:
+            rows.append([key, value, BY_KEY[key].unit])
+    return rows
+
+
+def _latest_fit_with(ws, run_id: str) -> dict | None:
+    versions = [v for v in ws.material_versions() if run_id in (v["source_runs"] or [])]
+    return versions[-1] if versions else None
+
+
+def report_runs(db: str | Path, refs: Sequence[str]) -> list:
+    """Sections for runs: raw channels (Fig. 11), measurements (Fig. 12), model against data (Fig. 13),
+    energy per term (Fig. 14), parameters and provenance."""
+    import pyarrow.parquet as pq
+
+    from pencli.filter.tare import tare as tare_run
+    from pencli.fit.resistance import with_coefficients
+    from pencli.report import figures
+    from pencli.report.build import Section
+    from pencli.store.workspace import raw_columns_of
+
+    ws = workspace(db)
+    sections = []
+    for ref in expand_run_refs(ws, refs):
+        run_id = ws.resolve(ref)
+        params = ws.run_parameters(run_id)
+        stages = ws.stages(run_id)
+        raw_table, _ = ws.read_stage(run_id, "raw")
+        raw = raw_columns_of(raw_table)
+        tares = [s for s in stages if s.stage == "tare"]
+        events = tares[-1].parameters["events"] if tares else tare_run(
+            raw, params["energizing"]["surface_offset_mm"], params["penetrator"]["penetration_depth_mm"],
+            where=run_id).events.to_dict()
+        section = Section(f"run {run_id}", provenance={"run": {k: str(v) for k, v in ws.run_row(run_id).items()}})
+        section.tables.append(("parameters", ["key", "value", "unit"],
+                               [r for kind in ("penetrator", "material", "energizing") for r in _flat(params[kind])]))
+        section.tables.append(("stages", ["#", "stage", "command", "pen", "created (UTC)"],
+                               [[s.stage_no, s.stage, s.command, s.pen_version, str(s.created_at)] for s in stages]))
+        section.tables.append(("events (time since release)", ["event", "value", "unit"],
+                               [[k, v * 1e3 if k.endswith("_s") else v, "ms" if k.endswith("_s") else ""]
+                                for k, v in events.items() if isinstance(v, (int, float))]))
+        section.add_figure(figures.raw_channels(run_id, raw, events))
+        inertia = [s for s in stages if s.stage == "inertia"]
+        if inertia:
+            table, _ = ws.read_stage(run_id, inertia[-1].stage_no)
+            section.add_figure(figures.kinematics_panels(
+                run_id, {c: table.column(c).to_numpy() for c in table.column_names}, events))
+        fit = _latest_fit_with(ws, run_id)
+        if fit is not None and fit["model_data_path"]:
+            data = pq.read_table(ws.db_path.parent / fit["model_data_path"],
+                                 filters=[("run_id", "=", run_id)]).to_pydict()
+            section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v) for k, v in data.items()}))
+            p, m, e = _sets_from_mappings(params, run_id)
+            design = with_coefficients(design_from_sets(p, m, e), json.loads(fit["coefficients"]))
+            s = simulate(design, output_rate_hz=2000.0).summary
+            section.add_figure(figures.energy_per_term(
+                f"{run_id}: energy per term, {fit['material']} v{fit['version']} coefficients (predicted run)",
+                {"strength": s.energy_strength_j, "friction": s.energy_friction_j, "damping": s.energy_damping_j,
+                 "inertia": s.energy_inertia_j}, {"spring": s.spring_energy_j, "gravity": s.gravity_work_j,
+                                                  "residual KE": s.residual_ke_j}))
+        sections.append(section)
+    return sections
+
+
+def report_material(db: str | Path, material: str, version: int | None = None) -> list:
+    """Sections for a fitted material version: coefficients, intervals, correlation, runs, Fig. 13, Fig. 16."""
+    import pyarrow.parquet as pq
+
+    from pencli.fit.resistance import with_coefficients
+    from pencli.report import figures
+    from pencli.report.build import Section
+
+    ws = workspace(db)
+    versions = ws.material_versions(material)
+    if not versions:
+        raise StoreError(f"no fitted material '{material}' in {db} (pen fit --material {material} RUN...)")
+    row = versions[-1] if version is None else next((v for v in versions if v["version"] == version), None)
+    if row is None:
+        raise StoreError(f"material '{material}' has no version {version}; versions: "
+                         f"{', '.join(str(v['version']) for v in versions)}")
+    fit = json.loads(row["fit"])
+    units = {"strength_factor": "–", "sidewall_pressure_kpa": "kPa", "damping_kpa_s_m": "kPa·s/m",
+             "inertia_coefficient": "–"}
+    section = Section(f"material {material} v{row['version']} ({fit['mode']} fit over {len(fit['runs'])} runs)",
+                      text=" ".join(fit.get("warnings", [])), provenance={"catalog": {k: str(v) for k, v in row.items()
+                                                                                    if k not in ("fit",)}})
+    section.tables.append(("coefficients", ["coefficient", "value", "std. error", "95 % low", "95 % high", "unit"],
+                           [[n, v, fit["stderr"][n], *(fit["ci95"][n] or [None, None]), units[n]]
+                            for n, v in fit["coefficients"].items()]))
+    section.tables.append(("runs", ["run", "samples", "RMS [N]", "NRMSE", "R²"],
+                           [[r["run_id"], r["n_samples"], r["rms_n"], r["nrmse"], r["r2"]] for r in fit["runs"]]))
+    section.add_figure(figures.fit_intervals(material, fit))
+    if row["model_data_path"]:
+        table = pq.read_table(ws.db_path.parent / row["model_data_path"]).to_pydict()
+        ids = np.asarray(table["run_id"])
+        for run_id in list(dict.fromkeys(table["run_id"]))[:12]:
+            sel = ids == run_id
+            section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v)[sel] for k, v in table.items()}))
+    runs = row["source_runs"]
+    median_run = runs[len(runs) // 2]
+    p, m, e = _sets_from_mappings(ws.run_parameters(median_run), median_run)
+    design = with_coefficients(design_from_sets(p, m, e), fit["coefficients"])
+    result = simulate(design, output_rate_hz=20_000.0)
+    tr = result.trajectory
+    inside = tr.phase == 1
+    cone, ucs = REFERENCE_ESTIMATES.get(m.name, (None, None))
+    section.add_figure(figures.estimates_comparison(
+        f"{median_run}: model against simpler estimates (Fig. 16)", tr.depth_m[inside] * 1e3,
+        tr.resistance_n[inside], design.frontal_area_m2, cone, ucs))
+    return [section]
+
+
+def report_sweep(db: str | Path, sweep_id: int) -> list:
+    """Sections for a sweep: heat map with the full-penetration boundary (Fig. 14), 4-D scatter (Fig. 15)."""
+    import pyarrow.parquet as pq
+
+    from pencli.report import figures
+    from pencli.report.build import Section
+
+    ws = workspace(db)
+    names, rows = ws.query(f"SELECT * FROM sweeps WHERE sweep_id = {int(sweep_id)}")
+    if not rows:
+        raise StoreError(f"no sweep {sweep_id} in {db}")
+    record = dict(zip(names, rows[0]))
+    variables = json.loads(record["variables"])
+    table = {k: np.asarray(v) for k, v in pq.read_table(ws.db_path.parent / record["path"]).to_pydict().items()}
+    keys = list(variables)
+    section = Section(f"sweep {sweep_id}: {record['penetrator']} · {record['material']} · {record['energizing']}",
+                      provenance={k: str(v) for k, v in record.items()})
+    section.tables.append(("variables", ["key", "unit", "min", "max", "points"],
+                           [[k, v["unit"], v["min"], v["max"], v["points"]] for k, v in variables.items()]))
+    figs = ("penetration_time_s", "peak_resistance_n", "residual_ke_j", "final_depth_mm")
+    section.tables.append(("figures over the sweep", ["figure", "min", "max"],
+                           [[f, float(np.min(table[f])), float(np.max(table[f]))] for f in figs]))
+    if len(keys) >= 2:
+        for value in ("penetration_time_s", "peak_resistance_n"):
+            section.add_figure(figures.sweep_map(table, keys[0], keys[1], value))
+    section.add_figure(figures.sweep_scatter(table, keys))
+    return [section]
+
+
+def report_diagnosis(db: str | Path, refs: Sequence[str]) -> tuple[list, Any]:
+    """Sections for a diagnosis (and the diagnosis itself, for checks)."""
+    from pencli.report.build import Section
+    from pencli.report.diagnosis import diagnosis_figure
+
+    result = diagnose(db, refs)
+    report = result.to_dict()
+    section = Section(f"diagnosis: verdict {result.verdict}", text=" ".join(result.notes),
+                      provenance={"baseline": report["baseline"], "thresholds": report["thresholds"]})
+    section.tables.append(("effects, best first", ["effect", "held-out RMS [N]", "shrink [%]", "significant",
+                                                   "parameters"],
+                           [[e.name, e.heldout_rms_n, e.shrink_pct, e.significant,
+                             ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
+                                       for k, v in e.params.items())] for e in result.effects]))
+    section.tables.append(("where the gap lies", ["phase", "depth [mm]", "time [ms]", "share of gap"],
+                           [[w["phase"], w.get("depth_mm"), w.get("time_ms"), w.get("share_of_gap")]
+                            for w in result.where]))
+    section.add_figure(diagnosis_figure(result))
+    return [section], result
+
+
+@dataclass(frozen=True)
+class CheckFailure:
+    """One thing that broke a --check threshold."""
+
+    subject: str
+    metric: str
+    value: float
+    rule: str
+
+
+def parse_checks(items: Sequence[str]) -> list[tuple[str, str, float]]:
+    """``nrmse<=0.15``, ``r2>=0.9``, ``shrink>=50`` → (metric, operator, threshold)."""
+    import re
+
+    out = []
+    for item in items:
+        match = re.fullmatch(r"\s*(nrmse|r2|rms_n|shrink)\s*(<=|>=)\s*([0-9.eE+-]+)\s*", item)
+        if not match:
+            raise ParameterError(f"--check {item!r}: expected METRIC<=VALUE or METRIC>=VALUE with METRIC one of "
+                                 f"nrmse, r2, rms_n (each run of each material's latest fit) or shrink (diagnosis)")
+        out.append((match.group(1), match.group(2), float(match.group(3))))
+    return out
+
+
+def run_checks(db: str | Path, checks: Sequence[tuple[str, str, float]], diagnosis=None) -> list[CheckFailure]:
+    """Evaluate thresholds on every material's latest fit (per run) and on a diagnosis."""
+    failures = []
+    ws = workspace(db)
+    latest: dict[str, dict] = {}
+    for version in ws.material_versions():
+        latest[version["material"]] = version
+    for metric, op, threshold in checks:
+        rule = f"{metric}{op}{threshold:g}"
+        if metric == "shrink":
+            if diagnosis is None:
+                continue
+            top = diagnosis.effects[0].shrink_pct if diagnosis.effects and diagnosis.verdict not in ("none",) else 0.0
+            ok = top >= threshold if op == ">=" else top <= threshold
+            if not ok:
+                failures.append(CheckFailure(f"diagnosis ({diagnosis.verdict})", metric, top, rule))
+            continue
+        for material, version in latest.items():
+            for run in json.loads(version["fit"])["runs"]:
+                value = run[metric]
+                ok = value >= threshold if op == ">=" else value <= threshold
+                if not ok:
+                    failures.append(CheckFailure(f"{material} v{version['version']} run {run['run_id']}", metric,
+                                                 float(value), rule))
+    return failures

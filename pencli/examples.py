@@ -69,13 +69,51 @@ def build(db: Path) -> list[str]:
     return ids
 
 
+def analyse(db: Path) -> None:
+    """Condition every run, fit both materials, sweep and diagnose: what a full report draws on."""
+    api.tare_runs(db, ["all"])
+    api.subtract_inertia_runs(db, ["all"])
+    api.fit(db, "grill_brick", ["gb-*"], command="python -m pencli.examples")
+    api.fit(db, "mpacs_c", ["mc-*"], mode="dynamic", command="python -m pencli.examples")
+    api.sweep("appendix_c", "grill_brick", "appendix_c", vary=["blade_thickness_mm=0.8:2.5",
+                                                                "spring_stiffness_kn_m=6:14"], resolution=25, db=db)
+
+
+def build_report(db: Path, out: Path, pdf: bool = False) -> list[Path]:
+    """The whole workspace's reports (what `pen report --all` writes) plus a diagnosis of each material."""
+    from pencli.report.build import write_report
+
+    written = []
+    for run_id in api.workspace(db).run_ids():
+        written += write_report(f"pen report: run {run_id}", api.report_runs(db, [run_id]),
+                                out / "runs" / f"{run_id}.html", pdf=pdf)
+    for version in api.workspace(db).material_versions():
+        name = f"{version['material']}-v{version['version']}"
+        written += write_report(f"pen report: material {name}", api.report_material(db, version["material"],
+                                                                                      version["version"]),
+                                out / "materials" / f"{name}.html", pdf=pdf)
+    written += write_report("pen report: sweep 1", api.report_sweep(db, 1), out / "sweeps" / "sweep-1.html", pdf=pdf)
+    for pattern in ("gb-*", "mc-*"):
+        sections, _ = api.report_diagnosis(db, [pattern])
+        written += write_report(f"pen report: diagnosis {pattern}", sections,
+                                out / "diagnoses" / f"{pattern.rstrip('-*')}.html", pdf=pdf)
+    return written
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "runs.duckdb.example",
                         help="catalog to write (runs/ goes beside it)")
+    parser.add_argument("--report", type=Path, nargs="?", const=Path(__file__).resolve().parents[1] / "examples"
+                        / "report", help="also condition, fit, sweep, diagnose and write the full report here")
     args = parser.parse_args()
     ids = build(args.out)
     print(f"built {len(ids)} runs into {args.out}")
+    if args.report is not None:
+        analyse(args.out)
+        api.workspace(args.out).compact()
+        written = build_report(args.out, args.report)
+        print(f"wrote {len(written)} report files into {args.report}")
 
 
 if __name__ == "__main__":

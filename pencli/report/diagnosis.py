@@ -6,19 +6,24 @@ from pathlib import Path
 
 
 def plot_diagnosis(diagnosis, path: str | Path) -> Path:
-    """Draw baseline and verdict-effect residuals of every run; shade where the gap was located.
+    """Write :func:`diagnosis_figure` to a PNG or PDF file."""
+    import matplotlib.pyplot as plt
 
-    Parameters
-    ----------
-    diagnosis : :class:`pencli.diagnose.engine.Diagnosis`
-    path : PNG or PDF to write.
-    """
+    from pencli.io.atomic import write_atomic
+
+    fig = diagnosis_figure(diagnosis)
+    suffix = Path(path).suffix or ".png"
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format=suffix.lstrip(".")))
+    plt.close(fig)
+    return Path(path)
+
+
+def diagnosis_figure(diagnosis):
+    """Baseline and verdict-effect held-out residuals of every run; shaded: where the gap was located."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from pencli.io.atomic import write_atomic
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharey="row", constrained_layout=True)
     effect = diagnosis.verdict_effects[0] if diagnosis.verdict_effects else None
@@ -43,7 +48,4 @@ def plot_diagnosis(diagnosis, path: str | Path) -> Path:
     axes[1, 1].set_xlabel("time since contact [ms]")
     axes[0, 0].legend(fontsize=7, ncol=2)
     fig.suptitle(f"pen diagnose: verdict {diagnosis.verdict} (shaded: where the gap lies)")
-    suffix = Path(path).suffix or ".png"
-    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format=suffix.lstrip(".")))
-    plt.close(fig)
-    return Path(path)
+    return fig

@@ -1,0 +1,100 @@
+"""``pen report``: HTML and PDF reports of runs, fits, sweeps and diagnoses, and a CI gate."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.markup import escape
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from pencli import api
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json
+
+app = PenTyper()
+
+
+@app.command("report")
+def report(
+    runs: Optional[List[str]] = typer.Argument(None, help="Run ids, folders or patterns to report on."),
+    material: Optional[str] = typer.Option(None, "--material", "-m", help="Report a fitted material (latest "
+                                                                          "version unless --version)."),
+    version: Optional[int] = typer.Option(None, "--version", help="With --material: which version."),
+    sweep: Optional[int] = typer.Option(None, "--sweep", help="Report a sweep by id (pen runs query "
+                                                              "'SELECT * FROM sweeps')."),
+    diagnose: bool = typer.Option(False, "--diagnose", help="Report a diagnosis of the RUNs."),
+    all_: bool = typer.Option(False, "--all", help="Every run, fitted material and sweep of the workspace, one "
+                                                   "report each, into --out DIR."),
+    out: Path = typer.Option(..., "--out", help="HTML file to write (a PDF of the same goes beside it), or a "
+                                                "folder with --all."),
+    pdf: bool = typer.Option(True, "--pdf/--no-pdf", help="Also write the PDF."),
+    check: Optional[List[str]] = typer.Option(None, "--check", metavar="METRIC<=VALUE",
+                                              help="Gate: nrmse<=0.15, r2>=0.9, rms_n<=50 (every run of every "
+                                                   "material's latest fit) or shrink>=50 (with --diagnose). "
+                                                   "Exit 1 naming everything that breaks one."),
+    json_out: bool = typer.Option(False, "--json", help="Print what was written and any check failures as JSON."),
+    db: Optional[Path] = DbOption,
+) -> None:
+    """Write self-contained HTML (figures embedded) and PDF reports; optionally gate on thresholds.
+
+    Example: pen report --all --out reports/ --check nrmse<=0.15
+    """
+    from pencli.report.build import write_report
+
+    checks = api.parse_checks(check or [])
+    catalog = db_path(db)
+    written: list[Path] = []
+    diagnosis = None
+    if all_:
+        jobs = [(f"run {r}", out / "runs" / f"{r}.html", lambda r=r: api.report_runs(catalog, [r]))
+                for r in api.workspace(catalog).run_ids()]
+        jobs += [(f"material {v['material']} v{v['version']}", out / "materials" / f"{v['material']}-v{v['version']}.html",
+                  lambda v=v: api.report_material(catalog, v["material"], v["version"]))
+                 for v in api.workspace(catalog).material_versions()]
+        names, rows = api.query(catalog, "SELECT sweep_id FROM sweeps ORDER BY sweep_id") if _has_sweeps(catalog) \
+            else ([], [])
+        jobs += [(f"sweep {row[0]}", out / "sweeps" / f"sweep-{row[0]}.html",
+                  lambda i=row[0]: api.report_sweep(catalog, i)) for row in rows]
+        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                      console=err_console, transient=True, disable=json_out) as bar:
+            task = bar.add_task("reports", total=len(jobs))
+            for title, path, make in jobs:
+                bar.update(task, description=title)
+                written += write_report(f"pen report: {title}", make(), path, pdf=pdf)
+                bar.advance(task)
+    else:
+        if out.suffix.lower() != ".html":
+            raise typer.BadParameter(f"'{out}' must end in .html (or use --all with a folder)", param_hint="--out")
+        sections = []
+        if material:
+            sections += api.report_material(catalog, material, version)
+        if sweep is not None:
+            sections += api.report_sweep(catalog, sweep)
+        if runs and diagnose:
+            diag_sections, diagnosis = api.report_diagnosis(catalog, runs)
+            sections += diag_sections
+        elif runs:
+            sections += api.report_runs(catalog, runs)
+        if not sections:
+            raise typer.BadParameter("name RUNs, --material, --sweep, RUNs with --diagnose, or --all")
+        written += write_report("pen report", sections, out, pdf=pdf)
+    failures = api.run_checks(catalog, checks, diagnosis) if checks else []
+    if json_out:
+        print_json({"written": [str(p) for p in written], "failures": [f.__dict__ for f in failures]})
+    else:
+        for path in written:
+            console.print(f"wrote {path}")
+        for f in failures:
+            err_console.print(f"[red]check failed:[/red] {escape(f.subject)}: {f.metric} = {f.value:.4g} breaks "
+                              f"{escape(f.rule)}", highlight=False)
+    if failures:
+        raise fail(f"{len(failures)} check(s) failed")
+
+
+def _has_sweeps(catalog: Path) -> bool:
+    try:
+        api.query(catalog, "SELECT 1 FROM sweeps LIMIT 1")
+    except Exception:  # a catalog from before the sweeps migration
+        return False
+    return True

@@ -1,0 +1,194 @@
+"""The figures of pen's reports (paper Figs. 11–18), drawn from result objects and arrays only.
+
+Each function returns a matplotlib Figure and never reads files; ``report.build``
+places them.  matplotlib is imported inside, so importing this module is cheap.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+
+TERM_COLOURS = {"strength": "#4C72B0", "friction": "#DD8452", "damping": "#55A868", "inertia": "#C44E52"}
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def raw_channels(run_id: str, raw: Mapping[str, np.ndarray], events: Mapping[str, float]):
+    """Fig. 11: raw position and forces, the stored span and the analysed window marked."""
+    plt = _plt()
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, constrained_layout=True)
+    t = raw["time_s"] * 1e3
+    ax1.plot(t, raw["position_mm"], lw=0.8, color="k")
+    ax1.set_ylabel("position [mm]")
+    for name in ("fx_n", "fy_n", "fz_n"):
+        ax2.plot(t, raw[name], lw=0.6, label=name)
+    ax2.set_ylabel("force [N]")
+    ax2.set_xlabel("time since release [ms]")
+    ax2.legend(fontsize=7)
+    for ax in (ax1, ax2):
+        ax.axvline(t[0], color="tab:green", lw=1.5)
+        ax.axvline(t[-1], color="tab:green", lw=1.5)
+        ax.axvspan(events["window_start_s"] * 1e3, events["window_end_s"] * 1e3, color="tab:orange", alpha=0.2)
+    fig.suptitle(f"{run_id}: raw channels (green: stored span; shaded: analysed window)")
+    return fig
+
+
+def kinematics_panels(run_id: str, stage: Mapping[str, np.ndarray], events: Mapping[str, float]):
+    """Fig. 12: depth, force/resistance, speed and acceleration against time around the penetration."""
+    plt = _plt()
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True, constrained_layout=True)
+    t = stage["time_s"]
+    near = (t > events["motion_start_s"] - 0.01) & (t < events["stop_s"] + 0.02)
+    tm = t[near] * 1e3
+    axes[0, 0].plot(tm, stage["depth_m"][near] * 1e3, color="k", lw=0.8)
+    axes[0, 0].set_ylabel("depth [mm]")
+    axes[0, 1].plot(tm, stage["force_n"][near], lw=0.6, label="load cell F")
+    axes[0, 1].plot(tm, stage["resistance_n"][near], lw=0.8, label="resistance R = F − m·a")
+    axes[0, 1].set_ylabel("force [N]")
+    axes[0, 1].legend(fontsize=7)
+    axes[1, 0].plot(tm, stage["velocity_m_s"][near], color="tab:blue", lw=0.8)
+    axes[1, 0].set_ylabel("speed [m/s]")
+    axes[1, 1].plot(tm, stage["acceleration_m_s2"][near], color="tab:red", lw=0.8)
+    axes[1, 1].set_ylabel("acceleration [m/s²]")
+    for ax in axes.ravel():
+        ax.axvline(events["contact_s"] * 1e3, color="grey", ls="--", lw=0.8)
+        ax.axvline(events["stop_s"] * 1e3, color="grey", ls=":", lw=0.8)
+    for ax in axes[1]:
+        ax.set_xlabel("time since release [ms]")
+    fig.suptitle(f"{run_id}: measurements (dashed: contact, dotted: stop)")
+    return fig
+
+
+def model_vs_data(run_id: str, data: Mapping[str, np.ndarray]):
+    """Fig. 13: measured and modelled resistance against time and depth, and depth against time, both modes."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
+    t = data["time_s"] * 1e3
+    axes[0].plot(t, data["resistance_n"], color="k", lw=0.7, label="measured")
+    axes[0].plot(t, data["resistance_model_n"], lw=1.0, label="Eq. 9 with measured x, v")
+    axes[0].plot(t, data["resistance_dynamic_n"], lw=1.0, ls="--", label="fully predicted")
+    axes[0].set_xlabel("time since release [ms]")
+    axes[0].set_ylabel("resistance [N]")
+    axes[0].legend(fontsize=7)
+    inside = data["depth_m"] > 0
+    axes[1].plot(data["depth_m"][inside] * 1e3, data["resistance_n"][inside], color="k", lw=0.7)
+    axes[1].plot(data["depth_m"][inside] * 1e3, data["resistance_model_n"][inside], lw=1.0)
+    axes[1].set_xlabel("depth [mm]")
+    axes[1].set_ylabel("resistance [N]")
+    axes[2].plot(t, data["depth_m"] * 1e3, color="k", lw=0.8, label="measured")
+    axes[2].plot(t, data["depth_dynamic_m"] * 1e3, ls="--", lw=1.0, label="fully predicted")
+    axes[2].set_xlabel("time since release [ms]")
+    axes[2].set_ylabel("depth [mm]")
+    axes[2].legend(fontsize=7)
+    fig.suptitle(f"{run_id}: model against data")
+    return fig
+
+
+def energy_per_term(title: str, energies: Mapping[str, float], supplied: Mapping[str, float] | None = None):
+    """Figs. 14/17: energy dissipated by each Eq. 9 term (and, optionally, what was supplied)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    names = list(energies)
+    ax.bar(names, [energies[n] for n in names], color=[TERM_COLOURS.get(n, "grey") for n in names])
+    for i, n in enumerate(names):
+        ax.text(i, energies[n], f"{energies[n]:.1f}", ha="center", va="bottom", fontsize=8)
+    if supplied:
+        text = ", ".join(f"{k} {v:.1f} J" for k, v in supplied.items())
+        ax.set_title(text, fontsize=8)
+    ax.set_ylabel("energy [J]")
+    fig.suptitle(title)
+    return fig
+
+
+def sweep_map(table: Mapping[str, np.ndarray], x: str, y: str, value: str = "penetration_time_s"):
+    """Fig. 14: a figure over two varied parameters as a heat map, with the full-penetration boundary."""
+    plt = _plt()
+    xs, ys = np.unique(table[x]), np.unique(table[y])
+    grid = np.full((ys.size, xs.size), np.nan)
+    full = np.zeros((ys.size, xs.size))
+    ix = np.searchsorted(xs, table[x])
+    iy = np.searchsorted(ys, table[y])
+    grid[iy, ix] = table[value]
+    full[iy, ix] = np.asarray(table["full_penetration"], dtype=float)
+    fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
+    mesh = ax.pcolormesh(xs, ys, grid, shading="nearest", cmap="viridis")
+    fig.colorbar(mesh, ax=ax, label=value)
+    if 0 < full.mean() < 1 and xs.size > 1 and ys.size > 1:
+        ax.contour(xs, ys, full, levels=[0.5], colors="w", linewidths=2)
+    ax.set_xlabel(x)
+    ax.set_ylabel(y)
+    fig.suptitle(f"{value} over {x} × {y}\n(white line: full-penetration boundary)", fontsize=10)
+    return fig
+
+
+def sweep_scatter(table: Mapping[str, np.ndarray], keys: Sequence[str]):
+    """Fig. 15: three varied parameters on axes, residual kinetic energy as colour."""
+    plt = _plt()
+    fig = plt.figure(figsize=(7, 5.5), constrained_layout=True)
+    ax = fig.add_subplot(projection="3d")
+    k = list(keys)[:3] + [None] * (3 - len(list(keys)[:3]))
+    n = len(table["residual_ke_j"])
+    pick = np.random.default_rng(0).choice(n, min(n, 5000), replace=False)
+    cols = [np.asarray(table[c])[pick] if c else np.zeros(pick.size) for c in k]
+    points = ax.scatter(*cols, c=np.asarray(table["residual_ke_j"])[pick], cmap="plasma", s=6)
+    fig.colorbar(points, ax=ax, label="residual kinetic energy [J]", shrink=0.7)
+    ax.set_xlabel(k[0] or "")
+    ax.set_ylabel(k[1] or "")
+    ax.set_zlabel(k[2] or "")
+    fig.suptitle("designs coloured by residual energy at full depth")
+    return fig
+
+
+def estimates_comparison(title: str, depth_mm: np.ndarray, resistance_n: np.ndarray, frontal_area_m2: float,
+                         cone_mpa: tuple[float, float] | None, ucs_kpa: tuple[float, float] | None):
+    """Fig. 16: the model's resistance against cone-penetration and compressive-strength × area estimates."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    ax.plot(depth_mm, resistance_n, color="k", lw=1.2, label="pen model (Eq. 9, dynamic)")
+    if cone_mpa:
+        ax.axhspan(cone_mpa[0] * 1e6 * frontal_area_m2, cone_mpa[1] * 1e6 * frontal_area_m2, color="tab:blue",
+                   alpha=0.25, label="cone penetration resistance × area")
+    if ucs_kpa:
+        ax.axhspan(ucs_kpa[0] * 1e3 * frontal_area_m2, ucs_kpa[1] * 1e3 * frontal_area_m2, color="tab:green",
+                   alpha=0.35, label="unconfined compressive strength × area")
+    ax.set_xlabel("depth [mm]")
+    ax.set_ylabel("resistance [N]")
+    ax.legend(fontsize=7)
+    fig.suptitle(title)
+    return fig
+
+
+def fit_intervals(material: str, fit: Mapping):
+    """Fitted coefficients with 95 % and bootstrap intervals (relative to the value), and their correlation."""
+    plt = _plt()
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
+    names = [n for n, ci in fit["ci95"].items() if ci]
+    for i, n in enumerate(names):
+        value = fit["coefficients"][n]
+        scale = abs(value) if value else 1.0
+        lo, hi = fit["ci95"][n]
+        ax1.plot([lo / scale, hi / scale], [i, i], color="tab:blue", lw=4, alpha=0.6)
+        boot = fit.get("bootstrap_ci95", {}).get(n)
+        if boot:
+            ax1.plot([boot[0] / scale, boot[1] / scale], [i + 0.15, i + 0.15], color="tab:orange", lw=2)
+        ax1.plot([value / scale], [i], "ko")
+    ax1.set_yticks(range(len(names)), names)
+    ax1.set_xlabel("value / fitted value (blue: 95 %, orange: bootstrap)")
+    corr = fit["correlation"]
+    keys = list(corr)
+    matrix = np.array([[corr[a][b] if corr[a][b] is not None else np.nan for b in keys] for a in keys])
+    im = ax2.imshow(matrix, vmin=-1, vmax=1, cmap="coolwarm")
+    ax2.set_xticks(range(len(keys)), keys, rotation=30, ha="right", fontsize=7)
+    ax2.set_yticks(range(len(keys)), keys, fontsize=7)
+    fig.colorbar(im, ax=ax2, label="correlation")
+    fig.suptitle(f"{material}: coefficients and their correlation")
+    return fig

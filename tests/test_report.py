@@ -1,0 +1,114 @@
+"""`pen report`: every figure kind from the example workspace, HTML and PDF, the CI gate (issue 7)."""
+
+from __future__ import annotations
+
+import base64
+import re
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pencli import api
+from tests.conftest import REPO, invoke
+
+
+@pytest.fixture(scope="module")
+def example(tmp_path_factory) -> Path:
+    """A copy of the bundled example workspace (analysed: stages, two fits, a sweep)."""
+    root = tmp_path_factory.mktemp("example")
+    shutil.copy(REPO / "runs.duckdb.example", root / "runs.duckdb")
+    for folder in ("runs", "fits", "sweeps"):
+        shutil.copytree(REPO / folder, root / folder)
+    return root / "runs.duckdb"
+
+
+def _images(html: str) -> list[np.ndarray]:
+    from matplotlib.image import imread
+    import io
+
+    return [imread(io.BytesIO(base64.b64decode(b)), format="png")
+            for b in re.findall(r"base64,([A-Za-z0-9+/=]+)'", html)]
+
+
+def _not_blank(image: np.ndarray) -> bool:
+    return image.shape[0] > 200 and float(np.std(image[..., :3])) > 0.03
+
+
+def test_every_figure_kind_renders_from_the_example_workspace(example, tmp_path, runner):
+    kinds = {
+        "runs": (["gb-1.0-2", "mc-2.0-4"], 8),  # raw, measurements, model vs data, energy per term, per run
+        "material": (["--material", "mpacs_c"], 2 + 6),  # intervals + Fig. 16 + model vs data per run
+        "sweep": (["--sweep", "1"], 3),  # two heat maps with the boundary, the 4-D scatter
+        "diagnosis": (["mc-*", "--diagnose"], 1),
+    }
+    for name, (args, count) in kinds.items():
+        out = tmp_path / f"{name}.html"
+        r = invoke(runner, "report", *args, "--out", out, "--db", example)
+        assert r.exit_code == 0, r.output
+        images = _images(out.read_text())
+        assert len(images) >= count, (name, len(images))
+        assert all(_not_blank(i) for i in images), name
+        pdf = out.with_suffix(".pdf")
+        assert pdf.read_bytes().startswith(b"%PDF") and pdf.stat().st_size > 20_000
+
+
+def test_report_of_twelve_runs_in_under_30_s(example, tmp_path):
+    from pencli.report.build import write_report
+
+    started = time.perf_counter()
+    sections = api.report_runs(example, ["all"])
+    write_report("twelve runs", sections, tmp_path / "all.html")
+    elapsed = time.perf_counter() - started
+    assert len(sections) == 12
+    assert elapsed < 30, elapsed
+
+
+def test_all_writes_one_report_per_run_material_and_sweep(example, tmp_path, runner):
+    r = invoke(runner, "report", "--all", "--out", tmp_path / "reports", "--db", example, "--no-pdf")
+    assert r.exit_code == 0, r.output
+    assert len(list((tmp_path / "reports" / "runs").glob("*.html"))) == 12
+    assert len(list((tmp_path / "reports" / "materials").glob("*.html"))) == 2
+    assert (tmp_path / "reports" / "sweeps" / "sweep-1.html").is_file()
+
+
+def test_check_gate_names_every_breach_and_exits_1(example, tmp_path, runner):
+    ok = invoke(runner, "report", "gb-1.0-2", "--out", tmp_path / "a.html", "--db", example, "--no-pdf",
+                "--check", "nrmse<=0.5")
+    assert ok.exit_code == 0, ok.output
+    strict = invoke(runner, "report", "gb-1.0-2", "--out", tmp_path / "b.html", "--db", example, "--no-pdf",
+                    "--check", "nrmse<=0.0001", "--check", "r2>=0.5")
+    assert strict.exit_code == 1
+    breaches = [line for line in strict.stderr.splitlines() if line.startswith("check failed")]
+    assert len(breaches) == 12  # every run of both materials' latest fits breaks nrmse<=0.0001
+    assert all("nrmse" in line for line in breaches)
+    assert (tmp_path / "b.html").is_file()  # the report is still published
+    bad = invoke(runner, "report", "gb-1.0-2", "--out", tmp_path / "c.html", "--db", example, "--check", "nrmse<0.1")
+    assert bad.exit_code == 1 and "METRIC<=VALUE" in bad.stderr and not (tmp_path / "c.html").exists()
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
+def test_html_renders_headless_with_every_image_loaded(example, tmp_path, runner):
+    out = tmp_path / "r.html"
+    assert invoke(runner, "report", "gb-1.0-2", "--out", out, "--db", example, "--no-pdf").exit_code == 0
+    probe = tmp_path / "probe.html"
+    probe.write_text(out.read_text().replace("</body>", """<script>
+window.addEventListener('load', () => {
+  const imgs = Array.from(document.images);
+  const ok = imgs.filter(i => i.complete && i.naturalWidth > 0).length;
+  document.body.setAttribute('data-images', imgs.length + '/' + ok);
+});</script></body>"""))
+    dom = subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                          "--disable-component-update", "--disable-sync", "--no-first-run",
+                          f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000", "--dump-dom",
+                          probe.as_uri()], capture_output=True, text=True, timeout=120).stdout
+    match = re.search(r'data-images="(\d+)/(\d+)"', dom)
+    assert match, dom[:500]
+    total, loaded = int(match.group(1)), int(match.group(2))
+    assert total >= 4 and loaded == total
