@@ -31,6 +31,17 @@ def db_path(db: Path | None) -> Path:
     return Path(env) if env else Path("runs.duckdb")
 
 
+def number_pair(text: str | None, separator: str, form: str, option: str) -> tuple[float, float] | None:
+    """Parse an option like ``12.5,30`` or ``0.1:2`` into two floats (usage error otherwise)."""
+    if text is None:
+        return None
+    try:
+        first, second = (float(v) for v in text.split(separator))
+    except ValueError:
+        raise typer.BadParameter(f"'{text}' is not {form}", param_hint=option) from None
+    return first, second
+
+
 def fail(message: str, code: int = 1) -> typer.Exit:
     """Print one red line on stderr; return the Exit to raise."""
     err_console.print(f"[red]error:[/red] {escape(message)}", highlight=False, soft_wrap=True)

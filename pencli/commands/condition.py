@@ -9,7 +9,7 @@ import typer
 from rich.markup import escape
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, print_json
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, number_pair, print_json
 from pencli.filter.derivatives import DEFAULT_METHOD, METHODS
 
 app = PenTyper()
@@ -32,16 +32,6 @@ def _report(outcomes: list[api.StageOutcome], json_out: bool, describe) -> None:
         raise typer.Exit(1)
 
 
-def _window(text: Optional[str]) -> Optional[tuple[float, float]]:
-    if text is None:
-        return None
-    try:
-        start, end = (float(v) for v in text.split(","))
-    except ValueError:
-        raise typer.BadParameter(f"'{text}' is not START_MS,END_MS", param_hint="--window") from None
-    return start, end
-
-
 @app.command("tare")
 def tare(
     runs: List[str] = typer.Argument(..., help="Run ids or run folders (runs/*), or 'all'."),
@@ -59,7 +49,7 @@ def tare(
     and the analysis window.
     Example: pen tare runs/* --json
     """
-    outcomes = api.tare_runs(db_path(db), runs, window_ms=_window(window))
+    outcomes = api.tare_runs(db_path(db), runs, window_ms=number_pair(window, ",", "START_MS,END_MS", "--window"))
     _report(outcomes, json_out, lambda o: (f"contact {o.details['contact_s'] * 1e3:.3f} ms at "
                                            f"{o.details['contact_speed_m_s']:.3f} m/s, {o.details['end'].replace('_', ' ')}"
                                            f" at {o.details['stop_s'] * 1e3:.3f} ms, depth "

@@ -11,19 +11,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, print_json
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, number_pair, print_json
 
 app = PenTyper()
-
-
-def _range(text: Optional[str]) -> Optional[tuple[float, float]]:
-    if text is None:
-        return None
-    try:
-        lo, hi = (float(v) for v in text.split(":"))
-    except ValueError:
-        raise typer.BadParameter(f"'{text}' is not LO:HI", param_hint="--range") from None
-    return lo, hi
 
 
 @app.command("sweep")
@@ -88,8 +78,8 @@ def sweep(
         console.print(table)
         return
     if solve is not None:
-        answer = api.solve(penetrator, material, energizing, target=solve, until=until, search=_range(search),
-                           overrides=set_ or ())
+        answer = api.solve(penetrator, material, energizing, target=solve, until=until,
+                           search=number_pair(search, ":", "LO:HI", "--range"), overrides=set_ or ())
         if json_out:
             print_json(answer.__dict__)
             return
