@@ -34,7 +34,6 @@ def shot(material, blade, springs, seed):
     rig.fire()
     motion = rig.motion
     pad = 6000  # 0.2 s of rest before the release and after the stop, as a recording keeps
-    n = motion.time_s.size
     u_true = np.concatenate([np.zeros(pad), motion.displacement_m, np.full(pad, motion.displacement_m[-1])])
     t = (np.arange(u_true.size) - pad) / 30000.0
     counts = np.round(u_true * 1e3 * 6.25)

@@ -26,7 +26,7 @@ from pencli.model.design import Design, design_from_sets
 from pencli.model.dynamics import simulate
 from pencli.params.load import load_preset
 from pencli.predict.batch import simulate_batch
-from pencli.predict.sweep import SPEED, sample, si_designs
+from pencli.predict.sweep import SPEED, si_designs
 
 VARY = ["blade_width_mm=+50%,-50%", "blade_thickness_mm=+50%,-50%", "spring_stiffness_kn_m=+50%,-50%",
         "friction_coefficient=+50%,-50%"]

@@ -438,7 +438,6 @@ def expand_run_refs(ws, refs: Sequence[str]) -> list[str]:
 def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, float] | None = None
               ) -> list[StageOutcome]:
     """``pen tare``: offsets from the pre-trigger span, depth from the stand-off, events; a new stage."""
-    import numpy as np
     import pyarrow as pa
 
     from pencli.filter.tare import tare
@@ -462,7 +461,6 @@ def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, fl
 def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | None = None,
                           use_flight_mass: bool = False) -> list[StageOutcome]:
     """``pen subtract-inertia``: v and a from the encoder, R = F − m_lc·a; a new stage."""
-    import numpy as np
     import pyarrow as pa
 
     from pencli.filter.derivatives import DEFAULT_METHOD
@@ -663,7 +661,6 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
 # ---------------------------------------------------------------------------- diagnosis
 def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
     """Each run's inertia stage as a :class:`~pencli.diagnose.effects.DiagnosisRun`."""
-    import numpy as np
 
     from pencli.diagnose.effects import DiagnosisRun
 
@@ -717,7 +714,6 @@ class SweepOutcome:
 def evaluate_columns(base: dict, columns: dict, *, engine: str = "local", scheduler: str | None = None,
                      workers: int = 2, progress: Callable[[int, int], None] | None = None):
     """Yield (chunk columns, results) in order; local processes or a dask cluster do the work."""
-    import numpy as np
 
     n = len(next(iter(columns.values())))
     starts = list(range(0, n, CHUNK))
@@ -772,7 +768,6 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     """``pen sweep``: the CONTRACT §5 figures over a grid or a sample of designs, streamed to Parquet."""
     import time as _time
 
-    import numpy as np
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -863,7 +858,6 @@ def sensitivity(penetrator: str = "appendix_c", material: str = "grill_brick", e
                 steps: Sequence[float] = (-0.5, -0.2, 0.2, 0.5), keys: Sequence[str] | None = None,
                 overrides: Sequence[str] = ()) -> list[SensitivityRow]:
     """The paper's Appendix C study: each design variable moved alone; blank where full depth is not reached."""
-    import numpy as np
 
     from pencli.params.definitions import BY_KEY
     from pencli.predict.batch import simulate_batch
@@ -909,7 +903,6 @@ def solve(penetrator: str, material: str, energizing: str, *, target: str, until
     100 mm (``min:spring_stiffness_kn_m --until depth_mm>=100``), the thickest blade under 2 kN
     (``max:blade_thickness_mm --until peak_n<=2000``). Assumes the condition flips once over the range.
     """
-    import numpy as np
 
     from pencli.params.definitions import BY_KEY
     from pencli.predict.batch import simulate_batch
@@ -960,9 +953,10 @@ def _flat(mapping: Mapping[str, Any]) -> list[list[Any]]:
     return rows
 
 
-def _latest_fit_with(ws, run_id: str) -> dict | None:
-    versions = [v for v in ws.material_versions() if run_id in (v["source_runs"] or [])]
-    return versions[-1] if versions else None
+def _latest_fit_with(versions: Sequence[dict], run_id: str) -> dict | None:
+    """The newest fitted material version (of ``versions``, oldest first) that used ``run_id``."""
+    used = [v for v in versions if run_id in (v["source_runs"] or [])]
+    return used[-1] if used else None
 
 
 def report_runs(db: str | Path, refs: Sequence[str]) -> list:
@@ -977,6 +971,7 @@ def report_runs(db: str | Path, refs: Sequence[str]) -> list:
     from pencli.store.workspace import raw_columns_of
 
     ws = workspace(db)
+    versions = ws.material_versions()
     sections = []
     for ref in expand_run_refs(ws, refs):
         run_id = ws.resolve(ref)
@@ -1002,7 +997,7 @@ def report_runs(db: str | Path, refs: Sequence[str]) -> list:
             table, _ = ws.read_stage(run_id, inertia[-1].stage_no)
             section.add_figure(figures.kinematics_panels(
                 run_id, {c: table.column(c).to_numpy() for c in table.column_names}, events))
-        fit = _latest_fit_with(ws, run_id)
+        fit = _latest_fit_with(versions, run_id)
         if fit is not None and fit["model_data_path"]:
             data = pq.read_table(ws.db_path.parent / fit["model_data_path"],
                                  filters=[("run_id", "=", run_id)]).to_pydict()
@@ -1115,6 +1110,28 @@ def report_diagnosis(db: str | Path, refs: Sequence[str]) -> tuple[list, Any]:
                             for w in result.where]))
     section.add_figure(diagnosis_figure(result))
     return [section], result
+
+
+def report_all(db: str | Path, out: str | Path, *, pdf: bool = True,
+               progress: Callable[[str, int, int], None] | None = None) -> list[Path]:
+    """``pen report --all``: one report per run, fitted material version and sweep under ``out``."""
+    from pencli.report.build import write_report
+
+    ws = workspace(db)
+    out = Path(out)
+    jobs = [(f"run {r}", out / "runs" / f"{r}.html", lambda r=r: report_runs(db, [r])) for r in ws.run_ids()]
+    jobs += [(f"material {v['material']} v{v['version']}", out / "materials" / f"{v['material']}-v{v['version']}.html",
+              lambda v=v: report_material(db, v["material"], v["version"])) for v in ws.material_versions()]
+    jobs += [(f"sweep {i}", out / "sweeps" / f"sweep-{i}.html", lambda i=i: report_sweep(db, i))
+             for i in ws.sweep_ids()]
+    written: list[Path] = []
+    for k, (title, path, make) in enumerate(jobs):
+        if progress is not None:
+            progress(title, k, len(jobs))
+        written += write_report(f"pen report: {title}", make(), path, pdf=pdf)
+    if progress is not None:
+        progress("done", len(jobs), len(jobs))
+    return written
 
 
 @dataclass(frozen=True)

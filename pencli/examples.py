@@ -83,16 +83,7 @@ def build_report(db: Path, out: Path, pdf: bool = False) -> list[Path]:
     """The whole workspace's reports (what `pen report --all` writes) plus a diagnosis of each material."""
     from pencli.report.build import write_report
 
-    written = []
-    for run_id in api.workspace(db).run_ids():
-        written += write_report(f"pen report: run {run_id}", api.report_runs(db, [run_id]),
-                                out / "runs" / f"{run_id}.html", pdf=pdf)
-    for version in api.workspace(db).material_versions():
-        name = f"{version['material']}-v{version['version']}"
-        written += write_report(f"pen report: material {name}", api.report_material(db, version["material"],
-                                                                                      version["version"]),
-                                out / "materials" / f"{name}.html", pdf=pdf)
-    written += write_report("pen report: sweep 1", api.report_sweep(db, 1), out / "sweeps" / "sweep-1.html", pdf=pdf)
+    written = api.report_all(db, out, pdf=pdf)
     for pattern in ("gb-*", "mc-*"):
         sections, _ = api.report_diagnosis(db, [pattern])
         written += write_report(f"pen report: diagnosis {pattern}", sections,

@@ -47,22 +47,11 @@ def report(
     written: list[Path] = []
     diagnosis = None
     if all_:
-        jobs = [(f"run {r}", out / "runs" / f"{r}.html", lambda r=r: api.report_runs(catalog, [r]))
-                for r in api.workspace(catalog).run_ids()]
-        jobs += [(f"material {v['material']} v{v['version']}", out / "materials" / f"{v['material']}-v{v['version']}.html",
-                  lambda v=v: api.report_material(catalog, v["material"], v["version"]))
-                 for v in api.workspace(catalog).material_versions()]
-        names, rows = api.query(catalog, "SELECT sweep_id FROM sweeps ORDER BY sweep_id") if _has_sweeps(catalog) \
-            else ([], [])
-        jobs += [(f"sweep {row[0]}", out / "sweeps" / f"sweep-{row[0]}.html",
-                  lambda i=row[0]: api.report_sweep(catalog, i)) for row in rows]
         with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                       console=err_console, transient=True, disable=json_out) as bar:
-            task = bar.add_task("reports", total=len(jobs))
-            for title, path, make in jobs:
-                bar.update(task, description=title)
-                written += write_report(f"pen report: {title}", make(), path, pdf=pdf)
-                bar.advance(task)
+            task = bar.add_task("reports", total=None)
+            written += api.report_all(catalog, out, pdf=pdf, progress=lambda title, done, total: bar.update(
+                task, description=title, completed=done, total=total))
     else:
         if out.suffix.lower() != ".html":
             raise typer.BadParameter(f"'{out}' must end in .html (or use --all with a folder)", param_hint="--out")
@@ -91,10 +80,3 @@ def report(
     if failures:
         raise fail(f"{len(failures)} check(s) failed")
 
-
-def _has_sweeps(catalog: Path) -> bool:
-    try:
-        api.query(catalog, "SELECT 1 FROM sweeps LIMIT 1")
-    except Exception:  # a catalog from before the sweeps migration
-        return False
-    return True

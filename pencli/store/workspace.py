@@ -486,6 +486,14 @@ class Workspace:
                     str(final.relative_to(self.db_path.parent)), command, __version__])
         return sweep_id, final
 
+    def sweep_ids(self) -> list[int]:
+        """Ids of the indexed sweeps (none on a catalog from before migration 3)."""
+        with self.connect() as con:
+            try:
+                return [r[0] for r in con.execute("SELECT sweep_id FROM sweeps ORDER BY sweep_id").fetchall()]
+            except duckdb.CatalogException:
+                return []
+
     def compact(self) -> None:
         """Rewrite the catalog into a fresh file, dropping free blocks (atomic)."""
         tmp = self.db_path.with_name(f".{self.db_path.name}.compact-{os.getpid()}")
