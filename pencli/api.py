@@ -493,6 +493,7 @@ def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | 
                             f"load_cell_mass_kg)")
         record = ws.add_stage(run_id, "inertia", out, parent_no=parent.stage_no, command="pen subtract-inertia",
                               parameters={"method": chosen, "load_cell_mass_kg": kin.mass_used_kg,
+                                          "encoder_step_m": kin.encoder_step_m,
                                           "mass_from": "flight" if use_flight_mass else "file",
                                           "mass_estimate": estimate, "events": events.to_dict()})
         return StageOutcome(run_id, "done", run_id, record.stage_no, details={"mass_estimate": estimate},
@@ -668,21 +669,30 @@ def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
     names = ("time_s", "depth_m", "velocity_m_s", "acceleration_m_s2", "force_n", "resistance_n")
     for c in _conditioned_runs(db, refs, names):
         col, events = c.columns, c.events
-        pre = col["time_s"] < -5e-3
+        pre = col["time_s"] < min(events.motion_start_s, 0.0) - 5e-3
         noise = float(np.std(col["resistance_n"][pre])) if pre.sum() > 10 else 1.0
+        params = c.stage.parameters
         out.append(DiagnosisRun(c.run_id, design_from_sets(*c.sets), col["time_s"], col["depth_m"], col["velocity_m_s"],
                                 col["acceleration_m_s2"], col["force_n"], col["resistance_n"], events.motion_start_s,
                                 events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
-                                events.end, events.contact_speed_m_s, float(c.stage.parameters["load_cell_mass_kg"]),
-                                noise))
+                                events.end, events.contact_speed_m_s, float(params["load_cell_mass_kg"]), noise,
+                                float(params.get("encoder_step_m", 0.16e-3)), str(params.get("method", "spline"))))
     return out
 
 
-def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | None = None):
-    """``pen diagnose``: where the model and the runs part, which effect, how far it closes."""
-    from pencli.diagnose.engine import diagnose as run_diagnosis
+def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | None = None,
+             false_alarm: float | None = None, bootstrap: int | None = None, seed: int = 0,
+             progress: Callable[[str, float], None] | None = None):
+    """``pen diagnose``: where the model and the runs part, which effect, how far it closes.
 
-    return run_diagnosis(load_diagnosis_runs(db, refs), effects=effects)
+    ``false_alarm`` and ``bootstrap`` default to the engine's (1 %, 60 replicates).
+    """
+    from pencli.diagnose import engine
+
+    return engine.diagnose(load_diagnosis_runs(db, refs), effects=effects,
+                           false_alarm=engine.FALSE_ALARM if false_alarm is None else false_alarm,
+                           bootstrap=engine.BOOTSTRAP if bootstrap is None else bootstrap, seed=seed,
+                           progress=progress)
 
 
 # ---------------------------------------------------------------------------- sweeps

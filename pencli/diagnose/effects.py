@@ -1,30 +1,39 @@
-r"""The effect catalogue of CONTRACT §4: each unmodelled effect as a registered model extension.
+r"""The effect catalogue of CONTRACT §4: each unmodelled effect as a *family* of model extensions.
 
 An effect is an extra term of the resistance-mode model (measured x, v and
-a drive Eq. 9; the load cell reads R plus what the force chain adds), with
-named, bounded parameters.  Parameters that enter linearly are fitted with
-the baseline coefficients; the others (a layer's depth, a lag time, a ring
-frequency) are searched on a small grid, using training runs only.
+a drive Eq. 9; the load cell reads R plus what the force chain adds).  A
+family is wide enough to cover the effect's physical meaning, not one curve:
+a strength layer is any step (sharp or with a soft edge) or plateau in depth;
+velocity friction is any of several speed laws; sensor lag is a first-order,
+second-order or pure-delay channel; ringing is one or two decaying modes.
+Each family is a list of :class:`Member` shapes.  A member's nonlinear
+parameters (a depth, an exponent, a time constant) are fixed; its linear
+coefficients are fitted with the baseline's.  The engine chooses the member
+on training runs only.
 
-Each entry's ``doc`` gives its physics and its residual signature: what the
-baseline's misfit looks like when this effect is present and left out.
+Law effects are written once as (Eq. 9 term × dimensionless profile); the
+same definition gives the fitting columns and the extra force of the
+dynamic model (:meth:`Member.force`).  Chain effects change what the load
+cell reports and have no force.
 
-Adding an effect is one new :class:`Effect` in :data:`EFFECTS`.  All columns
-are in newtons per unit of the effect's linear coefficient.
+Adding an effect is one new :class:`Effect` in :data:`EFFECTS`.  Columns are
+in newtons per unit of the member's linear coefficient; the number of
+coefficients is the number of columns (no second table).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
-from scipy.signal import lfilter
 
 from pencli.model.design import Design
+from pencli.model.resistance import damping_term, friction_term, inertia_term, strength_term
 
 # ----------------------------------------------------------------------------- run data
+
 
 @dataclass(frozen=True)
 class DiagnosisRun:
@@ -50,6 +59,9 @@ class DiagnosisRun:
     load_cell_mass_kg: float
     noise_n: float
     """Standard deviation of the resistance over the pre-trigger span (sensor noise). [N]"""
+    encoder_step_m: float = 0.16e-3
+    """Position quantum the derivatives were smoothed for (from the record). [m]"""
+    derivative_method: str = "spline"
 
     @property
     def rate_hz(self) -> float:
@@ -69,6 +81,11 @@ class DiagnosisRun:
         """From just before the release to the window end: where filters run."""
         return (self.time_s >= min(self.motion_start_s, 0.0) - 5e-3) & (self.time_s <= self.window_end_s)
 
+    @property
+    def pre_trigger(self) -> np.ndarray:
+        """At rest before the release, clear of it by 5 ms: where the sensor noise is read."""
+        return self.time_s < min(self.motion_start_s, 0.0) - 5e-3
+
 
 @dataclass(frozen=True)
 class Basis:
@@ -82,6 +99,8 @@ class Basis:
     v: np.ndarray
     a: np.ndarray
     t: np.ndarray
+    inside: np.ndarray
+    blade_thickness_m: float
     frontal: np.ndarray | None = None
     """The baseline's frontal force (Cs·strength + C·damping + K·inertia) on this run, once fitted. [N]"""
 
@@ -89,193 +108,401 @@ class Basis:
         return np.column_stack([self.strength, self.friction, self.damping, self.inertia])
 
 
+def unit_terms(design: Design, x, v) -> tuple:
+    """The four Eq. 9 terms at unit coefficient in file units (Cs = 1, P = 1 kPa, C = 1 kPa·s/m, K = 1). [N]
+
+    ``x`` [m] and ``v`` [m/s] are arrays or floats; the caller zeroes them outside the material.
+    """
+    d = design
+    w, T = d.blade_width_m, d.blade_thickness_m
+    return (strength_term(x, w, T, d.tip_angle_rad, d.strength_pa, 1.0, d.friction_coefficient),
+            friction_term(x, w, d.friction_coefficient, 1e3),
+            damping_term(x, v, w, T, 1e3),
+            inertia_term(x, v, w, T, 1.0, d.density_kg_m3))
+
+
 def basis_of(run: DiagnosisRun) -> Basis:
     """The four Eq. 9 columns on the run's context span; zero above the surface."""
     c = run.context
-    d = run.design
     x, v = run.depth_m[c], np.maximum(run.velocity_m_s[c], 0.0)
     inside = (x > 0) & (run.time_s[c] >= run.contact_s)
-    w, T = d.blade_width_m, d.blade_thickness_m
-    s = w * T * d.strength_pa * (math.sin(d.tip_angle_rad) + d.friction_coefficient * math.cos(d.tip_angle_rad))
-    return Basis(np.where(inside, s, 0.0),  # Eq. 9 strength, per unit Cs
-                 np.where(inside, 2 * d.friction_coefficient * 1e3 * w * x, 0.0),  # Eq. 9 friction, per kPa of P
-                 np.where(inside, w * T * 1e3 * v, 0.0),  # Eq. 9 damping, per kPa·s/m
-                 np.where(inside, w * T * d.density_kg_m3 * v * v, 0.0),  # Eq. 9 inertia, per unit K
-                 x, v, run.acceleration_m_s2[c], run.time_s[c])
+    xs = np.where(inside, x, 0.0)
+    vs = np.where(inside, v, 0.0)
+    terms = [np.where(inside, np.broadcast_to(term, x.shape), 0.0) for term in unit_terms(run.design, xs, vs)]
+    return Basis(*terms, x, v, run.acceleration_m_s2[c], run.time_s[c], inside, run.design.blade_thickness_m)
 
 
-# ----------------------------------------------------------------------------- the catalogue
-Columns = tuple[np.ndarray | None, np.ndarray, np.ndarray]
-"""(transformed basis matrix or None, extra columns (n, k), offset to subtract from the data (n,))."""
+# ----------------------------------------------------------------------------- members and families
+@dataclass(frozen=True)
+class Columns:
+    """How a member enters the linear model on one run's context span."""
+
+    extra: np.ndarray
+    """Extra columns (n, k), N per unit coefficient."""
+    base: np.ndarray | None = None
+    """Replacement for the four Eq. 9 columns (n, 4) (a force-chain filter acts on them), or None."""
+    offset: np.ndarray | None = None
+    """Known force to subtract from the measured resistance (n,), or None. [N]"""
+
+
+Profile = Callable[[np.ndarray, np.ndarray], np.ndarray]
+"""Dimensionless multiplier of an Eq. 9 term as a function of depth x [m] and speed v [m/s]."""
+
+
+@dataclass(frozen=True)
+class Member:
+    """One shape of a family: fixed nonlinear parameters, linear coefficients to fit.
+
+    Law members are ``term`` × each of ``profiles`` (one coefficient each);
+    chain members give their columns through ``chain``.
+    """
+
+    params: Mapping[str, float | str]
+    term: str | None = None
+    """``strength`` (per unit Cs), ``friction`` (per kPa of P) or ``frontal_per_thickness`` (the baseline's
+    frontal force per metre of blade thickness: what a metre of extra frontal width adds)."""
+    profiles: tuple[Profile, ...] = ()
+    chain: Callable[[DiagnosisRun, Basis], Columns] | None = None
+
+    @property
+    def n_coefficients(self) -> int:
+        return len(self.profiles) if self.chain is None else -1
+
+    def columns(self, run: DiagnosisRun, basis: Basis) -> Columns:
+        if self.chain is not None:
+            return self.chain(run, basis)
+        carrier = _carrier(self.term, basis)
+        x = np.where(basis.inside, basis.x, 0.0)
+        v = np.where(basis.inside, basis.v, 0.0)
+        return Columns(np.column_stack([carrier * np.broadcast_to(p(x, v), x.shape) for p in self.profiles]))
+
+    def force(self, coefficients: Sequence[float], design: Design, values: Mapping[str, float]
+              ) -> Callable[[float, float], float] | None:
+        """Extra resistance f(x [m], v [m/s]) → N of this member in the dynamic model (law members only).
+
+        ``values`` are the baseline's fitted coefficients in file units (CONTRACT §1 names).
+        """
+        if self.chain is not None:
+            return None
+        coefs = [float(c) for c in coefficients]
+        term, profiles = self.term, self.profiles
+
+        def extra(x: float, v: float) -> float:
+            x, v = max(x, 0.0), max(v, 0.0)
+            strength, friction, damping, inertia = unit_terms(design, x, v)
+            if term == "strength":
+                carrier = strength
+            elif term == "friction":
+                carrier = friction
+            else:
+                carrier = (values["strength_factor"] * strength + values["damping_kpa_s_m"] * damping
+                           + values["inertia_coefficient"] * inertia) / design.blade_thickness_m
+            return float(carrier * sum(c * float(p(np.float64(x), np.float64(v))) for c, p in zip(coefs, profiles)))
+
+        return extra
+
+
+def _carrier(term: str | None, b: Basis) -> np.ndarray:
+    if term == "strength":
+        return b.strength
+    if term == "friction":
+        return b.friction
+    if term == "frontal_per_thickness":
+        return (b.frontal if b.frontal is not None else b.strength) / b.blade_thickness_m
+    raise ValueError(f"unknown carrier term {term!r}")
 
 
 @dataclass(frozen=True)
 class Effect:
-    """A registered model extension.
+    """A registered catalogue effect: a family of members and how to name its fitted parameters.
 
-    ``build(run, basis, params)`` returns :data:`Columns` on the run's context
-    span.  ``describe(coefficients, params, baseline)`` turns the fitted linear
-    coefficients into the effect's named physical parameters (``baseline``:
-    the baseline fit's mean strength factor ``cs_mean``, sidewall pressure
-    ``p_kpa`` and ``load_cell_mass_kg``).  ``extra(coefficients, params, run)``
-    (law effects only) gives the extra resistance f(x [m], v [m/s]) → N for
-    the dynamic model.
+    ``describe(member, coefficients, context)`` turns a member's fitted
+    coefficients into named physical parameters (``context``: the baseline's
+    mean strength factor ``cs_mean``, sidewall pressure ``p_kpa`` and
+    ``load_cell_mass_kg``).
     """
 
     name: str
     side: str
     """``law`` (resistance law), ``chain`` (force measurement) or ``drive`` (launcher)."""
+    axis: str
+    """What the misfit organises along: depth, speed, time, acceleration, contact or flight."""
     doc: str
-    grid: Sequence[Mapping[str, float]]
-    build: Callable[[DiagnosisRun, Basis, Mapping[str, float]], Columns] | None
-    describe: Callable[[np.ndarray, Mapping[str, float], Mapping[str, float]], dict]
-    extra: Callable[[np.ndarray, Mapping[str, float], DiagnosisRun],
-                    Callable[[float, float], float]] | None = None
+    members: tuple[Member, ...]
+    describe: Callable[[Member, np.ndarray, Mapping[str, float]], dict]
 
 
-def _no_offset(basis: Basis) -> np.ndarray:
-    return np.zeros(basis.t.size)
+def law(term: str, *profiles: Profile, **params) -> Member:
+    return Member(params, term, tuple(profiles))
 
 
-def _layer(run, b, p):
-    step = (b.x >= p["depth_mm"] * 1e-3).astype(float)
-    return None, (b.strength * step)[:, None], _no_offset(b)
+def _sigmoid(z):
+    return 0.5 * (1.0 + np.tanh(z))
 
 
-def _gradient(run, b, p):
-    # S·(1 + g1·x + g2·x²): a smooth profile, not only a straight line (which the sidewall term would absorb)
-    return None, np.column_stack([b.strength * b.x, b.strength * b.x * b.x]), _no_offset(b)
+def _step(depth_m: float, edge_m: float) -> Profile:
+    return lambda x, v: _sigmoid((x - depth_m) / edge_m)
 
 
-def _plug(run, b, p):
-    # every frontal term scales with the frontal thickness T + g·L·(1 − exp(−x/L)):
-    # one column, the baseline's frontal force × L·(1 − exp(−x/L))/T
-    frontal = b.frontal if b.frontal is not None else b.strength
-    length = p["length_mm"] * 1e-3
-    widening = length * -np.expm1(-np.maximum(b.x, 0.0) / length)
-    return None, (frontal * widening / run.design.blade_thickness_m)[:, None], _no_offset(b)
+# depth grid of layer edges: every 5 mm (the truth's depth need not be on it: edge widths bridge the grid)
+_LAYER_DEPTHS_MM = tuple(float(d) for d in np.arange(5.0, 141.0, 5.0))
+_LAYER_EDGES_MM = (1.0, 4.0, 12.0)
 
 
-def _pressure_growth(run, b, p):
-    # P(x) = P·(1 + β x): friction = 2 μ w ∫P = 2 μ w P (x + β x²/2): extra column friction·x/2 (coefficient P·β)
-    return None, (b.friction * b.x / 2)[:, None], _no_offset(b)
+def _layer_members() -> tuple[Member, ...]:
+    out = [law("strength", _step(d * 1e-3, e * 1e-3), depth_mm=d, edge_mm=e, shape="step")
+           for e in _LAYER_EDGES_MM for d in _LAYER_DEPTHS_MM]
+    out += [law("strength", _step(d1 * 1e-3, e * 1e-3), _step(d2 * 1e-3, e * 1e-3), depth_mm=d1, bottom_mm=d2,
+                edge_mm=e, shape="plateau")
+            for e in _LAYER_EDGES_MM for i, d1 in enumerate(_LAYER_DEPTHS_MM) for d2 in _LAYER_DEPTHS_MM[i + 2:]]
+    return tuple(out)
 
 
-def _velocity_friction(run, b, p):
-    return None, (b.friction * b.v)[:, None], _no_offset(b)
+def _describe_layer(m: Member, c, ctx) -> dict:
+    out = {"depth_mm": m.params["depth_mm"], "ratio": 1.0 + float(c[0]) / ctx["cs_mean"],
+           "edge_mm": m.params["edge_mm"], "shape": m.params["shape"]}
+    if m.params["shape"] == "plateau":
+        out["bottom_mm"] = m.params["bottom_mm"]
+        out["ratio_below"] = 1.0 + (float(c[0]) + float(c[1])) / ctx["cs_mean"]
+    return out
 
 
-def _rate_strength(run, b, p):
-    return None, (b.strength * np.log1p(b.v / p["speed_m_s"]))[:, None], _no_offset(b)
+_LENGTHS_MM = (5.0, 10.0, 20.0, 40.0, 80.0, 160.0)
 
 
-def _mass_error(run, b, p):
-    return None, b.a[:, None], _no_offset(b)
+def _gradient_members() -> tuple[Member, ...]:
+    out = [law("strength", (lambda x, v, p=p: (x / 0.1) ** p), exponent=p, shape="power")
+           for p in (0.5, 1.0, 1.5, 2.0, 3.0)]
+    out.append(law("strength", lambda x, v: x / 0.1, lambda x, v: (x / 0.1) ** 2, shape="quadratic"))
+    out += [law("strength", (lambda x, v, L=L * 1e-3: -np.expm1(-x / L)), length_mm=L, shape="saturating")
+            for L in _LENGTHS_MM[2:]]
+    out += [law("strength", (lambda x, v, L=L * 1e-3: np.expm1(x / L)), length_mm=L, shape="exponential")
+            for L in _LENGTHS_MM[3:]]
+    return tuple(out)
 
 
-def _lag(run, b, p):
-    # F_meas = lag(R + m a); R_meas = F_meas − m a = lag(R) + (lag(m a) − m a)
-    alpha = math.exp(-1.0 / (p["tau_ms"] * 1e-3 * run.rate_hz))
+def _describe_gradient(m: Member, c, ctx) -> dict:
+    change = sum(float(k) * float(p(np.float64(0.1), np.float64(0.0))) for k, p in zip(c, m.profiles))
+    return {"change_per_100mm": change / ctx["cs_mean"], **{k: v for k, v in m.params.items()}}
 
-    def lag(signal):
-        return lfilter([1 - alpha], [1, -alpha], signal, axis=0)
 
+def _plug_members() -> tuple[Member, ...]:
+    # a plug adds a width g·h(x) to every blade, whatever its thickness: T_eff = T + g·h(x), so every frontal
+    # term gains frontal × g·h(x)/T; h is dimensionless (1 at saturation), g in metres
+    plug = "frontal_per_thickness"
+    out = [law(plug, (lambda x, v, L=L * 1e-3: -np.expm1(-x / L)), length_mm=L, shape="exponential")
+           for L in _LENGTHS_MM]
+    out += [law(plug, (lambda x, v, L=L * 1e-3: (x / L) / (1.0 + x / L)), length_mm=L, shape="hyperbolic")
+            for L in _LENGTHS_MM]
+    out.append(law(plug, lambda x, v: x / 0.1, shape="linear"))
+    return tuple(out)
+
+
+def _describe_plug(m: Member, c, ctx) -> dict:
+    reach = float(m.profiles[0](np.float64(0.1), np.float64(0.0)))
+    return {"growth_mm_at_100mm": float(c[0]) * reach * 1e3, "growth_mm": float(c[0]) * 1e3, **dict(m.params)}
+
+
+def _pressure_members() -> tuple[Member, ...]:
+    # P(x) = P (1 + f(x)); friction = 2 μ w ∫P dz; column friction × (∫f)/x (friction carries x)
+    out = [law("friction", (lambda x, v, n=n: (x / 0.1) ** n / (n + 1.0)), exponent=n, shape="power")
+           for n in (0.5, 1.0, 1.5, 2.0, 3.0)]
+    out += [law("friction", (lambda x, v, L=L * 1e-3: 1.0 - L * -np.expm1(-x / L) / np.maximum(x, 1e-12)),
+                length_mm=L, shape="saturating") for L in _LENGTHS_MM[1:]]
+    return tuple(out)
+
+
+def _describe_pressure(m: Member, c, ctx) -> dict:
+    return {"rise_at_100mm": float(c[0]) * (m.params.get("exponent", 0.0) + 1.0 if m.params["shape"] == "power"
+                                            else 1.0) / ctx["p_kpa"], **dict(m.params)}
+
+
+_SPEEDS = (0.5, 1.0, 2.0, 4.0, 8.0)
+
+
+def _speed_laws(term: str) -> tuple[Member, ...]:
+    out = [law(term, (lambda x, v, q=q: v ** q), exponent=q, shape="power") for q in (0.5, 1.0, 1.5, 2.0)]
+    out += [law(term, (lambda x, v, s=s: -np.expm1(-v / s)), speed_m_s=s, shape="saturating") for s in _SPEEDS]
+    out += [law(term, (lambda x, v, s=s: np.log1p(v / s)), speed_m_s=s, shape="logarithmic") for s in _SPEEDS]
+    return tuple(out)
+
+
+def _describe_speed(reference: str) -> Callable[[Member, np.ndarray, Mapping[str, float]], dict]:
+    def describe(m: Member, c, ctx) -> dict:
+        at_5 = float(c[0]) * float(m.profiles[0](np.float64(0.0), np.float64(5.0))) / ctx[reference]
+        return {"change_at_5_m_s": at_5, **dict(m.params)}
+
+    return describe
+
+
+# ---- chain members
+def _mass(run: DiagnosisRun, b: Basis) -> Columns:
+    return Columns(b.a[:, None])
+
+
+def _filtered(run: DiagnosisRun, b: Basis, filt: Callable[[np.ndarray], np.ndarray]) -> Columns:
+    """F_meas = H(R + m a); R_meas = F_meas − m a = H(R) + (H(m a) − m a)."""
     inertia_force = run.load_cell_mass_kg * b.a
-    return lag(b.matrix()), np.zeros((b.t.size, 0)), -(lag(inertia_force) - inertia_force)
+    return Columns(np.zeros((b.t.size, 0)), base=filt(b.matrix()), offset=-(filt(inertia_force) - inertia_force))
 
 
-def _ringing(run, b, p):
+def _poles(tau_ms: float, order: int) -> Callable[[DiagnosisRun, Basis], Columns]:
+    def build(run: DiagnosisRun, b: Basis) -> Columns:
+        from scipy.signal import lfilter
+
+        alpha = math.exp(-1.0 / (tau_ms * 1e-3 * run.rate_hz))
+
+        def filt(signal):
+            for _ in range(order):
+                signal = lfilter([1 - alpha], [1, -alpha], signal, axis=0)
+            return signal
+
+        return _filtered(run, b, filt)
+
+    return build
+
+
+def _delay(delay_ms: float) -> Callable[[DiagnosisRun, Basis], Columns]:
+    def build(run: DiagnosisRun, b: Basis) -> Columns:
+        shift = delay_ms * 1e-3 * run.rate_hz
+        whole, frac = int(shift), shift - int(shift)
+
+        def filt(signal):
+            out = np.zeros_like(signal)
+            for k, weight in ((whole, 1.0 - frac), (whole + 1, frac)):
+                if weight > 0 and k < signal.shape[0]:
+                    out[k:] += weight * signal[:signal.shape[0] - k]
+            return out
+
+        return _filtered(run, b, filt)
+
+    return build
+
+
+_TAUS_MS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.7, 1.0, 1.5)
+
+
+def _lag_members() -> tuple[Member, ...]:
+    out = [Member({"tau_ms": t, "order": 1, "shape": "first_order"}, chain=_poles(t, 1)) for t in _TAUS_MS]
+    out += [Member({"tau_ms": t, "order": 2, "shape": "second_order"}, chain=_poles(t, 2)) for t in _TAUS_MS[:-1]]
+    out += [Member({"delay_ms": t, "shape": "delay"}, chain=_delay(t)) for t in _TAUS_MS]
+    return tuple(out)
+
+
+def _mode_columns(run: DiagnosisRun, b: Basis, frequency_hz: float, damping_ratio: float, scale: float
+                  ) -> np.ndarray:
     tc = np.maximum(b.t - run.contact_s, 0.0)
-    w0 = 2 * math.pi * p["frequency_hz"]
-    zeta = p["damping_ratio"]
-    wd = w0 * math.sqrt(1 - zeta ** 2)
-    env = np.where(b.t > run.contact_s, np.exp(-zeta * w0 * tc), 0.0) * run.contact_speed_m_s
-    return None, np.column_stack([env * np.sin(wd * tc), env * np.cos(wd * tc)]), _no_offset(b)
+    w0 = 2 * math.pi * frequency_hz
+    wd = w0 * math.sqrt(1 - damping_ratio ** 2)
+    env = np.where(b.t > run.contact_s, np.exp(-damping_ratio * w0 * tc), 0.0) * scale
+    return np.column_stack([env * np.sin(wd * tc), env * np.cos(wd * tc)])
 
 
-def _drift(run, b, p):
-    return None, np.maximum(b.t, 0.0)[:, None], _no_offset(b)
+def _modes(modes: Sequence[tuple[float, float]], by: str) -> Callable[[DiagnosisRun, Basis], Columns]:
+    def build(run: DiagnosisRun, b: Basis) -> Columns:
+        if by == "speed":  # struck by the impact: amplitude ∝ contact speed [N per m/s]
+            scale = run.contact_speed_m_s
+        else:  # struck by the force step at contact: amplitude ∝ the frontal force there [N per N]
+            frontal = b.frontal if b.frontal is not None else b.strength
+            after = np.flatnonzero(b.inside)
+            scale = float(frontal[after[0]]) if after.size else 0.0
+        return Columns(np.column_stack([_mode_columns(run, b, f, z, scale) for f, z in modes]))
+
+    return build
+
+
+_FREQS_HZ = tuple(float(f) for f in np.geomspace(150, 6000, 30))
+_ZETAS = (0.01, 0.03, 0.1)
+
+
+def _ringing_members() -> tuple[Member, ...]:
+    out = [Member({"frequency_hz": f, "damping_ratio": z, "modes": 1, "struck_by": by},
+                  chain=_modes([(f, z)], by)) for by in ("speed", "force") for z in _ZETAS for f in _FREQS_HZ]
+    # two modes of one damping ratio: coarser frequency grid, the second above the first
+    coarse = _FREQS_HZ[::2]
+    out += [Member({"frequency_hz": f1, "second_frequency_hz": f2, "damping_ratio": z, "modes": 2,
+                    "struck_by": "speed"}, chain=_modes([(f1, z), (f2, z)], "speed"))
+            for z in _ZETAS for i, f1 in enumerate(coarse) for f2 in coarse[i + 2:]]
+    return tuple(out)
+
+
+def _describe_ringing(m: Member, c, ctx) -> dict:
+    unit = "n_per_m_s" if m.params["struck_by"] == "speed" else "n_per_n"
+    return {**dict(m.params), f"amplitude_{unit}": float(math.hypot(c[0], c[1]))}
+
+
+def _drift_cols(profile: Callable[[np.ndarray], np.ndarray]) -> Callable[[DiagnosisRun, Basis], Columns]:
+    return lambda run, b: Columns(profile(np.maximum(b.t, 0.0)))
+
+
+def _drift_members() -> tuple[Member, ...]:
+    out = [Member({"shape": "linear"}, chain=_drift_cols(lambda t: t[:, None])),
+           Member({"shape": "quadratic"}, chain=_drift_cols(lambda t: np.column_stack([t, t * t])))]
+    out += [Member({"shape": "exponential", "time_constant_s": tau},
+                   chain=_drift_cols(lambda t, tau=tau: -np.expm1(-t / tau)[:, None]))
+            for tau in (0.01, 0.02, 0.05, 0.1, 0.2, 0.5)]
+    return tuple(out)
+
+
+def _describe_drift(m: Member, c, ctx) -> dict:
+    if m.params["shape"] == "exponential":
+        return {**dict(m.params), "amplitude_n": float(c[0])}
+    return {**dict(m.params), "rate_n_per_s": float(c[0])}
 
 
 EFFECTS: dict[str, Effect] = {e.name: e for e in (
-    Effect("strength_layer", "law",
-           "Microstructural strength steps to ratio × S below depth_mm. Signature: the resistance jumps up or down "
-           "at one depth in every run, whatever its speed; the misfit is a step in depth.",
-           [{"depth_mm": d} for d in np.arange(5.0, 131.0, 2.5)], _layer,
-           lambda c, p, base: {"depth_mm": p["depth_mm"], "ratio": 1.0 + float(c[0]) / base["cs_mean"]},
-           lambda c, p, run: (lambda x, v, k=float(c[0]) * _strength_n(run), d=p["depth_mm"] * 1e-3:
-                              k if x >= d else 0.0)),
-    Effect("strength_gradient", "law",
-           "Strength varies continuously with depth, S·(1 + g1·x + g2·x²). Signature: a misfit growing smoothly "
-           "with depth in proportion to the blade's frontal area (so it differs between thicknesses).",
-           [{}], _gradient,
-           lambda c, p, base: {"change_per_100mm": (float(c[0]) * 0.1 + float(c[1]) * 0.01) / base["cs_mean"],
-                               "g1_per_m": float(c[0]) / base["cs_mean"], "g2_per_m2": float(c[1]) / base["cs_mean"]},
-           lambda c, p, run: (lambda x, v, k1=float(c[0]) * _strength_n(run), k2=float(c[1]) * _strength_n(run):
-                              k1 * x + k2 * x * x)),
-    Effect("plug_growth", "law",
-           "A crushed plug widens the effective frontal thickness with depth, saturating: T + g·L·(1 − exp(−x/L)). "
-           "Signature: every frontal term grows with depth, early, and more so for thin blades (relative to T).",
-           [{"length_mm": L} for L in (10.0, 20.0, 40.0, 80.0, 160.0, 1000.0)], _plug,
-           lambda c, p, base: {"growth_mm": float(c[0]) * p["length_mm"], "length_mm": p["length_mm"]},
-           None),
-    Effect("sidewall_pressure_growth", "law",
-           "Sidewall pressure rises with depth, P·(1 + β·x): friction grows faster than x. Signature: a misfit "
-           "growing with depth squared, the same for every blade thickness.",
-           [{}], _pressure_growth,
-           lambda c, p, base: {"beta_per_100mm": float(c[0]) * 0.1 / base["p_kpa"]},
-           lambda c, p, run: (lambda x, v, k=float(c[0]) * 2e3 * run.design.friction_coefficient
-                              * run.design.blade_width_m: k * x * x / 2)),
-    Effect("velocity_friction", "law",
-           "Blade–material friction varies with sliding speed, μ·(1 + α·v). Signature: a misfit in proportion to "
-           "depth × speed: largest mid-run in fast runs.",
-           [{}], _velocity_friction,
-           lambda c, p, base: {"alpha_per_m_s": float(c[0]) / base["p_kpa"]},
-           lambda c, p, run: (lambda x, v, k=float(c[0]) * 2e3 * run.design.friction_coefficient
-                              * run.design.blade_width_m: k * x * v)),
-    Effect("rate_strength", "law",
-           "Strength rises with penetration rate, S·(1 + a·ln(1 + v/v0)). Signature: the strength misfit is "
-           "highest at contact and fades as the blade slows, in proportion to frontal area.",
-           [{"speed_m_s": s} for s in (0.5, 2.0, 8.0)], _rate_strength,
-           lambda c, p, base: {"coefficient": float(c[0]) / base["cs_mean"], "speed_m_s": p["speed_m_s"]},
-           lambda c, p, run: (lambda x, v, k=float(c[0]) * _strength_n(run), s=p["speed_m_s"]:
-                              k * math.log1p(v / s))),
-    Effect("load_cell_mass_error", "chain",
-           "The inertia subtraction used the wrong mass below the load cell. Signature: the 'resistance' follows the "
-           "acceleration: non-zero in free flight, jumping at contact.",
-           [{}], _mass_error,
-           lambda c, p, base: {"delta_kg": float(c[0]), "ratio": 1.0 + float(c[0]) / base["load_cell_mass_kg"]}),
-    Effect("sensor_lag", "chain",
-           "The force channel lags the true force through a first-order low-pass of tau_ms. Signature: the measured "
-           "rise at contact is late and rounded; the misfit is the model's time derivative.",
-           [{"tau_ms": t} for t in (0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.7, 1.0, 1.5)], _lag,
-           lambda c, p, base: {"tau_ms": p["tau_ms"]}),
-    Effect("rig_ringing", "chain",
-           "A structural resonance is struck at contact. Signature: a decaying oscillation after contact whose "
-           "amplitude scales with the contact speed.",
-           [{"frequency_hz": f, "damping_ratio": z} for f in np.geomspace(150, 4000, 28) for z in (0.01, 0.03, 0.1)],
-           _ringing,
-           lambda c, p, base: {"frequency_hz": p["frequency_hz"], "damping_ratio": p["damping_ratio"],
-                               "amplitude_n_per_m_s": float(math.hypot(c[0], c[1]))}),
-    Effect("force_drift", "chain",
-           "The force offset drifts during the run. Signature: a misfit growing with time since the release, in "
-           "flight as much as in the material.",
-           [{}], _drift,
-           lambda c, p, base: {"rate_n_per_s": float(c[0])}),
-    Effect("propulsion_loss", "drive",
-           "The launcher delivers less energy than modelled (efficiency × (1 − loss)). Signature: measured contact "
-           "speeds below the predicted ones; resistance with measured kinematics fits, the fully predicted run "
-           "does not.",
-           [{}], None, lambda c, p, base: {"loss": float(c[0])}),
+    Effect("strength_layer", "law", "depth",
+           "Microstructural strength steps to another value at a depth: a step with a sharp or soft edge, or a "
+           "plateau (a layer of finite thickness). Signature: a misfit that jumps at one depth in every run, "
+           "whatever its speed.",
+           _layer_members(), _describe_layer),
+    Effect("strength_gradient", "law", "depth",
+           "Strength varies smoothly and monotonically with depth (power, quadratic, exponential or saturating "
+           "profiles). "
+           "Signature: a misfit growing smoothly with depth in proportion to the blade's frontal area.",
+           _gradient_members(), _describe_gradient),
+    Effect("plug_growth", "law", "depth",
+           "A crushed plug widens the effective frontal thickness with depth (exponential or hyperbolic "
+           "saturation, or linear): every frontal term grows. Signature: grows with depth, early, and more so "
+           "for thin blades relative to their thickness.",
+           _plug_members(), _describe_plug),
+    Effect("sidewall_pressure_growth", "law", "depth",
+           "Sidewall pressure rises with depth (power laws or saturating): friction grows faster than x. "
+           "Signature: a misfit growing with depth, the same for every blade thickness.",
+           _pressure_members(), _describe_pressure),
+    Effect("velocity_friction", "law", "speed",
+           "Blade–material friction varies with sliding speed (power, saturating or logarithmic laws, either "
+           "sign). Signature: a misfit in proportion to depth × a function of speed.",
+           _speed_laws("friction"), _describe_speed("p_kpa")),
+    Effect("rate_strength", "law", "speed",
+           "Strength varies with penetration rate (power, saturating or logarithmic laws). Signature: the "
+           "strength misfit follows the speed, in proportion to frontal area.",
+           _speed_laws("strength"), _describe_speed("cs_mean")),
+    Effect("load_cell_mass_error", "chain", "acceleration",
+           "The inertia subtraction used the wrong mass below the load cell. Signature: the 'resistance' follows "
+           "the acceleration: non-zero in free flight, jumping at contact.",
+           (Member({}, chain=_mass),),
+           lambda m, c, ctx: {"delta_kg": float(c[0]), "ratio": 1.0 + float(c[0]) / ctx["load_cell_mass_kg"]}),
+    Effect("sensor_lag", "chain", "contact",
+           "The force channel lags the true force: a first- or second-order low-pass, or a pure delay. "
+           "Signature: the measured rise at contact is late and rounded; the misfit follows the force's rate "
+           "of change.",
+           _lag_members(), lambda m, c, ctx: dict(m.params)),
+    Effect("rig_ringing", "chain", "time",
+           "Structural resonances struck at contact: one or two decaying modes, amplitude in proportion to the "
+           "contact speed or to the force step. Signature: a decaying oscillation after contact.",
+           _ringing_members(), _describe_ringing),
+    Effect("force_drift", "chain", "time",
+           "The force offset drifts during the run (linear, quadratic or exponential in time since the "
+           "release). Signature: a misfit growing with time, in flight as much as in the material.",
+           _drift_members(), _describe_drift),
+    Effect("propulsion_loss", "drive", "flight",
+           "The launcher delivers less energy than modelled (efficiency × (1 − loss)). Signature: measured "
+           "contact speeds below the predicted ones; resistance with measured kinematics fits, the fully "
+           "predicted run does not.",
+           (), lambda m, c, ctx: {"loss": float(c[0])}),
 )}
 """The catalogue by name (CONTRACT §4)."""
-
-
-def _strength_n(run: DiagnosisRun) -> float:
-    """w·T·S·(sinθ + μ cosθ): the strength term per unit Cs. [N]"""
-    d = run.design
-    return d.blade_width_m * d.blade_thickness_m * d.strength_pa * (
-        math.sin(d.tip_angle_rad) + d.friction_coefficient * math.cos(d.tip_angle_rad))
 
 
 INDISTINGUISHABLE: dict[frozenset, str] = {

@@ -50,35 +50,87 @@ def savgol(x: np.ndarray, rate_hz: float, breaks: Sequence[int], window_s: float
     return v, a
 
 
-def spline(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float = 0.16e-3
-           ) -> tuple[np.ndarray, np.ndarray]:
-    """Quintic smoothing spline per segment, smoothing set by the quantisation noise. [m/s, m/s²]"""
+SMOOTHING = 2.0
+"""Residual budget of the smoothing spline in units of n·(encoder step)²/12 (see ``bench_derivatives``)."""
+
+
+def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float):
+    """(lo, hi, spline or None) per segment: quintic smoothing splines, smoothing set by the quantisation."""
     from scipy.interpolate import make_splrep
 
-    v = np.zeros_like(x)
-    a = np.zeros_like(x)
     t = np.arange(x.size) / rate_hz
-    sigma = count_m / np.sqrt(12.0)
+    sigma = count_m / np.sqrt(12.0)  # the quantisation error's standard deviation
+    out = []
     for lo, hi in _segments(x.size, breaks):
         n = hi - lo
         if n < 8:
-            if n >= 3:
-                v[lo:hi] = np.gradient(x[lo:hi], t[lo:hi])
-                a[lo:hi] = np.gradient(v[lo:hi], t[lo:hi])
+            out.append((lo, hi, None))
             continue
         with warnings.catch_warnings():
             # FITPACK may return its closest approximation when s is tight for quantised data; that is fine here
             warnings.simplefilter("ignore", RuntimeWarning)
-            spl = make_splrep(t[lo:hi], x[lo:hi], k=5, s=n * sigma ** 2)
+            # a residual budget of twice the quantisation variance: at exactly one, FITPACK's knot search
+            # fails on some encoder phases (slow motion makes the error a sawtooth) and returns wild curves
+            out.append((lo, hi, make_splrep(t[lo:hi], x[lo:hi], k=5, s=SMOOTHING * n * sigma ** 2)))
+    return t, out
+
+
+def smooth_motion(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float = 0.16e-3
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smoothed position, velocity and acceleration by the smoothing spline of :func:`spline`. [m, m/s, m/s²]"""
+    x = np.asarray(x, dtype=float)
+    position, v, a = x.copy(), np.zeros_like(x), np.zeros_like(x)
+    t, pieces = _spline_pieces(x, rate_hz, breaks, count_m)
+    for lo, hi, spl in pieces:
+        if spl is None:
+            if hi - lo >= 3:
+                v[lo:hi] = np.gradient(x[lo:hi], t[lo:hi])
+                a[lo:hi] = np.gradient(v[lo:hi], t[lo:hi])
+            continue
+        position[lo:hi] = spl(t[lo:hi])
         v[lo:hi] = spl(t[lo:hi], 1)
         a[lo:hi] = spl(t[lo:hi], 2)
+    return position, v, a
+
+
+def spline(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float = 0.16e-3
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Quintic smoothing spline per segment, smoothing set by the quantisation noise. [m/s, m/s²]
+
+    ``count_m`` is the encoder step (:func:`encoder_step_m` reads it from the record). [m]
+    """
+    _, v, a = smooth_motion(x, rate_hz, breaks, count_m)
     return v, a
+
+
+def encoder_step_m(position_m: np.ndarray, default_m: float = 0.16e-3) -> float:
+    """The position record's quantum: the smallest step between samples, if the steps are its multiples. [m]
+
+    A quantised encoder moves in whole counts, so every change of the record is
+    a multiple of one count.  A record that is not quantised (an analogue
+    sensor, or counts already smoothed) gets the equivalent step √12·σ of its
+    sample-to-sample scatter at rest, and ``default_m`` if it has none.
+    """
+    x = np.asarray(position_m, dtype=float)
+    steps = np.abs(np.diff(x))
+    steps = steps[steps > 1e-9]
+    if steps.size < 4:
+        return default_m
+    smallest = float(np.quantile(steps, 0.02))
+    ratio = steps / smallest
+    if np.mean(np.abs(ratio - np.round(ratio)) < 0.05) >= 0.9:
+        return smallest
+    rest = np.diff(x[: max(16, x.size // 20)])
+    sigma = float(np.std(rest)) / np.sqrt(2.0)
+    return float(np.sqrt(12.0) * sigma) if sigma > 0 else default_m
 
 
 def lsq_spline(x: np.ndarray, rate_hz: float, breaks: Sequence[int], *, t0: float = 0.0,
                break_times: Sequence[tuple[float, int]] | None = None, knot_s: float = 3e-3,
                rest_knot_s: float = 5e-3) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares quintic spline over the whole record, with knots at the events. [m/s, m/s²]
+
+    Linear in the record: ``x`` may hold several records as columns (n, m).
 
     ``break_times`` are (time [s], continuity) pairs: continuity 1 keeps position
     and velocity continuous there (contact, arrest: the acceleration jumps),
@@ -90,9 +142,10 @@ def lsq_spline(x: np.ndarray, rate_hz: float, breaks: Sequence[int], *, t0: floa
     from scipy.interpolate import make_lsq_spline
 
     k = 5
-    t = t0 + np.arange(x.size) / rate_hz
+    n = x.shape[0]
+    t = t0 + np.arange(n) / rate_hz
     if break_times is None:
-        break_times = [(float(t[int(b)]), 1) for b in breaks if 0 < b < x.size]
+        break_times = [(float(t[int(b)]), 1) for b in breaks if 0 < b < n]
     events = sorted((float(bt), int(c)) for bt, c in break_times if t[0] < bt < t[-1])
     edges = [float(t[0])] + [bt for bt, _ in events] + [float(t[-1])]
     interior: list[float] = []
@@ -123,18 +176,32 @@ METHODS: dict[str, Callable[..., tuple[np.ndarray, np.ndarray]]] = {
 """Derivative methods by name."""
 
 DEFAULT_METHOD = "spline"
-"""Lowest error on simulated runs (bench/bench_derivatives.py, medians over 6 shots over the whole
-contact-to-stop window, edges included): smoothing spline 24 m/s² RMS acceleration error (0.6 % of peak
-resistance once × m_lc); least-squares spline with knots at the events 25 m/s² at its best knot spacing
-(3 ms); Savitzky–Golay (1.5 ms) 122 m/s² (4.2 %); central differences 25,000 m/s².  Every method's error
-gathers in the first and last few samples of the window, hence the analysis window's inner limits
-(:data:`pencli.filter.tare.WINDOW_TRIM_S`)."""
+"""Lowest error on simulated runs (``python -m bench.bench_derivatives``: 6 shots × 4 encoder phases, each
+method called as the pipeline calls it, breaks at the detected events).  Smoothing spline (budget
+:data:`SMOOTHING`): acceleration error 5.0 m/s² median, 30 m/s² worst over the penetration window
+(0.15 % / 0.73 % of peak resistance once × m_lc), 0.7 / 2.4 m/s² in flight.  Least-squares spline with knots
+at the events: 30 / 138 m/s²; Savitzky–Golay (1.5 ms): 103 / 200 m/s²; central differences 25,000 m/s².
+With a budget of exactly one quantisation variance the smoothing spline failed on some phases (390 m/s²
+worst).  Errors gather in the first and last few samples of the window, hence the analysis window's inner
+limits (:data:`pencli.filter.tare.WINDOW_TRIM_S`)."""
 
 
-def derivatives(x: np.ndarray, rate_hz: float, breaks: Sequence[int], method: str = DEFAULT_METHOD
+def derivatives(x: np.ndarray, rate_hz: float, breaks: Sequence[int], method: str = DEFAULT_METHOD, *,
+                count_m: float | None = None, joins: Sequence[tuple[float, int]] | None = None
                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Velocity and acceleration of ``x`` sampled at ``rate_hz``, smooth between ``breaks`` (sample indices)."""
+    """Velocity and acceleration of ``x`` sampled at ``rate_hz``, smooth between ``breaks`` (sample indices).
+
+    ``count_m``: the encoder step the smoothing spline smooths for (default: read from ``x``). [m]
+    ``joins``: the events as (time since the first sample [s], continuity): 1 where the velocity is
+    continuous (release, contact, arrest), 0 where it jumps (the hard stops); the least-squares spline
+    puts its joins there (default: at ``breaks``, velocity continuous).
+    """
     fn = METHODS.get(method)
     if fn is None:
         raise DataError(f"unknown derivative method {method!r}; methods: {', '.join(METHODS)}")
-    return fn(np.asarray(x, dtype=float), rate_hz, breaks)
+    x = np.asarray(x, dtype=float)
+    if method == "spline":
+        return fn(x, rate_hz, breaks, encoder_step_m(x) if count_m is None else count_m)
+    if method == "lsq_spline" and joins is not None:
+        return fn(x, rate_hz, breaks, break_times=[(float(t), int(c)) for t, c in joins])
+    return fn(x, rate_hz, breaks)

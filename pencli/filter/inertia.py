@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from pencli.filter.derivatives import DEFAULT_METHOD, derivatives
+from pencli.filter.derivatives import DEFAULT_METHOD, derivatives, encoder_step_m
 from pencli.filter.tare import Events
 
 
@@ -48,6 +48,8 @@ class Kinematics:
     resistance_n: np.ndarray
     mass_used_kg: float
     mass_estimate: MassEstimate | None
+    encoder_step_m: float
+    """The position quantum the spline smoothed for. [m]"""
 
 
 def effective_samples(residuals: np.ndarray, max_lag: int = 2000) -> float:
@@ -105,14 +107,28 @@ def subtract_inertia(time_s: np.ndarray, depth_m: np.ndarray, force_n: np.ndarra
     use_flight_mass : subtract with the mass estimated from the free flight instead.
     """
     rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
-    breaks = [int(np.searchsorted(time_s, events.motion_start_s)) - 1,
-              int(np.searchsorted(time_s, events.contact_s)),
-              int(np.searchsorted(time_s, events.stop_s)) + 1]
-    velocity, acceleration = derivatives(depth_m, rate, breaks, method)
+    step = encoder_step_m(depth_m)
+    velocity, acceleration = derivatives(depth_m, rate, motion_breaks(time_s, events), method, count_m=step,
+                                         joins=motion_joins(time_s, events))
     at_rest = (time_s < events.motion_start_s - 1.0 / rate) | (time_s > events.stop_s)
     velocity = np.where(at_rest, 0.0, velocity)
     acceleration = np.where(at_rest, 0.0, acceleration)
     estimate = estimate_load_cell_mass(time_s, force_n, acceleration, events, load_cell_mass_kg)
     mass = estimate.value_kg if (use_flight_mass and estimate is not None) else load_cell_mass_kg
     resistance = force_n - mass * acceleration  # R = F − m_lc·a
-    return Kinematics(velocity, acceleration, resistance, mass, estimate)
+    return Kinematics(velocity, acceleration, resistance, mass, estimate, step)
+
+
+def motion_joins(time_s: np.ndarray, events: Events) -> list[tuple[float, int]]:
+    """Release, contact and stop as (time since the first sample [s], continuity): the velocity is
+    continuous at each (1) except at the hard stops (0)."""
+    t0 = float(time_s[0])
+    return [(events.motion_start_s - t0, 1), (events.contact_s - t0, 1),
+            (events.stop_s - t0, 0 if events.end == "full_depth" else 1)]
+
+
+def motion_breaks(time_s: np.ndarray, events: Events) -> list[int]:
+    """Sample indices where the motion's acceleration jumps: release, contact, stop."""
+    return [int(np.searchsorted(time_s, events.motion_start_s)) - 1,
+            int(np.searchsorted(time_s, events.contact_s)),
+            int(np.searchsorted(time_s, events.stop_s)) + 1]

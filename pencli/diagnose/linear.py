@@ -1,0 +1,132 @@
+r"""Leave-one-run-out least squares from per-run sufficient statistics, for many models and targets at once.
+
+Every model the diagnosis scores is linear in its coefficients: a strength
+factor per run (block scatter), shared P, C, K (≥ 0) and an effect's
+coefficients (free).  With each run's Gram matrix of all candidate columns,
+
+.. math:: G_i = W_i^\top W_i / n_i, \qquad c_i = W_i^\top Y_i / n_i,
+
+any model (a choice of columns), any fold (leave run k out) and any target
+(the measured resistance or a bootstrap replicate of it) is a small solve:
+the run's own strength factor is profiled out by a Schur complement, the
+fold's normal equations are the sum over the other runs, and the held-out
+residual of run k follows from its own Gram matrix.  Runs carry equal weight
+(each Gram is divided by its sample count), so a held-out score is the mean
+over runs of each run's mean squared residual. [N²]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+N_BOUNDED = 3
+"""P, C, K: the shared Eq. 9 coefficients, bounded below by 0 (after the per-run strength factor)."""
+
+
+@dataclass(frozen=True)
+class Spec:
+    """A model as column indices into the runs' candidate matrices.
+
+    ``columns`` are [strength, P-column, C-column, K-column, extra...]; the
+    target is y − W[:, offset].
+    """
+
+    columns: tuple[int, ...]
+    offset: int
+
+
+@dataclass(frozen=True)
+class Scores:
+    """Scores of a batch of models (axis 0) on every target (last axis)."""
+
+    heldout: np.ndarray
+    """(models, runs, targets): held-out mean squared residual of each run. [N²]"""
+    train: np.ndarray
+    """(models, runs, targets): training mean squared residual of the fold that leaves that run out. [N²]"""
+    total: np.ndarray
+    """(models, targets): mean squared residual of the all-runs fit. [N²]"""
+    coefficients: np.ndarray
+    """(models, 3 + k, targets): shared coefficients of the all-runs fit (P, C, K, extra...)."""
+    strength: np.ndarray
+    """(models, runs, targets): per-run strength factors of the all-runs fit."""
+
+
+class Statistics:
+    """Per-run sufficient statistics of a candidate matrix W (n_i × Q) and targets Y (n_i × T)."""
+
+    def __init__(self, matrices: list[np.ndarray], targets: list[np.ndarray]):
+        self.gram = np.stack([W.T @ W / W.shape[0] for W in matrices])  # (R, Q, Q)
+        self.cross = np.stack([W.T @ Y / W.shape[0] for W, Y in zip(matrices, targets)])  # (R, Q, T)
+        self.square = np.stack([np.einsum("nt,nt->t", Y, Y) / Y.shape[0] for Y in targets])  # (R, T)
+
+    @property
+    def n_runs(self) -> int:
+        return self.gram.shape[0]
+
+    def score(self, specs: list[Spec]) -> Scores:
+        """Score models with equal numbers of columns (batched)."""
+        J = np.array([s.columns for s in specs])  # (M, p)
+        off = np.array([s.offset for s in specs])  # (M,)
+        G, C, S = self.gram, self.cross, self.square
+        # per-run Gram of [columns], cross with the target t = y − w_off, and |t|²
+        D = G[:, J[:, :, None], J[:, None, :]]  # (R, M, p, p)
+        c = C[:, J, :] - G[:, J, off[:, None]][..., None]  # (R, M, p, T)
+        tt = S[:, None, :] - 2 * C[:, off, :] + G[:, off, off][..., None]  # (R, M, T)
+        # profile out each run's strength factor (column 0)
+        d00 = np.maximum(D[:, :, 0, 0], 1e-300)[..., None]  # (R, M, 1)
+        Dr = D[:, :, 1:, 1:] - D[:, :, 1:, :1] * D[:, :, :1, 1:] / d00[..., None]
+        cr = c[:, :, 1:, :] - D[:, :, 1:, :1] * c[:, :, :1, :] / d00[..., None]
+        ttr = tt - c[:, :, 0, :] ** 2 / d00
+        A_all, b_all, t_all = Dr.sum(0), cr.sum(0), ttr.sum(0)
+        R = self.n_runs
+        heldout = np.empty((len(specs), R, C.shape[2]))
+        train = np.empty_like(heldout)
+        for k in range(R):
+            theta = bounded_solve(A_all - Dr[k], b_all - cr[k])
+            heldout[:, k, :] = _quadratic(Dr[k], cr[k], ttr[k], theta)
+            train[:, k, :] = _quadratic(A_all - Dr[k], b_all - cr[k], t_all - ttr[k], theta) / (R - 1)
+        theta = bounded_solve(A_all, b_all)
+        total = _quadratic(A_all, b_all, t_all, theta) / R
+        # strength factors: cs_i = (c_i0 − D_i0,rest · θ) / D_i00
+        strength = (c[:, :, 0, :] - np.einsum("rmq,mqt->rmt", D[:, :, 0, 1:], theta)) / d00
+        return Scores(heldout, train, total, theta, np.moveaxis(strength, 0, 1))
+
+
+def _quadratic(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """|t − Xθ|² from Gram pieces: tt − 2 θ·b + θᵀAθ, per model and target."""
+    return tt - np.einsum("mqt,mqt->mt", theta, 2 * b - np.matmul(A, theta))
+
+
+def bounded_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve A θ = b per model (A: (M, q, q); b: (M, q, T)) with θ[:3] ≥ 0 (P, C, K).
+
+    Columns are scaled to unit diagonal and a tiny ridge keeps empty columns
+    (a layer below every run's depth) at zero.  Bounds by an active set: a
+    bounded coefficient that comes out negative is fixed at 0 and the rest
+    refitted, until none is negative (at most three rounds: three bounds).
+    """
+    M, q, _ = A.shape
+    scale = np.sqrt(np.maximum(np.einsum("mii->mi", A), 0.0))
+    scale[scale == 0] = 1.0
+    As = A / scale[:, :, None] / scale[:, None, :] + 1e-10 * np.eye(q)
+    bs = b / scale[:, :, None]
+    theta = np.linalg.solve(As, bs)
+    fixed = np.zeros((M, N_BOUNDED, b.shape[2]), dtype=bool)
+    for _ in range(N_BOUNDED):
+        fixed_new = fixed | (theta[:, :N_BOUNDED, :] < 0)
+        if not (fixed_new & ~fixed).any():
+            break
+        fixed = fixed_new
+        codes = (fixed * (1 << np.arange(N_BOUNDED))[None, :, None]).sum(1)  # (M, T)
+        for code in np.unique(codes[codes > 0]):
+            m_idx, t_idx = np.nonzero(codes == code)
+            free = np.array([i for i in range(q) if i >= N_BOUNDED or not (code >> i) & 1])
+            sub = As[m_idx][:, free][:, :, free]
+            rhs = bs[m_idx, :, t_idx][:, free]
+            solved = np.linalg.solve(sub, rhs[..., None])[..., 0]
+            full = np.zeros((m_idx.size, q))
+            full[:, free] = solved
+            theta[m_idx, :, t_idx] = full
+    return theta / scale[:, :, None]

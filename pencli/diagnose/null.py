@@ -1,0 +1,194 @@
+r"""What the data would look like if the reference model were right: parametric null replicates of a campaign.
+
+Each replicate re-measures every run through the campaign's *own* sensor
+chain, as read from its data:
+
+- the true motion is the run's smoothed trajectory (the spline through its
+  encoder record);
+- the encoder quantises it to the record's own step (a random phase per
+  replicate), and the same derivative method re-derives velocity and
+  acceleration from it, so derivative errors are the pipeline's own;
+- the force channel adds noise of the colour and level measured on the
+  pre-trigger span (an autoregressive model, order by BIC);
+- the resistance is the baseline fit's, so a replicate holds no effect.
+
+Replicates go through the same inertia subtraction (R = F − m_lc·a) and
+contact-speed measurement as the data.  The basis (measured x, v) is kept
+from the data: the replicates perturb what is measured, not the regressors
+(their speed errors are second order in the Eq. 9 columns).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pencli.errors import DataError
+from pencli.filter.derivatives import derivatives, smooth_motion
+from pencli.filter.inertia import motion_breaks, motion_joins
+from pencli.filter.tare import Events, detect_events
+
+AR_MAX_ORDER = 12
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Autoregressive force noise: e_t = Σ a_k e_{t−k} + σ·w_t. [N]"""
+
+    coefficients: np.ndarray
+    innovation_n: float
+    level_n: float
+    """Standard deviation of the noise itself. [N]"""
+
+    def simulate(self, n: int, rng: np.random.Generator, count: int = 1) -> np.ndarray:
+        """``count`` independent noise records of ``n`` samples (n, count), stationary from the start."""
+        from scipy.signal import lfilter
+
+        burn = 20 * (len(self.coefficients) + 1) + 200
+        white = rng.normal(0.0, self.innovation_n, (n + burn, count))
+        return lfilter([1.0], np.r_[1.0, -self.coefficients], white, axis=0)[burn:]
+
+    def to_dict(self) -> dict:
+        return {"order": int(self.coefficients.size), "level_n": self.level_n, "innovation_n": self.innovation_n}
+
+
+def fit_noise(samples: np.ndarray) -> NoiseModel:
+    """AR model of a noise record by least squares, order 0–12 by BIC."""
+    e = np.asarray(samples, dtype=float)
+    e = e - e.mean()
+    n = e.size
+    level = float(e.std())
+    if n < 64 or level == 0.0:
+        return NoiseModel(np.zeros(0), level, level)
+    best = (n * math.log(max(level ** 2, 1e-300)), np.zeros(0), level)
+    for order in range(1, min(AR_MAX_ORDER, n // 16) + 1):
+        X = np.column_stack([e[order - k - 1:n - k - 1] for k in range(order)])
+        y = e[order:]
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        resid = y - X @ coef
+        var = float(resid @ resid) / y.size
+        bic = y.size * math.log(max(var, 1e-300)) + order * math.log(y.size)
+        stable = np.all(np.abs(np.roots(np.r_[1.0, -coef])) < 0.999)
+        if stable and bic < best[0]:
+            best = (bic, coef, math.sqrt(var))
+    return NoiseModel(best[1], best[2], level)
+
+
+@dataclass(frozen=True)
+class RunNull:
+    """What one run needs to make its replicates (all on the span from the context start to just past the stop)."""
+
+    time_s: np.ndarray
+    depth_m: np.ndarray
+    acceleration_m_s2: np.ndarray
+    """The data's own acceleration (the spline of the real record). [m/s²]"""
+    at_rest: np.ndarray
+    use: np.ndarray
+    """Analysis samples, as a mask on the span."""
+    fitted_n: np.ndarray
+    """Baseline resistance on the analysis samples. [N]"""
+    events: Events
+    full_depth_m: float
+    encoder_step_m: float
+    load_cell_mass_kg: float
+    noise: NoiseModel
+    method: str
+
+
+@dataclass(frozen=True)
+class Replicates:
+    """Null replicates of one run."""
+
+    resistance_n: np.ndarray
+    """(analysis samples, replicates). [N]"""
+    contact_speed_m_s: np.ndarray
+    """Measured contact speed of each replicate (NaN where the detector failed). [m/s]"""
+    true_contact_speed_m_s: float
+    """Contact speed of the smoothed trajectory the replicates were made from. [m/s]"""
+
+
+def replicate_run(null: RunNull, count: int, seed: int) -> Replicates:
+    """``count`` null replicates of one run (see the module docstring).
+
+    The acceleration error of a replicate is D(x̃ + q) − D(x̃): the derivative
+    method D applied to the smoothed motion x̃ re-quantised (random encoder
+    phase, zeroed at rest) minus D applied to x̃ itself.  For a linear method
+    (the default least-squares spline) this is exactly D applied to the
+    quantisation error, so the smoother's own resolution bias, common to data
+    and replicates, cancels and no "true" trajectory is needed.
+    """
+    rng = np.random.default_rng(seed)
+    t = null.time_s
+    rate = (t.size - 1) / (t[-1] - t[0])
+    breaks = motion_breaks(t, null.events)
+    step = null.encoder_step_m
+    smooth, velocity, _ = smooth_motion(null.depth_m, rate, breaks, step)
+    smooth = np.where(null.at_rest & (t < null.events.contact_s), null.depth_m, smooth)
+    true_contact = float(np.interp(null.events.contact_s, t, velocity))
+    joins = motion_joins(t, null.events)
+    _, reference = derivatives(smooth, rate, breaks, null.method, count_m=step, joins=joins)
+    noise = null.noise.simulate(t.size, rng, count)
+    phases = rng.uniform(0.0, step, count)
+    depth = step * np.round((smooth[:, None] + phases) / step) - phases
+    depth -= depth[:1] - null.depth_m[0]  # the encoder is zeroed at rest, as the data's
+    speeds = np.full(count, np.nan)
+    for b in range(count):
+        try:
+            speeds[b] = detect_events(t, depth[:, b], null.full_depth_m).contact_speed_m_s
+        except DataError:
+            pass
+    if null.method == "spline":  # not linear: one replicate at a time
+        accel = np.column_stack([derivatives(depth[:, b], rate, breaks, null.method, count_m=step)[1]
+                                 for b in range(count)])
+    else:  # linear in the record: all replicates in one call
+        accel = derivatives(depth, rate, breaks, null.method, count_m=step, joins=joins)[1]
+    error = np.where(null.at_rest[:, None], 0.0, accel - reference[:, None])
+    out = null.fitted_n[:, None] - null.load_cell_mass_kg * error[null.use] + noise[null.use]
+    return Replicates(out, speeds, true_contact)
+
+
+def _replicate_job(args) -> Replicates:
+    return replicate_run(*args)
+
+
+def replicate_campaign(nulls: list[RunNull], count: int, seed: int, *, workers: int = 2) -> list[Replicates]:
+    """Replicates of every run, runs spread over ``workers`` processes (one process when 1)."""
+    jobs = [(null, count, seed * 1000 + i) for i, null in enumerate(nulls)]
+    if workers <= 1 or len(jobs) < 2:
+        return [replicate_run(*job) for job in jobs]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    context = multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        return list(pool.map(_replicate_job, jobs))
+
+
+# ----------------------------------------------------------------------------- tails
+def gumbel_quantile(samples: np.ndarray, p: float) -> float:
+    """Upper ``p``-quantile of a Gumbel law fitted by moments to maxima ``samples``.
+
+    The distribution of a maximum over many statistics is of Gumbel type; the
+    fit extrapolates the tail beyond what a few dozen replicates resolve.
+    """
+    x = np.asarray(samples, dtype=float)
+    x = x[np.isfinite(x)]
+    beta = max(float(np.std(x, ddof=1)) * math.sqrt(6.0) / math.pi, 1e-12)
+    mu = float(np.mean(x)) - 0.5772156649 * beta
+    return mu - beta * math.log(-math.log(1.0 - p))
+
+
+def normal_quantile(p: float) -> float:
+    """Upper ``p``-quantile of the standard normal."""
+    from scipy.special import ndtri
+
+    return float(ndtri(1.0 - p))
+
+
+def student_quantile(p: float, dof: int) -> float:
+    """Upper ``p``-quantile of Student's t with ``dof`` degrees of freedom."""
+    from scipy.stats import t as student
+
+    return float(student.ppf(1.0 - p, dof))
