@@ -21,12 +21,13 @@ import time
 from pathlib import Path
 
 from pencli import api
-from tests.campaigns import BLOCKS, SIX, diagnosis_campaigns, judge, make_campaign
+from tests.campaigns import BLOCKS, SIX, diagnosis_campaigns, judge, make_campaign, varied_campaigns
 
-def run_one(label, material, effects, seed):
+
+def run_one(label, material, effects, seed, nuisances=None):
     with tempfile.TemporaryDirectory() as tmp:
         db = make_campaign(Path(tmp), material, seed=seed, shots=SIX, effects=effects,
-                           block_kpa=BLOCKS if material == "mpacs_c" else None)
+                           block_kpa=BLOCKS if material == "mpacs_c" else None, **(nuisances or {}))
         api.tare_runs(db, ["all"])
         api.subtract_inertia_runs(db, ["all"])
         t0 = time.perf_counter()
@@ -36,9 +37,18 @@ def run_one(label, material, effects, seed):
 
 def main() -> None:
     quick = "--quick" in sys.argv
+    if "--varied" in sys.argv:  # random forms and nuisances: python -m bench.bench_diagnose --varied 28 [SEED]
+        at = sys.argv.index("--varied")
+        count = int(sys.argv[at + 1])
+        base_seed = int(sys.argv[at + 2]) if len(sys.argv) > at + 2 else 2000
+        campaigns = [(label, material, effects, truth, nuisances)
+                     for label, material, effects, truth, nuisances in varied_campaigns(count, base_seed)]
+    else:
+        campaigns = [(*c, None) for c in diagnosis_campaigns(quick)]
+        base_seed = 500
     rows, times = [], []
-    for seed, (label, material, effects, truth) in enumerate(diagnosis_campaigns(quick)):
-        result, seconds = run_one(label, material, effects, 500 + seed)
+    for seed, (label, material, effects, truth, nuisances) in enumerate(campaigns):
+        result, seconds = run_one(label, material, effects, base_seed + seed, nuisances)
         ok, shrink = judge(result, truth)
         times.append(seconds)
         rows.append((label, truth, result, ok, shrink))

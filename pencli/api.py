@@ -664,6 +664,7 @@ def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
     """Each run's inertia stage as a :class:`~pencli.diagnose.effects.DiagnosisRun`."""
 
     from pencli.diagnose.effects import DiagnosisRun
+    from pencli.filter.tare import force_onset
 
     out = []
     names = ("time_s", "depth_m", "velocity_m_s", "acceleration_m_s2", "force_n", "resistance_n")
@@ -676,7 +677,8 @@ def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
                                 col["acceleration_m_s2"], col["force_n"], col["resistance_n"], events.motion_start_s,
                                 events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
                                 events.end, events.contact_speed_m_s, float(params["load_cell_mass_kg"]), noise,
-                                float(params.get("encoder_step_m", 0.16e-3)), str(params.get("method", "spline"))))
+                                float(params.get("encoder_step_m", 0.16e-3)), str(params.get("method", "spline")),
+                                force_onset(col["time_s"], col["force_n"], events.contact_s)))
     return out
 
 

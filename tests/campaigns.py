@@ -25,8 +25,11 @@ def twelve_shots() -> list[tuple[str, int]]:
 
 
 def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, effects=(), block_kpa=None,
-                  rig_extra=None, record_material: dict | None = None) -> Path:
-    """Fire a campaign into ``folder/runs.duckdb``; returns the catalog path."""
+                  rig_extra=None, record_material: dict | None = None, standoff_mm: list | None = None) -> Path:
+    """Fire a campaign into ``folder/runs.duckdb``; returns the catalog path.
+
+    ``standoff_mm``: per shot, the true stand-off minus the file's (stand-off scatter).
+    """
     folder.mkdir(parents=True, exist_ok=True)
     db = folder / "runs.duckdb"
     shots = shots or twelve_shots()
@@ -41,6 +44,8 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
         material_file.write_text(yaml.safe_dump(mapping))
         rig = {"kind": "rig", "name": "campaign", "seed": seed * 1000 + i, "true_material": str(material_file),
                "effects": [dict(e) for e in effects], **(rig_extra or {})}
+        if standoff_mm is not None:
+            rig["surface_offset_error_mm"] = float(standoff_mm[i % len(standoff_mm)])
         rig_file = folder / f"rig-{i}.yaml"
         rig_file.write_text(yaml.safe_dump(rig))
         shot = api.acquire(springs=springs, penetrator=f"al6061_{blade}mm", material=str(material_file), rig=rig_file,
@@ -89,6 +94,63 @@ def diagnosis_campaigns(quick: bool = False):
     return out
 
 
+
+
+RANDOM_FORMS = {  # (low, high) per parameter of the sim world's effect forms
+    "strength_layer": {"depth_mm": (30, 90), "edge_mm": (0.5, 8), "thickness_mm": (30, 300)},
+    "strength_gradient": {"change_per_100mm": (1.0, 3.0)},
+    "plug_growth": {"growth_mm": (1.5, 3.0), "length_mm": (15, 60)},
+    "sidewall_pressure_growth": {"scale_mm": (30, 80), "exponent": (1.2, 2.5)},
+    "velocity_friction": {"drop": (0.3, 0.6), "speed_m_s": (1.0, 5.0)},
+    "rate_strength": {"coefficient": (0.08, 0.2), "exponent": (1.0, 2.0)},
+    "load_cell_mass_error": {"ratio": (0.6, 1.6)},
+    "sensor_lag": {"tau_ms": (0.2, 0.8)},
+    "rig_ringing": {"amplitude_n_per_m_s": (40, 80), "frequency_hz": (400, 2500), "damping_ratio": (0.02, 0.06)},
+    "force_drift": {"amplitude_n": (60, 150), "time_constant_s": (0.02, 0.1)},
+    "propulsion_loss": {"loss": (0.1, 0.3)},
+}
+
+
+def random_effect(name: str, rng) -> dict:
+    """The sim world's effect ``name`` with its form parameters drawn within their meaning."""
+    params = {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in RANDOM_FORMS[name].items()}
+    if name == "load_cell_mass_error" and 0.85 < params["ratio"] < 1.15:
+        params["ratio"] = 1.3 if params["ratio"] > 1 else 0.7
+    if name == "strength_layer":
+        params["ratio"] = float(rng.choice([rng.uniform(0.5, 0.7), rng.uniform(1.4, 1.8)]))
+    return {"name": name, **params}
+
+
+def random_nuisances(rng, n_shots: int) -> dict:
+    """make_campaign keywords for a campaign with varied nuisances: noise level and colour, rate, stand-off."""
+    return {"rig_extra": {"force_noise_n": float(rng.uniform(0.5, 6.0)),
+                          "correlated_noise_n": float(rng.choice([0.0, rng.uniform(0.5, 3.0)])),
+                          "correlated_noise_ms": float(rng.uniform(0.1, 2.0)),
+                          "sampling_rate_hz": float(rng.choice([30000.0, 60000.0]))},
+            "standoff_mm": [float(x) for x in rng.normal(0.0, rng.uniform(0.3, 1.5), n_shots)]}
+
+
+def varied_campaigns(count: int, seed: int):
+    """(label, material, hidden effects, acceptable verdicts, nuisances) with random forms and nuisances:
+    nulls, every single effect and pairs in turn."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    names = list(RANDOM_FORMS)
+    out = []
+    for i in range(count):
+        kind = i % 14
+        material = str(rng.choice(["mpacs_c", "grill_brick"]))
+        if kind < 2:
+            label, effects, truth = f"null-{i}", [], {"none"}
+        elif kind < 13:
+            name = names[kind - 2]
+            label, effects, truth = f"{name}-{i}", [random_effect(name, rng)], {name}
+        else:
+            a, b = rng.choice([n for n in names if n not in ("strength_gradient",)], 2, replace=False)
+            label, effects, truth = f"pair-{i}", [random_effect(str(a), rng), random_effect(str(b), rng)], {a, b}
+        out.append((label, material, effects, truth, random_nuisances(rng, len(SIX))))
+    return out
 
 
 def judge(result, truth: set[str]) -> tuple[bool, float | None]:

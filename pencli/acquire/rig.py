@@ -28,6 +28,8 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
     "lateral_fraction": ("side force as a fraction of the axial resistance [–]", 0.02),
     "true_material": ("preset or file of the true material (default: the run's material)", None),
     "strength_scale": ("the block's true strength over the recorded strength (block scatter) [–]", 1.0),
+    "surface_offset_error_mm": ("true stand-off minus the energizing file's (the block's surface sits lower "
+                                "when positive) [mm]", 0.0),
     "effects": ("hidden effects of the true world (CONTRACT §4 names) with parameters", []),
     "seed": ("seed of the sensor noise (default: fresh each shot)", None),
     "device": ("nidaq: device name", "Dev1"),
@@ -89,6 +91,7 @@ def validate_rig(data: Any, where: str) -> RigConfig:
         _number(where, key, values[key], minimum=0)
     _number(where, "correlated_noise_ms", values["correlated_noise_ms"], positive=True)
     _number(where, "strength_scale", values["strength_scale"], positive=True)
+    _number(where, "surface_offset_error_mm", values["surface_offset_error_mm"])
     for key in ("force_offsets_n", "torque_offsets_nm"):
         offsets = values[key]
         if not isinstance(offsets, (list, tuple)) or len(offsets) != 3:

@@ -55,7 +55,7 @@ def world_from(penetrator: ParameterSet, material: ParameterSet, energizing: Par
         inertia_coefficient=mv["coefficients.inertia_coefficient"],
         spring_count=int(ev["spring_count"]), spring_stiffness_n_m=ev["spring_stiffness_kn_m"] * 1e3,
         spring_mass_kg=ev["spring_mass_kg"], nominal_length_m=ev["spring_nominal_length_mm"] * 1e-3,
-        compressed_length_m=ev["spring_compressed_length_mm"] * 1e-3, surface_offset_m=ev["surface_offset_mm"] * 1e-3,
+        compressed_length_m=ev["spring_compressed_length_mm"] * 1e-3, surface_offset_m=(ev["surface_offset_mm"] + float(rig["surface_offset_error_mm"])) * 1e-3,
         efficiency=ev["propulsion_efficiency_pct"] / 100.0, effects=rig.effects)
 
 

@@ -62,19 +62,30 @@ class DiagnosisRun:
     encoder_step_m: float = 0.16e-3
     """Position quantum the derivatives were smoothed for (from the record). [m]"""
     derivative_method: str = "spline"
+    force_contact_s: float | None = None
+    """Contact as the force record sees it (:func:`pencli.filter.tare.force_onset`); differs from
+    ``contact_s`` when the block's surface is not at the file's stand-off. [s]"""
 
     @property
     def rate_hz(self) -> float:
         return (self.time_s.size - 1) / (self.time_s[-1] - self.time_s[0])
 
     @property
+    def contact_span_s(self) -> tuple[float, float]:
+        """Earliest and latest contact by position and by force. [s]"""
+        seen = self.contact_s if self.force_contact_s is None else self.force_contact_s
+        return min(self.contact_s, seen), max(self.contact_s, seen)
+
+    @property
     def flight(self) -> np.ndarray:
-        """Free flight: 2 ms after the release to 0.5 ms before contact."""
-        return (self.time_s > max(self.motion_start_s, 0.0) + 2e-3) & (self.time_s < self.contact_s - 0.5e-3)
+        """Free flight: 2 ms after the release to 0.5 ms before the earliest contact."""
+        return (self.time_s > max(self.motion_start_s, 0.0) + 2e-3) & (self.time_s < self.contact_span_s[0] - 0.5e-3)
 
     @property
     def window(self) -> np.ndarray:
-        return (self.time_s >= self.window_start_s) & (self.time_s <= self.window_end_s)
+        """The analysis window, starting no sooner than 0.5 ms after the latest contact."""
+        start = max(self.window_start_s, self.contact_span_s[1] + 0.5e-3)
+        return (self.time_s >= start) & (self.time_s <= self.window_end_s)
 
     @property
     def context(self) -> np.ndarray:

@@ -122,11 +122,11 @@ def bounded_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
         codes = (fixed * (1 << np.arange(N_BOUNDED))[None, :, None]).sum(1)  # (M, T)
         for code in np.unique(codes[codes > 0]):
             m_idx, t_idx = np.nonzero(codes == code)
-            free = np.array([i for i in range(q) if i >= N_BOUNDED or not (code >> i) & 1])
-            sub = As[m_idx][:, free][:, :, free]
-            rhs = bs[m_idx, :, t_idx][:, free]
-            solved = np.linalg.solve(sub, rhs[..., None])[..., 0]
+            free = np.array([i for i in range(q) if i >= N_BOUNDED or not (code >> i) & 1], dtype=int)
             full = np.zeros((m_idx.size, q))
-            full[:, free] = solved
+            if free.size:
+                sub = As[m_idx][:, free][:, :, free]
+                rhs = bs[m_idx, :, t_idx][:, free]
+                full[:, free] = np.linalg.solve(sub, rhs[..., None])[..., 0]
             theta[m_idx, :, t_idx] = full
     return theta / scale[:, :, None]

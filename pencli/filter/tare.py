@@ -30,6 +30,24 @@ WINDOW_TRIM_S = 0.5e-3
 (the paper's inner limits, Fig. 11): derivatives of the encoder are least reliable at those instants. [s]"""
 FULL_DEPTH_TOLERANCE_M = 0.5e-3
 """Within this of the full depth, a stop counts as reaching the hard stops. [m]"""
+STANDOFF_TOLERANCE_M = 5e-3
+"""A block's surface can sit a few mm from the file's stand-off, so the stops can come this much short of the
+full depth in file coordinates; there an abrupt stop still counts as the hard stops. [m]"""
+
+
+def _abrupt_stop(time_s: np.ndarray, depth_m: np.ndarray, last_change: int, contact_speed_m_s: float) -> bool:
+    """The motion ends at speed (the hard stops), not decelerating to rest (arrest).
+
+    Over the last 1 ms before the final encoder change the tip still moves at more than a fifth of its
+    contact speed; an arrest's speed falls to zero there.
+    """
+    rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
+    span = max(int(1e-3 * rate), 4)
+    lo = max(last_change - span, 0)
+    if last_change - lo < 3:
+        return False
+    speed = (depth_m[last_change] - depth_m[lo]) / (time_s[last_change] - time_s[lo])
+    return bool(speed > 0.2 * abs(contact_speed_m_s))
 
 
 @dataclass(frozen=True)
@@ -115,7 +133,8 @@ def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, 
 
     last_change = int(changes[-1])
     final_depth = float(depth_m[last_change])
-    if final_depth >= full_depth_m - FULL_DEPTH_TOLERANCE_M:
+    if final_depth >= full_depth_m - FULL_DEPTH_TOLERANCE_M or (
+            final_depth >= full_depth_m - STANDOFF_TOLERANCE_M and _abrupt_stop(time_s, depth_m, last_change, speed)):
         end = "full_depth"
         stop = float(time_s[last_change])
     else:
@@ -166,3 +185,36 @@ def tare(columns: dict[str, np.ndarray], surface_offset_mm: float, full_depth_mm
                             f"({t[0] * 1e3:.1f} to {t[-1] * 1e3:.1f} ms) or not increasing")
         events = Events(**{**events.to_dict(), "window_start_s": start, "window_end_s": end})
     return Tared(t, depth, forces, offsets, events)
+
+
+def force_onset(time_s: np.ndarray, force_n: np.ndarray, contact_s: float, *, span_s: float = 4e-3) -> float:
+    """Contact as the force sees it: the change point of the tared force within ``span_s`` of ``contact_s``. [s]
+
+    The force follows the free flight's slow trend until the tip meets the
+    material, then the strength term switches on.  The change point is the
+    split that best fits two straight lines (least squares, by cumulative sums).
+    A block whose surface is not where the energizing file puts it (stand-off
+    scatter) makes it differ from the position's contact.
+    """
+    sel = np.flatnonzero((time_s >= contact_s - span_s) & (time_s <= contact_s + span_s))
+    if sel.size < 12:
+        return float(contact_s)
+    t = time_s[sel] - contact_s
+    y = force_n[sel]
+    n = t.size
+
+    def segment_rss(tt, yy):
+        k = np.arange(1, tt.size + 1, dtype=float)
+        st, sy = np.cumsum(tt), np.cumsum(yy)
+        stt, sty, syy = np.cumsum(tt * tt), np.cumsum(tt * yy), np.cumsum(yy * yy)
+        var_t = stt - st * st / k
+        cov = sty - st * sy / k
+        rss = syy - sy * sy / k - np.where(var_t > 0, cov * cov / np.where(var_t > 0, var_t, 1.0), 0.0)
+        return rss
+
+    left = segment_rss(t, y)  # left[i]: samples 0..i
+    right = segment_rss(t[::-1], y[::-1])[::-1]  # right[i]: samples i..n-1
+    splits = np.arange(4, n - 4)  # the right segment starts at the split
+    total = left[splits - 1] + right[splits]
+    best = int(splits[np.argmin(total)])
+    return float(time_s[sel][best])
