@@ -1111,15 +1111,17 @@ def report_diagnosis(db: str | Path, refs: Sequence[str]) -> tuple[list, Any]:
     result = diagnose(db, refs)
     report = result.to_dict()
     section = Section(f"diagnosis: verdict {result.verdict}", text=" ".join(result.notes),
-                      provenance={"baseline": report["baseline"], "thresholds": report["thresholds"]})
-    section.tables.append(("effects, best first", ["effect", "held-out RMS [N]", "shrink [%]", "significant",
-                                                   "parameters"],
-                           [[e.name, e.heldout_rms_n, e.shrink_pct, e.significant,
+                      provenance={"baseline": report["baseline"], "decision": report["decision"]})
+    section.tables.append(("effects, best first", ["effect", "held-out RMS [N]", "shrink [%]", "z", "significant",
+                                                   "detectable RMS [N]", "parameters"],
+                           [[e.name, e.heldout_rms_n, e.shrink_pct, e.z, e.significant, e.detectable_rms_n,
                              ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
                                        for k, v in e.params.items())] for e in result.effects]))
     section.tables.append(("where the gap lies", ["phase", "depth [mm]", "time [ms]", "share of gap"],
                            [[w["phase"], w.get("depth_mm"), w.get("time_ms"), w.get("share_of_gap")]
                             for w in result.where]))
+    section.tables.append(("what the misfit follows (share of the baseline's held-out misfit explained by its "
+                           "mean along each axis, in the material)", list(result.axes), [list(result.axes.values())]))
     section.add_figure(diagnosis_figure(result))
     return [section], result
 

@@ -8,11 +8,13 @@ from typing import List, Optional
 
 import typer
 from rich.markup import escape
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from pencli import api
 from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console
 from pencli.diagnose.effects import EFFECTS
+from pencli.diagnose.engine import BOOTSTRAP, FALSE_ALARM
 
 app = PenTyper()
 
@@ -31,20 +33,34 @@ def diagnose(
                                                                   f"(default all: {', '.join(EFFECTS)})."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Draw held-out residuals against depth and time, "
                                                              "before and after the verdict's effect (PNG or PDF)."),
+    false_alarm: float = typer.Option(FALSE_ALARM, "--false-alarm", min=1e-4, max=0.5,
+                                      help="Probability that a campaign with no effect gets any verdict but 'none' "
+                                           "[–]."),
+    bootstrap: int = typer.Option(BOOTSTRAP, "--bootstrap", min=20, max=2000,
+                                  help="Null replicates of the campaign that calibrate every decision."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the null replicates (the same seed, the same verdict)."),
     db: Optional[Path] = DbOption,
 ) -> None:
     """Diagnose the sim-to-real gap: where it lies, which effect causes it, how far it shrinks.
 
     Fits the reference model (a strength factor per run for block scatter,
-    shared P, C, K), then adds each catalogue effect in turn, refits on the
-    other runs and scores on the run left out. Verdict: an effect, 'none' (no
-    gap beyond noise) or 'unexplained' (a gap no effect closes by half).
-    Example: pen diagnose 'mc-*' --json diagnosis.json
+    shared P, C, K), then adds each catalogue effect family in turn, refits on
+    the other runs and scores on the run left out. Every decision is
+    calibrated on null replicates of this campaign (its own noise, encoder and
+    derivative chain) at the stated false-alarm rate. Verdict: an effect,
+    'none' (nothing beyond what the null makes) or 'unexplained' (a gap no
+    effect or pair removes half of).
+    Example: pen diagnose 'mc-*' --json diagnosis.json --false-alarm 0.01
     """
     if plot is not None and plot.suffix.lower() not in (".png", ".pdf"):
         raise typer.BadParameter(f"'{plot}' must end in .png or .pdf", param_hint="--plot")
     chosen = [e.strip() for e in effects.split(",")] if effects else None
-    result = api.diagnose(db_path(db), runs, effects=chosen)
+    with Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), console=err_console,
+                  transient=True) as bar:
+        task = bar.add_task("diagnosing", total=1.0)
+        result = api.diagnose(db_path(db), runs, effects=chosen, false_alarm=false_alarm, bootstrap=bootstrap,
+                              seed=seed, progress=lambda stage, done: bar.update(task, description=stage,
+                                                                                  completed=done))
     if plot is not None:
         from pencli.report.diagnosis import plot_diagnosis
 
@@ -63,17 +79,21 @@ def diagnose(
     console.print(f"[bold]verdict: [{colour}]{result.verdict}[/{colour}][/bold]"
                   + (f"  (with {', '.join(result.verdict_effects[1:])})" if len(result.verdict_effects) > 1 else "")
                   + f"   over {len(result.runs)} runs")
-    console.print(f"baseline held-out RMS {base['heldout_rms_n']:.1f} N (NRMSE {base['heldout_nrmse']:.3f}) = "
-                  f"{base['gap_ratio']:.1f} × noise floor {result.noise_floor_n:.1f} N; contact speed off by "
-                  f"{100 * base['contact_speed_error_rms']:.2f} % RMS")
+    decision = result.decision
+    console.print(f"baseline held-out RMS {base['heldout_rms_n']:.1f} N (NRMSE {base['heldout_nrmse']:.3f}); its null "
+                  f"replicates {base['null_rms_n']:.1f} N (gap z {base['gap_z']:.1f}, threshold "
+                  f"{decision['gap_threshold_z']:.1f}); contact speed {100 * base['contact_speed_error_mean']:+.2f} % "
+                  f"of prediction (t {base['drive_t']:.1f}, threshold {decision['drive_threshold_t']:.1f})")
+    console.print(f"false-alarm rate {decision['false_alarm']:g} per campaign, {decision['bootstrap']} null replicates; "
+                  f"an effect needs z > {decision['effect_threshold_z']:.1f}")
     for item in result.where[:3]:
         depth = f", depth {item['depth_mm'][0]:g}–{item['depth_mm'][1]:g} mm" if item.get("depth_mm") else ""
         share = f", {100 * item['share_of_gap']:.0f} % of the gap" if item.get("share_of_gap") is not None else ""
         console.print(f"where: {item['phase']}{depth}, t {item['time_ms'][0]:g}–{item['time_ms'][1]:g} ms{share}"
                       + ("" if item.get("above_noise") else " (within noise)"))
     table = Table(header_style="bold", title="effects, best first")
-    for col in ("effect", "held-out RMS [N]", "shrink", "significant", "parameters", "trajectory change"):
-        table.add_column(escape(col), justify="right" if col in ("held-out RMS [N]", "shrink") else "left")
+    for col in ("effect", "held-out RMS [N]", "shrink", "z", "significant", "parameters", "trajectory change"):
+        table.add_column(escape(col), justify="right" if col in ("held-out RMS [N]", "shrink", "z") else "left")
     for e in result.effects[:6]:
         change = e.trajectory_change
         text = ""
@@ -82,7 +102,7 @@ def diagnose(
                     f"peak {change['peak_resistance_pct']:+.1f} %")
         elif change.get("note"):
             text = "none (measurement)"
-        table.add_row(e.name, f"{e.heldout_rms_n:.1f}", f"{e.shrink_pct:.0f} %", "yes" if e.significant else "",
+        table.add_row(e.name, f"{e.heldout_rms_n:.1f}", f"{e.shrink_pct:.0f} %", f"{e.z:.1f}", "yes" if e.significant else "",
                       escape(_fmt_params(e.params)), text)
     console.print(table)
     for amb in result.ambiguities:

@@ -113,6 +113,8 @@ class Basis:
     inside: np.ndarray
     blade_thickness_m: float
     frontal: np.ndarray | None = None
+    strength_factor: float | None = None
+    """The baseline's strength factor of this run (with ``frontal``)."""
     """The baseline's frontal force (Cs·strength + C·damping + K·inertia) on this run, once fitted. [N]"""
 
     def matrix(self) -> np.ndarray:
@@ -170,14 +172,11 @@ class Member:
 
     params: Mapping[str, float | str]
     term: str | None = None
-    """``strength`` (per unit Cs), ``friction`` (per kPa of P) or ``frontal_per_thickness`` (the baseline's
-    frontal force per metre of blade thickness: what a metre of extra frontal width adds)."""
+    """``strength`` (per unit Cs) or ``friction`` (per kPa of P)."""
     profiles: tuple[Profile, ...] = ()
     chain: Callable[[DiagnosisRun, Basis], Columns] | None = None
-
-    @property
-    def n_coefficients(self) -> int:
-        return len(self.profiles) if self.chain is None else -1
+    dynamic: Callable[[Sequence[float], Design, Mapping[str, float]], Callable[[float, float], float]] | None = None
+    """For members with their own columns that still act on the motion: their extra force (see :meth:`force`)."""
 
     def columns(self, run: DiagnosisRun, basis: Basis) -> Columns:
         if self.chain is not None:
@@ -193,6 +192,8 @@ class Member:
 
         ``values`` are the baseline's fitted coefficients in file units (CONTRACT §1 names).
         """
+        if self.dynamic is not None:
+            return self.dynamic(coefficients, design, values)
         if self.chain is not None:
             return None
         coefs = [float(c) for c in coefficients]
@@ -201,13 +202,7 @@ class Member:
         def extra(x: float, v: float) -> float:
             x, v = max(x, 0.0), max(v, 0.0)
             strength, friction, damping, inertia = unit_terms(design, x, v)
-            if term == "strength":
-                carrier = strength
-            elif term == "friction":
-                carrier = friction
-            else:
-                carrier = (values["strength_factor"] * strength + values["damping_kpa_s_m"] * damping
-                           + values["inertia_coefficient"] * inertia) / design.blade_thickness_m
+            carrier = strength if term == "strength" else friction
             return float(carrier * sum(c * float(p(np.float64(x), np.float64(v))) for c, p in zip(coefs, profiles)))
 
         return extra
@@ -218,8 +213,6 @@ def _carrier(term: str | None, b: Basis) -> np.ndarray:
         return b.strength
     if term == "friction":
         return b.friction
-    if term == "frontal_per_thickness":
-        return (b.frontal if b.frontal is not None else b.strength) / b.blade_thickness_m
     raise ValueError(f"unknown carrier term {term!r}")
 
 
@@ -279,11 +272,11 @@ def _describe_layer(m: Member, c, ctx) -> dict:
 
 
 _LENGTHS_MM = (5.0, 10.0, 20.0, 40.0, 80.0, 160.0)
+_EXPONENTS = (0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0)
 
 
 def _gradient_members() -> tuple[Member, ...]:
-    out = [law("strength", (lambda x, v, p=p: (x / 0.1) ** p), exponent=p, shape="power")
-           for p in (0.5, 1.0, 1.5, 2.0, 3.0)]
+    out = [law("strength", (lambda x, v, p=p: (x / 0.1) ** p), exponent=p, shape="power") for p in _EXPONENTS]
     out.append(law("strength", lambda x, v: x / 0.1, lambda x, v: (x / 0.1) ** 2, shape="quadratic"))
     out += [law("strength", (lambda x, v, L=L * 1e-3: -np.expm1(-x / L)), length_mm=L, shape="saturating")
             for L in _LENGTHS_MM[2:]]
@@ -299,25 +292,51 @@ def _describe_gradient(m: Member, c, ctx) -> dict:
 
 def _plug_members() -> tuple[Member, ...]:
     # a plug adds a width g·h(x) to every blade, whatever its thickness: T_eff = T + g·h(x), so every frontal
-    # term gains frontal × g·h(x)/T; h is dimensionless (1 at saturation), g in metres
-    plug = "frontal_per_thickness"
-    out = [law(plug, (lambda x, v, L=L * 1e-3: -np.expm1(-x / L)), length_mm=L, shape="exponential")
-           for L in _LENGTHS_MM]
-    out += [law(plug, (lambda x, v, L=L * 1e-3: (x / L) / (1.0 + x / L)), length_mm=L, shape="hyperbolic")
+    # term gains (its force / T) × g·h(x); h is dimensionless (1 at saturation), g in metres.  The strength
+    # and the rate terms get a coefficient each: the baseline's split of the frontal force between them is
+    # itself biased by the plug, so one shared g would leave a misfit another family would take up.
+    def member(h, **params):
+        return Member(params, chain=lambda run, b, h=h: _plug_columns(run, b, h),
+                      dynamic=lambda c, design, values, h=h: _plug_force(c, design, values, h))
+
+    out = [member(lambda x, L=L * 1e-3: -np.expm1(-x / L), length_mm=L, shape="exponential") for L in _LENGTHS_MM]
+    out += [member(lambda x, L=L * 1e-3: (x / L) / (1.0 + x / L), length_mm=L, shape="hyperbolic")
             for L in _LENGTHS_MM]
-    out.append(law(plug, lambda x, v: x / 0.1, shape="linear"))
+    out.append(member(lambda x: x / 0.1, shape="linear"))
     return tuple(out)
 
 
+def _plug_columns(run: DiagnosisRun, b: Basis, h: Callable[[np.ndarray], np.ndarray]) -> Columns:
+    x = np.where(b.inside, b.x, 0.0)
+    frontal = b.frontal if b.frontal is not None else b.strength
+    strength_part = b.strength * (b.strength_factor if b.strength_factor is not None else 1.0)
+    rate_part = frontal - strength_part
+    profile = h(x) / b.blade_thickness_m
+    return Columns(np.column_stack([strength_part * profile, rate_part * profile]))
+
+
+def _plug_force(coefficients, design: Design, values: Mapping[str, float], h) -> Callable[[float, float], float]:
+    """Extra frontal force of a plug: (strength term × g_s + rate terms × g_r) × h(x) / T. [N]"""
+    g_strength, g_rate = (float(c) for c in coefficients)
+
+    def extra(x: float, v: float) -> float:
+        x, v = max(x, 0.0), max(v, 0.0)
+        strength, _, damping, inertia = unit_terms(design, x, v)
+        rate = values["damping_kpa_s_m"] * damping + values["inertia_coefficient"] * inertia
+        profile = float(h(np.float64(x))) / design.blade_thickness_m
+        return float((values["strength_factor"] * strength * g_strength + rate * g_rate) * profile)
+
+    return extra
+
+
 def _describe_plug(m: Member, c, ctx) -> dict:
-    reach = float(m.profiles[0](np.float64(0.1), np.float64(0.0)))
-    return {"growth_mm_at_100mm": float(c[0]) * reach * 1e3, "growth_mm": float(c[0]) * 1e3, **dict(m.params)}
+    return {"growth_mm": float(c[0]) * 1e3, "growth_mm_rate_terms": float(c[1]) * 1e3, **dict(m.params)}
 
 
 def _pressure_members() -> tuple[Member, ...]:
     # P(x) = P (1 + f(x)); friction = 2 μ w ∫P dz; column friction × (∫f)/x (friction carries x)
     out = [law("friction", (lambda x, v, n=n: (x / 0.1) ** n / (n + 1.0)), exponent=n, shape="power")
-           for n in (0.5, 1.0, 1.5, 2.0, 3.0)]
+           for n in _EXPONENTS]
     out += [law("friction", (lambda x, v, L=L * 1e-3: 1.0 - L * -np.expm1(-x / L) / np.maximum(x, 1e-12)),
                 length_mm=L, shape="saturating") for L in _LENGTHS_MM[1:]]
     return tuple(out)
@@ -332,7 +351,7 @@ _SPEEDS = (0.5, 1.0, 2.0, 4.0, 8.0)
 
 
 def _speed_laws(term: str) -> tuple[Member, ...]:
-    out = [law(term, (lambda x, v, q=q: v ** q), exponent=q, shape="power") for q in (0.5, 1.0, 1.5, 2.0)]
+    out = [law(term, (lambda x, v, q=q: v ** q), exponent=q, shape="power") for q in _EXPONENTS[:-2]]
     out += [law(term, (lambda x, v, s=s: -np.expm1(-v / s)), speed_m_s=s, shape="saturating") for s in _SPEEDS]
     out += [law(term, (lambda x, v, s=s: np.log1p(v / s)), speed_m_s=s, shape="logarithmic") for s in _SPEEDS]
     return tuple(out)
@@ -402,10 +421,12 @@ def _lag_members() -> tuple[Member, ...]:
 
 def _mode_columns(run: DiagnosisRun, b: Basis, frequency_hz: float, damping_ratio: float, scale: float
                   ) -> np.ndarray:
-    tc = np.maximum(b.t - run.contact_s, 0.0)
+    # struck when the tip meets the material: the force's contact, not the file's stand-off
+    struck = run.contact_s if run.force_contact_s is None else run.force_contact_s
+    tc = np.maximum(b.t - struck, 0.0)
     w0 = 2 * math.pi * frequency_hz
     wd = w0 * math.sqrt(1 - damping_ratio ** 2)
-    env = np.where(b.t > run.contact_s, np.exp(-damping_ratio * w0 * tc), 0.0) * scale
+    env = np.where(b.t > struck, np.exp(-damping_ratio * w0 * tc), 0.0) * scale
     return np.column_stack([env * np.sin(wd * tc), env * np.cos(wd * tc)])
 
 
@@ -422,15 +443,18 @@ def _modes(modes: Sequence[tuple[float, float]], by: str) -> Callable[[Diagnosis
     return build
 
 
-_FREQS_HZ = tuple(float(f) for f in np.geomspace(150, 6000, 30))
-_ZETAS = (0.01, 0.03, 0.1)
+_FREQS_HZ = tuple(float(f) for f in np.geomspace(150, 6000, 48))
+"""Mode frequencies 7.9 % apart: a mode that rings for n cycles drifts n × that in phase at worst (half-way)."""
+_ZETAS = (0.01, 0.02, 0.04, 0.08)
 
 
 def _ringing_members() -> tuple[Member, ...]:
-    out = [Member({"frequency_hz": f, "damping_ratio": z, "modes": 1, "struck_by": by},
-                  chain=_modes([(f, z)], by)) for by in ("speed", "force") for z in _ZETAS for f in _FREQS_HZ]
-    # two modes of one damping ratio: coarser frequency grid, the second above the first
     coarse = _FREQS_HZ[::2]
+    out = [Member({"frequency_hz": f, "damping_ratio": z, "modes": 1, "struck_by": "speed"},
+                  chain=_modes([(f, z)], "speed")) for z in _ZETAS for f in _FREQS_HZ]
+    out += [Member({"frequency_hz": f, "damping_ratio": z, "modes": 1, "struck_by": "force"},
+                   chain=_modes([(f, z)], "force")) for z in _ZETAS for f in coarse]
+    # two modes of one damping ratio: coarser frequency grid, the second above the first
     out += [Member({"frequency_hz": f1, "second_frequency_hz": f2, "damping_ratio": z, "modes": 2,
                     "struck_by": "speed"}, chain=_modes([(f1, z), (f2, z)], "speed"))
             for z in _ZETAS for i, f1 in enumerate(coarse) for f2 in coarse[i + 2:]]

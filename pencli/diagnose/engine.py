@@ -462,8 +462,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     shared = fitted["coefficients"][:, 0]
     values = {"strength_factor": float(np.mean(cs)), "sidewall_pressure_kpa": float(shared[0]),
               "damping_kpa_s_m": float(shared[1]), "inertia_coefficient": float(shared[2])}
-    bases = [replace(b, frontal=c * b.strength + shared[1] * b.damping + shared[2] * b.inertia)
-             for b, c in zip(bases, cs)]
+    bases = [replace(b, frontal=c * b.strength + shared[1] * b.damping + shared[2] * b.inertia,
+                     strength_factor=float(c)) for b, c in zip(bases, cs)]
     context = {"cs_mean": max(values["strength_factor"], 1e-9), "p_kpa": max(values["sidewall_pressure_kpa"], 1e-9),
                "load_cell_mass_kg": float(np.mean([r.load_cell_mass_kg for r in runs]))}
 
@@ -597,8 +597,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                 change = _trajectory_change(effect, candidates[r.name][family.best].member,
                                             fit["coefficients"][3:, 0], runs, values)
         final.append(replace(r, trajectory_change=change))
-    order = {name: i for i, name in enumerate(verdict_effects)}
-    final.sort(key=lambda r: (order.get(r.name, len(order)), -int(r.significant), -r.shrink_pct))
+    final.sort(key=lambda r: (-int(r.significant), -r.shrink_pct))
     ambiguities = _ambiguities(final, families, S0)
 
     # ---- where, along what, series
@@ -627,6 +626,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     if pair is not None:
         baseline_out["best_pair"] = {"effects": [significant[0].name, pair["effect"]], "shrink_pct": pair["shrink_pct"],
                                      "z": pair["z"], "share_of_remainder": pair["share_of_remainder"],
+                                     "beyond_own_family": pair["beyond_own_family"],
                                      "significant": pair["significant"]}
     series = []
     after = _verdict_residuals(runs, bases, uses, ys, candidates, families, verdict_effects)
@@ -661,10 +661,12 @@ def _best_second(stats: Statistics, candidates, families, top: str, base_spec: S
                  alpha: float) -> dict | None:
     """The effect that adds most on top of ``top`` (its best member held), tested against the null.
 
-    Significant when its standardised improvement beats the null's largest (family-wise, like the first
-    effect) *and* it removes at least :data:`EXPLAIN_SHARE` of what ``top`` leaves above the null floor: at
-    high signal-to-noise any family fits a little of the first effect's shape mismatch, which the noise
-    alone would call significant.
+    Significant when (1) ``top`` leaves a gap its own null would not, (2) the second effect's standardised
+    improvement beats the null's largest (family-wise, as for the first), (3) it removes at least
+    :data:`EXPLAIN_SHARE` of what ``top`` leaves above the null floor, and (4) it does so better than a second
+    shape of ``top``'s own family, by more than the null's noise: at high signal-to-noise any family fits a
+    little of the first effect's shape mismatch, and another shape of the first family fits it at least as
+    well, while a second cause is something no shape of the first can mimic.
     """
     lead = candidates[top][families[top][0].best]
     S_top = families[top][0].heldout
@@ -673,14 +675,13 @@ def _best_second(stats: Statistics, candidates, families, top: str, base_spec: S
         return None
     scored = {}
     for name, cands in candidates.items():
-        if name == top:
-            continue
         pairs = [(c, _combine(lead, c, base_spec)) for c in cands]
-        pairs = [(c, s) for c, s in pairs if s is not None]
+        pairs = [(c, s) for c, s in pairs if s is not None and c is not lead]
         if not pairs:
             continue
         family, _ = _score_family(stats, [c for c, _ in pairs], [s for _, s in pairs])
         scored[name] = (family, _standardise(S_top - family.heldout))
+    own = scored.pop(top, None)
     if not scored:
         return None
     null_z = np.column_stack([((S_top - fam.heldout)[1:] - m) / s for fam, (_, m, s) in scored.values()])
@@ -689,8 +690,13 @@ def _best_second(stats: Statistics, candidates, families, top: str, base_spec: S
     family, (z, _, _) = scored[name]
     remainder = float(S_top[0]) - float(np.mean(S0[1:]))
     share = (float(S_top[0]) - float(family.heldout[0])) / remainder if remainder > 0 else 0.0
+    beyond_own = True
+    if own is not None:
+        diff = own[0].heldout - family.heldout  # > 0 when the other effect does better than a second own shape
+        beyond_own = float(diff[0]) > AMBIGUITY_Z * float(np.std(diff[1:], ddof=1))
     return {"effect": name, "heldout": float(family.heldout[0]), "z": round(z, 2), "threshold": threshold,
-            "share_of_remainder": round(share, 3), "significant": bool(z > threshold and share >= EXPLAIN_SHARE),
+            "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own),
+            "significant": bool(z > threshold and share >= EXPLAIN_SHARE and beyond_own),
             "shrink_pct": round(100.0 * (1.0 - math.sqrt(max(family.heldout[0], 0.0) / S0[0])), 2)}
 
 

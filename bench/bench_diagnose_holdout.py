@@ -1,0 +1,151 @@
+"""The diagnosis measured on the hold-out truth world (tests/holdout_world.py), which it was never tuned on.
+
+Run: python -m bench.bench_diagnose_holdout [--quick] [--out FILE.json]
+
+Every campaign is written as CONTRACT §3 run folders and goes through
+ingest → tare → subtract-inertia → diagnose, as the README says.  Parts:
+
+1. accuracy: 20 null campaigns, every catalogue effect twice (random forms,
+   full intensity), 4 two-effect campaigns, 2 outside-catalogue campaigns;
+2. false alarms: 40 more nulls (60 in all, every nuisance varied);
+3. detection ladder: every effect at five intensities on seeds shared with
+   null campaigns, so each campaign has a twin without the effect.  Effect
+   size = sqrt(max(S_effect − S_null, 0)) / noise, where S is the baseline's
+   held-out mean square: the RMS the effect leaves after the baseline is
+   refitted, in units of the campaign's noise.  Detected = the effect is
+   significant and first (or among the verdict's effects).
+
+Prints each campaign, then the figures; ``--out`` keeps every row as JSON.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from pencli import api
+from tests.holdout_world import CATALOGUE, OUTSIDE, make_campaign
+
+LADDER = (0.04, 0.08, 0.16, 0.32, 0.64)
+SIZE_BINS = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, math.inf)
+
+
+def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        campaign = make_campaign(Path(tmp), seed, effects, intensity=intensity)
+        db = Path(tmp) / "runs.duckdb"
+        api.ingest(campaign.folders, db)
+        api.tare_runs(db, ["all"])
+        api.subtract_inertia_runs(db, ["all"])
+        t0 = time.perf_counter()
+        result = api.diagnose(db, ["all"])
+        seconds = time.perf_counter() - t0
+    first = result.effects[0] if result.effects else None
+    return {"seed": seed, "truth": list(effects), "intensity": intensity, "verdict": result.verdict,
+            "verdict_effects": list(result.verdict_effects), "first": first.name if first else None,
+            "first_significant": bool(first and first.significant),
+            "significant": [e.name for e in result.effects if e.significant],
+            "shrink_of_truth": next((e.shrink_pct for e in result.effects if e.name in effects), None),
+            "baseline_ms_n2": result.baseline["heldout_rms_n"] ** 2, "noise_n": campaign.nuisances["noise_n"],
+            "nuisances": campaign.nuisances, "forms": campaign.effects, "seconds": seconds}
+
+
+def right(row: dict) -> bool:
+    truth = set(row["truth"])
+    if not truth:
+        return row["verdict"] == "none"
+    if truth == {OUTSIDE}:
+        return row["verdict"] == "unexplained"
+    if len(truth) == 1:
+        return row["verdict"] in truth
+    return truth <= set(row["verdict_effects"])
+
+
+def detected(row: dict) -> bool:
+    name = row["truth"][0]
+    return name in row["verdict_effects"] or (row["first"] == name and row["first_significant"])
+
+
+def show(label: str, row: dict) -> None:
+    print(f"{label:34s} truth={'+'.join(row['truth']) or 'none':45s} verdict={row['verdict']:25s} "
+          f"{'OK ' if right(row) else 'MISS'} effects={row['verdict_effects']} {row['seconds']:.1f}s "
+          f"noise={row['noise_n']:.1f}N rate={row['nuisances']['rate_hz']} enc={row['nuisances']['encoder_mm']}mm",
+          flush=True)
+
+
+def main() -> None:
+    quick = "--quick" in sys.argv
+    rows: dict[str, list] = {"accuracy": [], "nulls": [], "ladder": []}
+    base = 70000
+    n_nulls = 4 if quick else 20
+    for i in range(n_nulls):
+        rows["accuracy"].append(run(base + i))
+        show(f"null {i}", rows["accuracy"][-1])
+    for k, name in enumerate(CATALOGUE):
+        for rep in range(1 if quick else 2):
+            rows["accuracy"].append(run(base + 100 + 2 * k + rep, [name]))
+            show(f"{name} {rep}", rows["accuracy"][-1])
+    pairs = [("strength_layer", "load_cell_mass_error"), ("rig_ringing", "sidewall_pressure_growth"),
+             ("propulsion_loss", "strength_gradient"), ("force_drift", "velocity_friction")]
+    for k, pair in enumerate(pairs[:1] if quick else pairs):
+        rows["accuracy"].append(run(base + 200 + k, list(pair)))
+        show(f"pair {k}", rows["accuracy"][-1])
+    for k in range(1 if quick else 2):
+        rows["accuracy"].append(run(base + 300 + k, [OUTSIDE]))
+        show(f"outside {k}", rows["accuracy"][-1])
+    if not quick:
+        for i in range(40):
+            rows["nulls"].append(run(base + 1000 + i))
+            show(f"extra null {i}", rows["nulls"][-1])
+    ladder_seeds = [base + i for i in range(2 if quick else 4)]  # twins of the first accuracy nulls
+    null_ms = {r["seed"]: r["baseline_ms_n2"] for r in rows["accuracy"] if not r["truth"]}
+    for name in CATALOGUE:
+        for seed in ladder_seeds:
+            for intensity in (LADDER[1:4:2] if quick else LADDER):
+                row = run(seed, [name], intensity)
+                row["size"] = math.sqrt(max(row["baseline_ms_n2"] - null_ms[seed], 0.0)) / row["noise_n"]
+                rows["ladder"].append(row)
+                show(f"ladder {name} x{intensity} (size {row['size']:.2f})", row)
+
+    acc = rows["accuracy"]
+    nulls = [r for r in acc + rows["nulls"] if not r["truth"]]
+    singles = [r for r in acc if len(r["truth"]) == 1 and r["truth"] != [OUTSIDE]]
+    pair_rows = [r for r in acc if len(r["truth"]) == 2]
+    effect_rows = [r for r in acc if r["truth"]]
+    shrinks = [r["shrink_of_truth"] for r in singles if r["shrink_of_truth"] is not None and right(r)]
+    print()
+    print("HOLD-OUT WORLD (never tuned on)")
+    print(f"verdicts right (effect, pair and outside campaigns): {sum(map(right, effect_rows))} of {len(effect_rows)} "
+          f"({100 * sum(map(right, effect_rows)) / len(effect_rows):.0f} %)")
+    print(f"verdicts right, all campaigns incl. {n_nulls} nulls:        {sum(map(right, acc))} of {len(acc)} "
+          f"({100 * sum(map(right, acc)) / len(acc):.0f} %)")
+    print(f"single effects right:                                {sum(map(right, singles))} of {len(singles)}")
+    print(f"pairs with both effects found:                       {sum(map(right, pair_rows))} of {len(pair_rows)}")
+    print(f"null campaigns called anything but none:             {sum(not right(r) for r in nulls)} of {len(nulls)} "
+          f"(false-alarm rate {sum(not right(r) for r in nulls) / len(nulls):.3f}; stated 0.01)")
+    print(f"median held-out shrink of the true effect (right single verdicts): "
+          f"{statistics.median(shrinks) if shrinks else float('nan'):.1f} %")
+    times = [r["seconds"] for r in acc]
+    print(f"diagnosis time per campaign: median {statistics.median(times):.1f} s, max {max(times):.1f} s "
+          f"(4-8 runs; 2 cores)")
+    print()
+    print("detection probability by effect size (RMS the effect leaves after the baseline refit / noise):")
+    header = " ".join(f"{lo:g}-{hi:g}" for lo, hi in zip(SIZE_BINS[:-1], SIZE_BINS[1:]))
+    print(f"{'effect':26s} {header}")
+    for name in CATALOGUE:
+        cells = []
+        for lo, hi in zip(SIZE_BINS[:-1], SIZE_BINS[1:]):
+            hits = [detected(r) for r in rows["ladder"] if r["truth"] == [name] and lo <= r["size"] < hi]
+            cells.append(f"{sum(hits)}/{len(hits)}" if hits else "-")
+        print(f"{name:26s} " + " ".join(f"{c:>7s}" for c in cells))
+    if "--out" in sys.argv:
+        Path(sys.argv[sys.argv.index("--out") + 1]).write_text(json.dumps(rows, indent=1, default=str))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,141 @@
+"""The diagnosis' building blocks against independent computations (issue 11).
+
+- Leave-one-run-out scores from Gram matrices against stacked least squares
+  solved directly (numpy lstsq, scipy lsq_linear for the bounds).
+- The noise model against AR processes of known coefficients.
+- The Gumbel tail against a Gumbel law's known quantile.
+- Force-onset and encoder-step detection against signals of known truth.
+- A sim-rig shot whose block sits lower than the file says still ends at the hard stops.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import lsq_linear
+from scipy.signal import lfilter
+
+from pencli.diagnose.linear import Spec, Statistics
+from pencli.diagnose.null import fit_noise, gumbel_quantile
+from pencli.filter.derivatives import encoder_step_m
+from pencli.filter.tare import force_onset
+
+
+def _random_runs(rng, n_runs=5, n_extra=2, c_true=-0.5):
+    """Per run: columns [strength, P, C, K, extras...] and a target; C's truth can be negative (bound active)."""
+    mats, ys = [], []
+    shared = np.r_[2.0, c_true, 1.5, rng.normal(0, 1, n_extra)]
+    for _ in range(n_runs):
+        n = int(rng.integers(80, 150))
+        X = np.abs(rng.normal(1.0, 0.5, (n, 4 + n_extra)))
+        X[:, 4:] = rng.normal(0, 1, (n, n_extra))
+        y = X[:, 0] * rng.uniform(0.5, 1.5) + X[:, 1:] @ shared + rng.normal(0, 0.3, n)
+        mats.append(X)
+        ys.append(y)
+    return mats, ys
+
+
+def _direct_heldout(mats, ys, k, bounded):
+    """Fit on the other runs (own strength column per run, shared rest) by stacked least squares; score run k."""
+    train = [i for i in range(len(mats)) if i != k]
+    q = mats[0].shape[1] - 1
+    rows, rhs = [], []
+    for j, i in enumerate(train):
+        X = np.zeros((mats[i].shape[0], len(train) + q))
+        X[:, j] = mats[i][:, 0]
+        X[:, len(train):] = mats[i][:, 1:]
+        w = 1 / math.sqrt(mats[i].shape[0])
+        rows.append(X * w)
+        rhs.append(ys[i] * w)
+    X, y = np.vstack(rows), np.concatenate(rhs)
+    if bounded:
+        lower = np.r_[np.full(len(train), -np.inf), np.zeros(3), np.full(q - 3, -np.inf)]
+        theta = lsq_linear(X, y, bounds=(lower, np.inf), method="bvls", tol=1e-12).x
+    else:
+        theta = np.linalg.lstsq(X, y, rcond=None)[0]
+    shared = theta[len(train):]
+    rest = ys[k] - mats[k][:, 1:] @ shared
+    s = mats[k][:, 0]
+    r = rest - (s @ rest) / (s @ s) * s
+    return float(np.mean(r ** 2)), shared
+
+
+@pytest.mark.parametrize("c_true", [0.7, -0.5])
+def test_gram_leave_one_out_matches_stacked_least_squares(c_true):
+    rng = np.random.default_rng(3)
+    mats, ys = _random_runs(rng, c_true=c_true)
+    q = mats[0].shape[1]
+    with_zero = [np.column_stack([m, np.zeros(m.shape[0])]) for m in mats]  # column q: no offset
+    noisy = [np.column_stack([y, y + rng.normal(0, 1, y.size)]) for y in ys]
+    full = Statistics(with_zero, noisy).score([Spec(tuple(range(q)), offset=q)])
+    for k in range(len(mats)):
+        for target in (0, 1):
+            expected, shared = _direct_heldout(mats, [n[:, target] for n in noisy], k, bounded=True)
+            assert full.heldout[0, k, target] == pytest.approx(expected, rel=1e-6)
+    if c_true < 0:  # the bound is active: C sits at 0 in the all-runs fit
+        assert full.coefficients[0, 1, 0] == pytest.approx(0.0, abs=1e-9)
+    # the last extra column used as a known offset instead (target y − x_last), against the direct fit of that
+    offset = Statistics(with_zero, [y[:, None] for y in ys]).score([Spec(tuple(range(q - 1)), offset=q - 1)])
+    for k in range(len(mats)):
+        expected, _ = _direct_heldout([m[:, :q - 1] for m in mats], [y - m[:, q - 1] for y, m in zip(ys, mats)], k,
+                                      bounded=True)
+        assert offset.heldout[0, k, 0] == pytest.approx(expected, rel=1e-6)
+
+
+def test_noise_model_recovers_an_ar1_process():
+    rng = np.random.default_rng(5)
+    e = lfilter([1.0], [1.0, -0.8], rng.normal(0, 2.0, 20000))
+    model = fit_noise(e)
+    assert model.coefficients[0] == pytest.approx(0.8, abs=0.03)
+    assert model.innovation_n == pytest.approx(2.0, rel=0.03)
+    sim = model.simulate(20000, rng)
+    assert float(np.std(sim)) == pytest.approx(float(np.std(e)), rel=0.1)
+    white = fit_noise(rng.normal(0, 3.0, 5000))
+    assert white.coefficients.size <= 1 and white.level_n == pytest.approx(3.0, rel=0.05)
+
+
+def test_gumbel_tail_matches_the_law():
+    rng = np.random.default_rng(2)
+    mu, beta = 4.0, 0.7
+    samples = mu - beta * np.log(-np.log(rng.uniform(size=4000)))
+    exact = mu - beta * math.log(-math.log(0.99))
+    assert gumbel_quantile(samples, 0.01) == pytest.approx(exact, rel=0.03)
+
+
+def test_force_onset_finds_the_change_point():
+    rng = np.random.default_rng(0)
+    t = np.arange(-0.01, 0.01, 1 / 30000)
+    for true in (-1.2e-3, 0.3e-3, 2.5e-3):
+        force = 80 + 900 * t + np.where(t > true, 500 + 3e4 * (t - true), 0.0) + rng.normal(0, 4, t.size)
+        assert force_onset(t, force, 0.0) == pytest.approx(true, abs=2 / 30000)
+
+
+@pytest.mark.parametrize("step", [0.08e-3, 0.16e-3, 0.32e-3])
+def test_encoder_step_is_read_from_the_record(step):
+    t = np.linspace(0, 0.05, 3000)
+    x = 0.5 * 300 * t ** 2
+    record = step * np.floor(x / step + 0.37)
+    assert encoder_step_m(record) == pytest.approx(step, rel=1e-6)
+    analogue = x + np.random.default_rng(1).normal(0, 2e-5, x.size)
+    assert encoder_step_m(analogue) < 0.2e-3  # not mistaken for a coarse encoder
+
+
+def test_block_surface_below_the_file_still_ends_at_the_hard_stops(tmp_path):
+    """Stand-off scatter: the stops come up to a few mm short of full depth in file coordinates."""
+    from pencli import api
+    from pencli.acquire.rig import rig_from_mapping
+
+    rig = tmp_path / "rig.yaml"
+    rig.write_text("kind: rig\nname: t\nseed: 4\ntrue_material: grill_brick\nsurface_offset_error_mm: -1.5\n")
+    shot = api.acquire(springs=6, penetrator="al6061_1mm", material="grill_brick", rig=rig, duration_s=1.0,
+                       info={"id": "low-block"})
+    assert rig_from_mapping({"surface_offset_error_mm": -1.5})["surface_offset_error_mm"] == -1.5
+    db = tmp_path / "runs.duckdb"
+    api.add_run(shot.run, db, command="test")
+    outcome = api.tare_runs(db, ["all"])[0]
+    assert outcome.status == "done", outcome
+    events = api.workspace(db).read_stage("low-block")[1].parameters["events"]
+    assert events["end"] == "full_depth"
+    assert events["final_depth_m"] == pytest.approx(0.133 - 1.5e-3, abs=0.3e-3)
