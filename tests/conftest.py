@@ -7,8 +7,11 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-SPEC = Path(__file__).resolve().parents[2] / "shared" / "spec"
 REPO = Path(__file__).resolve().parents[1]
+SPEC = REPO / "tests" / "contract"
+"""The interchange contract's examples, copied into the repository so a fresh clone tests without them."""
+OUTSIDE_SPEC = REPO.parent / "shared" / "spec"
+"""Where the binding contract lives beside a development checkout (absent in a user's clone)."""
 
 
 @pytest.fixture

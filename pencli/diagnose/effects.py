@@ -540,6 +540,41 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
 """The catalogue by name (CONTRACT §4)."""
 
 
+def _hats(values: np.ndarray, knots: np.ndarray) -> np.ndarray:
+    """Piecewise-linear hat functions on ``knots`` evaluated at ``values`` (zero outside the knot range)."""
+    out = np.zeros((values.size, knots.size))
+    for j, k in enumerate(knots):
+        left = knots[j - 1] if j > 0 else k
+        right = knots[j + 1] if j + 1 < knots.size else k
+        up = (values - left) / (k - left) if k > left else (values == k).astype(float)
+        down = (right - values) / (right - k) if right > k else (values == k).astype(float)
+        out[:, j] = np.clip(np.minimum(up, down), 0.0, 1.0)
+    return out
+
+
+def _depth_profile(run: DiagnosisRun, b: Basis) -> Columns:
+    x = np.where(b.inside, b.x, -1.0)
+    return Columns(_hats(x, np.arange(0.0, 0.1401, 0.004)) * run.design.blade_width_m * (b.inside[:, None]))
+
+
+def _time_profile(run: DiagnosisRun, b: Basis) -> Columns:
+    struck = run.contact_s if run.force_contact_s is None else run.force_contact_s
+    tc = np.where(b.t >= struck, b.t - struck, -1.0)
+    return Columns(_hats(tc, np.arange(0.0, 0.0401, 0.001)))
+
+
+PROBES: dict[str, Effect] = {e.name: e for e in (
+    Effect("depth_profile", "probe", "depth",
+           "Any force profile in depth shared by the runs (per metre of blade width; hats every 4 mm).",
+           (Member({"knots_mm": 4.0}, chain=_depth_profile),), lambda m, c, ctx: dict(m.params)),
+    Effect("time_profile", "probe", "time",
+           "Any force profile in time since contact shared by the runs (hats every 1 ms).",
+           (Member({"knots_ms": 1.0}, chain=_time_profile),), lambda m, c, ctx: dict(m.params)),
+)}
+"""Generic structure, not catalogue effects: a gap that one of these closes on held-out runs is a gap shared by
+the runs (not noise, not one run's accident), whatever its cause.  They decide ``unexplained``."""
+
+
 INDISTINGUISHABLE: dict[frozenset, str] = {
     frozenset({"strength_gradient", "sidewall_pressure_growth"}):
         "runs of another blade thickness: sidewall friction does not scale with T, frontal strength does",
