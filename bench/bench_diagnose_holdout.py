@@ -102,7 +102,7 @@ def main() -> None:
         for i in range(40):
             rows["nulls"].append(run(base + 1000 + i))
             show(f"extra null {i}", rows["nulls"][-1])
-    ladder_seeds = [base + i for i in range(2 if quick else 4)]  # twins of the first accuracy nulls
+    ladder_seeds = [base + i for i in range(2 if quick else 3)]  # twins of the first accuracy nulls
     null_ms = {r["seed"]: r["baseline_ms_n2"] for r in rows["accuracy"] if not r["truth"]}
     for name in CATALOGUE:
         for seed in ladder_seeds:
