@@ -204,6 +204,8 @@ class EffectReport:
     detectable_rms_n: float | None = None
     """Smallest RMS this effect could leave after the baseline refit and still be found at the false-alarm rate. [N]"""
     trajectory_change: dict = field(default_factory=dict)
+    axis: str = ""
+    """What this effect's misfit follows (the registry's; compare the diagnosis' measured ``axes``)."""
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -614,7 +616,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                 family, fit = families[r.name]
                 change = _trajectory_change(effect, candidates[r.name][family.best].member,
                                             fit["coefficients"][3:, 0], runs, values)
-        final.append(replace(r, trajectory_change=change))
+        final.append(replace(r, trajectory_change=change, axis=EFFECTS[r.name].axis))
     final.sort(key=lambda r: (-int(r.significant), -r.shrink_pct))
     ambiguities = _ambiguities(final, families, S0)
 
