@@ -207,3 +207,39 @@ def test_params_show_round_trips_through_validation(tmp_path, runner):
     (mapping,) = json.loads(r.stdout)
     path = write(tmp_path, "roundtrip", yaml.safe_dump(mapping))
     assert load_file(path).values["coefficients.sidewall_pressure_kpa"] == 530
+
+
+def test_spring_length_at_contact_is_an_alternative_to_the_compressed_length(tmp_path):
+    """CONTRACT §1: BAM's 'spring length at contact' = compressed length + stand-off; one or the other."""
+    import yaml
+
+    from pencli.errors import ParameterError
+    from pencli.params.validate import validate_mapping
+
+    base = {"kind": "energizing", "name": "e", "spring_count": 4, "spring_stiffness_kn_m": 1.45,
+            "spring_mass_kg": 0.28, "spring_nominal_length_mm": 500.0, "surface_offset_mm": 143.289,
+            "propulsion_efficiency_pct": 98.0}
+    by_contact = validate_mapping({**base, "spring_length_at_contact_mm": 487.989}, "c.yaml")
+    by_split = validate_mapping({**base, "spring_compressed_length_mm": 344.7}, "s.yaml")
+    assert by_contact.get("spring_compressed_length_mm") == pytest.approx(344.7, abs=1e-9)
+    assert by_contact.to_mapping()["spring_length_at_contact_mm"] == 487.989
+    assert "spring_compressed_length_mm" not in by_contact.to_mapping()  # written back as given
+    from pencli import api
+
+    p = api.predict("figure10", "figure10", _write(tmp_path / "c.yaml", by_contact.to_mapping(), yaml))
+    q = api.predict("figure10", "figure10", _write(tmp_path / "s.yaml", by_split.to_mapping(), yaml))
+    assert p.result.summary.contact_speed_m_s == q.result.summary.contact_speed_m_s
+    assert p.result.summary.contact_speed_m_s == pytest.approx(7.155133, rel=1e-6)  # the paper's Figure 10
+    with pytest.raises(ParameterError, match="give one, never both"):
+        validate_mapping({**base, "spring_length_at_contact_mm": 487.989, "spring_compressed_length_mm": 344.7},
+                         "b.yaml")
+    with pytest.raises(ParameterError, match="spring_length_at_contact_mm"):
+        validate_mapping(base, "n.yaml")
+    swapped = by_contact.with_values({"spring_compressed_length_mm": 340.0})  # --set replaces the alternative
+    assert swapped.get("spring_compressed_length_mm") == 340.0 and "spring_length_at_contact_mm" not in swapped.values
+    assert load_file(tmp_path / "c.yaml").get("spring_compressed_length_mm") == pytest.approx(344.7)
+
+
+def _write(path, mapping, yaml):
+    path.write_text(yaml.safe_dump(mapping))
+    return str(path)

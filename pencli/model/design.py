@@ -98,6 +98,8 @@ def design_from_sets(penetrator: ParameterSet, material: ParameterSet, energizin
     by_kind = {"penetrator": penetrator, "material": material, "energizing": energizing}
     values: dict[str, float] = {}
     for param in PARAMETERS:
+        if not param.si_name:  # an alternative input (EITHER_OR): its primary carries the value
+            continue
         raw = by_kind[param.kind].get(param.key)
         if raw is None:
             values[param.si_name] = math.nan

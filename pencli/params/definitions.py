@@ -170,11 +170,21 @@ PARAMETERS: tuple[Param, ...] = (
        "nominal_length_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000),
     _P("spring_compressed_length_mm", "energizing", "Lc", "spring length at release", "mm",
        "compressed_length_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000),
+    _P("spring_length_at_contact_mm", "energizing", "Lc + s0",
+       "spring length when the tip reaches the surface (BAM's input): give it or spring_compressed_length_mm, "
+       "never both; compressed length = this − surface_offset_mm", "mm",
+       "", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000, required=False),
     _P("surface_offset_mm", "energizing", "s0", "blade tip to surface at release (stand-off)", "mm",
        "surface_offset_m", 1e-3, hard_min=0, range_min=0, range_max=2000),
     _P("propulsion_efficiency_pct", "energizing", "η", "propulsion efficiency", "%",
        "efficiency", 1e-2, hard_min=0, hard_max=100, hard_min_exclusive=True, range_min=1, range_max=100),
 )
+
+EITHER_OR: dict[str, tuple[str, Callable[[dict[str, float]], float]]] = {
+    "spring_compressed_length_mm": (
+        "spring_length_at_contact_mm", lambda v: v["spring_length_at_contact_mm"] - v["surface_offset_mm"]),
+}
+"""A required key that may instead be given through an alternative (CONTRACT §1), and how it follows from it."""
 
 BY_KEY: dict[str, Param] = {p.key: p for p in PARAMETERS}
 """Every parameter by its YAML key (dotted for ``coefficients.*``)."""

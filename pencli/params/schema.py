@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from pencli.params.definitions import OPTIONAL_TOP_KEYS, RANGE_KEYS, Kind, Param, params_of
+from pencli.params.definitions import EITHER_OR, OPTIONAL_TOP_KEYS, RANGE_KEYS, Kind, Param, params_of
 
 
 def _property(param: Param) -> dict[str, Any]:
@@ -45,7 +45,7 @@ def json_schema(kind: Kind) -> dict[str, Any]:
             nested.setdefault(group, {})[sub] = _property(param)
             continue
         properties[param.key] = _property(param)
-        if param.required:
+        if param.required and param.key not in EITHER_OR:
             required.append(param.key)
     for group, props in nested.items():
         properties[group] = {"type": "object", "properties": props, "additionalProperties": False}
@@ -55,6 +55,9 @@ def json_schema(kind: Kind) -> dict[str, Any]:
             "type": "object", "description": "what `pen fit` saw: [min, max] per quantity (predict warns outside)",
             "properties": {key: {**pair, "x-unit": unit} for key, unit in RANGE_KEYS.items()},
             "additionalProperties": False}
+    either = [(primary, alternative) for primary, (alternative, _) in EITHER_OR.items()
+              if any(p.key == primary for p in params_of(kind))]
+    extra = {"allOf": [{"oneOf": [{"required": [a]}, {"required": [b]}]} for a, b in either]} if either else {}
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": f"https://pen.invalid/schema/{kind}.schema.json",
@@ -63,4 +66,5 @@ def json_schema(kind: Kind) -> dict[str, Any]:
         "properties": properties,
         "required": required,
         "additionalProperties": False,
+        **extra,
     }

@@ -14,6 +14,7 @@ from typing import Any, Mapping
 
 from pencli.errors import ParameterError
 from pencli.params.definitions import (
+    EITHER_OR,
     BY_KEY,
     KINDS,
     OPTIONAL_TOP_KEYS,
@@ -61,8 +62,9 @@ class ParameterSet:
         out: dict[str, Any] = {"kind": self.kind, "name": self.name}
         if self.notes:
             out["notes"] = self.notes
+        derived = {primary for primary, (alternative, _) in EITHER_OR.items() if alternative in self.values}
         for param in params_of(self.kind):
-            if param.key not in self.values:
+            if param.key not in self.values or param.key in derived:
                 continue
             value = self.values[param.key]
             if "." in param.key:
@@ -78,6 +80,11 @@ class ParameterSet:
                     source_note: str = "--set") -> "ParameterSet":
         """A new set with ``updates`` applied and the whole set re-validated."""
         merged = dict(self.values)
+        for primary, (alternative, _) in EITHER_OR.items():  # setting one of a pair replaces the other
+            if primary in updates:
+                merged.pop(alternative, None)
+            if alternative in updates:
+                merged.pop(primary, None)
         merged.update(updates)
         mapping = replace(self, values=merged).to_mapping()
         checked = validate_mapping(mapping, f"{self.source} ({source_note})", expected_kind=self.kind,
@@ -181,18 +188,32 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
             raise ParameterError(
                 f"{source}: unknown key '{key}'{hint}; valid {kind} keys: {', '.join(known)}")
 
+    for primary, (alternative, _) in EITHER_OR.items():
+        if primary in known and primary in flat and alternative in flat:
+            raise ParameterError(f"{source}: keys '{primary}' and '{alternative}': give one, never both "
+                                 f"({known[alternative].meaning})")
     values: dict[str, float] = {}
     for param in known.values():
         if param.key not in flat:
+            if param.key in EITHER_OR and EITHER_OR[param.key][0] in flat:
+                continue  # derived below from its alternative
             if param.required:
+                alternative = f" or '{EITHER_OR[param.key][0]}'" if param.key in EITHER_OR else ""
                 raise ParameterError(
-                    f"{source}: missing key '{param.key}' ({param.meaning}, {param.unit})")
+                    f"{source}: missing key '{param.key}' ({param.meaning}, {param.unit}){alternative}")
             if param.default is not None:
                 values[param.key] = param.default
             continue
         values[param.key] = check_value(param, flat[param.key], source,
                                         allow_out_of_range=allow_out_of_range)
 
+    for primary, (alternative, derive) in EITHER_OR.items():
+        if primary in known and primary not in values and alternative in values:
+            try:
+                values[primary] = check_value(known[primary], derive(values), f"{source} ({alternative})",
+                                              allow_out_of_range=allow_out_of_range)
+            except ParameterError as exc:
+                raise ParameterError(f"{exc} (derived from {alternative})") from None
     for rule in RULES:
         if rule.kind == kind and not rule.holds(values):
             first = rule.keys[0]
