@@ -67,7 +67,7 @@ def test_predict_terms_switch_terms_off(runner):
     rec = json.loads(r.stdout)
     assert rec["terms"] == ["strength", "inertia"] and rec["energy_friction_j"] == 0.0
     bad = invoke(runner, "predict", "-p", "appendix_c", "-m", "grill_brick", "-e", "appendix_c", "--terms", "drag")
-    assert bad.exit_code == 1 and "drag" in bad.stderr and "strength" in bad.stderr
+    assert bad.exit_code == 2 and "drag" in bad.stderr and "strength" in bad.stderr  # CONTRACT §6: usage
 
 
 def test_predict_json_has_every_contract_key(runner):
@@ -85,3 +85,18 @@ def test_messages_with_brackets_reach_the_user_intact(runner):
     r = invoke(runner, "predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4",
                "--set", "blade_thickness_mm=60")
     assert r.exit_code == 1 and "[0.1, 50] mm" in r.stderr
+
+
+@pytest.mark.parametrize("args", [
+    ("predict", "-p", "figure10", "-m", "figure10", "-e", "figure10", "--set", "blade_width_mm"),
+    ("predict", "-p", "figure10", "-m", "figure10", "-e", "figure10", "--terms", "bogus"),
+    ("fit", "--material", "m", "all", "--terms", "bogus"),
+    ("ingest", "somewhere", "--time-unit", "furlongs"),
+    ("ingest", "somewhere", "--position-unit", "cubits"),
+])
+def test_malformed_options_are_usage_errors(workspace, runner, args):
+    """CONTRACT §6: exit 2 for a usage error, with the option named; nothing written."""
+    r = invoke(runner, *args)
+    assert r.exit_code == 2, r.output
+    assert "Invalid value" in r.output or "Invalid value" in r.stderr
+    assert not (workspace / "runs.duckdb").exists()

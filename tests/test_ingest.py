@@ -359,3 +359,19 @@ def test_reading_without_a_workspace_says_how_to_make_one(workspace, runner):
 
 def test_store_error_is_an_oserror():
     assert issubclass(StoreError, OSError)
+
+
+def test_runs_list_never_cuts_an_id(workspace, runner, tmp_path):
+    """Issue 13: ids were cut ("mc-1…") at 80–100 columns and when piped; piped output is plain text."""
+    import shutil
+
+    long_id = "mpacs-c-block-7-blade-1.5mm-springs-4-repeat-12"
+    folder = tmp_path / "long"
+    shutil.copytree(EXAMPLE, folder)
+    (folder / "run.yaml").write_text(f"id: {long_id}\n")
+    assert invoke(runner, "ingest", folder).exit_code == 0
+    listing = invoke(runner, "runs")
+    assert listing.exit_code == 0, listing.output
+    lines = listing.stdout.splitlines()
+    assert lines[0].split("\t")[0] == "run"  # not a terminal here: tab-separated, one run a line
+    assert any(line.split("\t")[0] == long_id for line in lines[1:]), listing.stdout

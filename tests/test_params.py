@@ -179,11 +179,17 @@ def test_set_override_changes_the_design_and_is_validated(runner):
     assert b["overrides"] == {"blade_width_mm": 150.0, "coefficients.inertia_coefficient": 40.0}
     assert not a["full_penetration"]
     assert b["final_depth_mm"] > a["final_depth_mm"]  # a narrower blade goes deeper
-    for bad, words in (("blade_width_mm=-1", "blade_width_mm"), ("nosuch=1", "unknown key"),
-                       ("blade_width_mm=wide", "not a number"), ("blade_width_mm", "KEY=VALUE"),
+    # a value its key does not allow: input rejected, one line, exit 1
+    for bad, words in (("blade_width_mm=-1", "blade_width_mm"),
                        ("blade_thickness_mm=60", "outside the documented range")):
         r = invoke(runner, "predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--set", bad)
         assert r.exit_code == 1 and words in r.stderr and len(r.stderr.strip().splitlines()) == 1, (bad, r.output)
+    # a malformed option: a usage error (CONTRACT §6), exit 2, naming what is wrong
+    for bad, words in (("nosuch=1", "unknown key"), ("blade_width_mm=wide", "not a number"),
+                       ("blade_width_mm", "KEY=VALUE")):
+        r = invoke(runner, "predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--set", bad)
+        flat = " ".join(r.stderr.translate({ord(c): " " for c in "│╭╮╰╯─"}).split())  # typer's box, unwrapped
+        assert r.exit_code == 2 and words in flat, (bad, r.output)
 
 
 def test_unknown_preset_lists_the_bundled_ones(runner):

@@ -42,6 +42,23 @@ def number_pair(text: str | None, separator: str, form: str, option: str) -> tup
     return first, second
 
 
+def usage_check(check: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    """An option callback that runs the library's own check of the value; its error is a usage error (exit 2).
+
+    CONTRACT §6: a malformed option (``--set`` without ``=``, an unknown term or unit) is a usage error.
+    """
+    def callback(value: Any) -> Any:
+        if value is None:
+            return value
+        try:
+            check(value)
+        except PenError as exc:
+            raise typer.BadParameter(str(exc)) from None
+        return value
+
+    return callback
+
+
 def fail(message: str, code: int = 1) -> typer.Exit:
     """Print one red line on stderr; return the Exit to raise."""
     err_console.print(f"[red]error:[/red] {escape(message)}", highlight=False, soft_wrap=True)

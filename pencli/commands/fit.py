@@ -10,8 +10,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, print_json
-from pencli.model.resistance import TERMS
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, print_json, usage_check
+from pencli.model.resistance import TERMS, parse_terms
 
 app = PenTyper()
 
@@ -28,7 +28,7 @@ def fit(
     mode: str = typer.Option("resistance", "--mode", help="resistance: Eq. 9 against measured resistance with "
                                                           "measured x, v (linear); dynamic: simulate each run from "
                                                           "its launch and fit force and position against time."),
-    terms: str = typer.Option(",".join(TERMS), "--terms", help="Eq. 9 terms switched on, comma-separated."),
+    terms: str = typer.Option(",".join(TERMS), "--terms", callback=usage_check(parse_terms), help="Eq. 9 terms switched on, comma-separated."),
     fix: Optional[List[str]] = typer.Option(None, "--fix", metavar="TERM=VALUE",
                                             help="Hold a coefficient, file units (damping=0; friction=31.6 [kPa]). "
                                                  "Single-run fits hold damping at 0 unless told."),

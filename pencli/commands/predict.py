@@ -10,8 +10,9 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, err_console, print_json
-from pencli.model.resistance import TERMS
+from pencli.commands.common import DbOption, PenTyper, console, err_console, print_json, usage_check
+from pencli.model.resistance import TERMS, parse_terms
+from pencli.params.overrides import parse_overrides
 
 app = PenTyper()
 
@@ -40,10 +41,10 @@ def predict(
     material: str = typer.Option(..., "--material", "-m", help="Material preset name or YAML file."),
     energizing: str = typer.Option(..., "--energizing", "-e", help="Energizing (launcher) preset name or YAML file."),
     set_: Optional[List[str]] = typer.Option(
-        None, "--set", metavar="KEY=VALUE",
+        None, "--set", metavar="KEY=VALUE", callback=usage_check(parse_overrides),
         help="Override any CONTRACT §1 key in its file's unit, e.g. blade_width_mm=150 or "
              "coefficients.inertia_coefficient=40. Repeatable. `pen params keys` lists them."),
-    terms: str = typer.Option(",".join(TERMS), "--terms",
+    terms: str = typer.Option(",".join(TERMS), "--terms", callback=usage_check(parse_terms),
                               help="Eq. 9 terms switched on, comma-separated: strength,friction,damping,inertia."),
     speed_at_contact: Optional[float] = typer.Option(
         None, "--speed-at-contact", min=0.0,

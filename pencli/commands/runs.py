@@ -13,10 +13,16 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json, usage_check
 
 app = PenTyper()
 runs_app = PenTyper(help="List, show and query the runs of a workspace.", invoke_without_command=True)
+
+
+def _unit(quantity: str):
+    from pencli.io.runfolder import unit_factor
+
+    return usage_check(lambda unit: unit_factor(quantity, unit))
 
 
 @app.command("ingest")
@@ -26,10 +32,10 @@ def ingest(
                                           help="Column map for workbooks with other headers, e.g. "
                                                "'time=Time (s),position=Pos,fz=Force Z' (names: time, position, "
                                                "fx, fy, fz, tx, ty, tz)."),
-    time_unit: str = typer.Option("s", "--time-unit", help="Unit of the time column: s or ms."),
-    position_unit: str = typer.Option("mm", "--position-unit", help="Unit of position: mm, cm, m or in."),
-    force_unit: str = typer.Option("N", "--force-unit", help="Unit of forces: N, kN or lbf."),
-    torque_unit: str = typer.Option("Nm", "--torque-unit", help="Unit of torques: Nm, Nmm or lbf-in."),
+    time_unit: str = typer.Option("s", "--time-unit", callback=_unit("time"), help="Unit of the time column: s or ms."),
+    position_unit: str = typer.Option("mm", "--position-unit", callback=_unit("position"), help="Unit of position: mm, cm, m or in."),
+    force_unit: str = typer.Option("N", "--force-unit", callback=_unit("force"), help="Unit of forces: N, kN or lbf."),
+    torque_unit: str = typer.Option("Nm", "--torque-unit", callback=_unit("torque"), help="Unit of torques: Nm, Nmm or lbf-in."),
     penetrator: Optional[str] = typer.Option(None, "--penetrator", help="Preset or file for folders without "
                                                                         "penetrator.yaml."),
     material: Optional[str] = typer.Option(None, "--material", help="Preset or file for folders without "
@@ -109,15 +115,23 @@ def runs(
         print_json([{k: (v.isoformat() if isinstance(v, (dt.date, dt.datetime)) else v) for k, v in r.items()}
                     for r in rows])
         return
+    columns = (("run", "left"), ("date", "left"), ("material", "left"), ("blade", "left"), ("T [mm]", "right"),
+               ("springs", "right"), ("rate [kHz]", "right"), ("duration [s]", "right"), ("stage", "left"),
+               ("tags", "left"))
+    cells = [[r["run_id"], str(r["run_date"] or ""), r["material"], r["penetrator"], f"{r['blade_thickness_mm']:g}",
+              str(r["spring_count"]), f"{r['sampling_rate_hz'] / 1e3:.1f}", f"{r['duration_s']:.3f}",
+              r["latest_stage"] or "", ", ".join(r["tags"] or [])] for r in rows]
+    if not console.is_terminal:  # piped: plain tab-separated text, nothing cut
+        typer.echo("\t".join(col for col, _ in columns))
+        for row in cells:
+            typer.echo("\t".join(row))
+        return
     table = Table(show_header=True, header_style="bold", caption=f"{len(rows)} run(s) in {db_path(db)}")
-    for col, justify in (("run", "left"), ("date", "left"), ("material", "left"), ("blade", "left"),
-                         ("T [mm]", "right"), ("springs", "right"), ("rate [kHz]", "right"),
-                         ("duration [s]", "right"), ("stage", "left"), ("tags", "left")):
-        table.add_column(escape(col), justify=justify)
-    for r in rows:
-        table.add_row(r["run_id"], str(r["run_date"] or ""), r["material"], r["penetrator"],
-                      f"{r['blade_thickness_mm']:g}", str(r["spring_count"]), f"{r['sampling_rate_hz'] / 1e3:.1f}",
-                      f"{r['duration_s']:.3f}", r["latest_stage"] or "", ", ".join(r["tags"] or []))
+    for col, justify in columns:  # ids never wrap or get cut; the other columns give way
+        table.add_column(escape(col), justify=justify, no_wrap=col == "run",
+                         min_width=max((len(r[0]) for r in cells), default=3) if col == "run" else None)
+    for row in cells:
+        table.add_row(*row)
     console.print(table)
 
 

@@ -47,7 +47,8 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variabl
         raise ParameterError(f"--vary {spec!r}: expected KEY=+20%,-50% or KEY=LO:HI or KEY=V1,V2,...")
     key, _, text = (part.strip() for part in spec.partition("="))
     if key != SPEED and key not in BY_KEY:
-        raise ParameterError(f"--vary {spec!r}: unknown key '{key}'; any CONTRACT §1 key or {SPEED}")
+        hint = f" (did you mean 'coefficients.{key}'?)" if f"coefficients.{key}" in BY_KEY else ""
+        raise ParameterError(f"--vary {spec!r}: unknown key '{key}'{hint}; any CONTRACT §1 key or {SPEED}")
     try:
         if "%" in text:
             deltas = [float(p.strip().rstrip("%")) / 100.0 for p in text.split(",")]
