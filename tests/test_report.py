@@ -6,7 +6,6 @@ import base64
 import re
 import shutil
 import subprocess
-import time
 from pathlib import Path
 
 import numpy as np
@@ -56,15 +55,15 @@ def test_every_figure_kind_renders_from_the_example_workspace(example, tmp_path,
         assert pdf.read_bytes().startswith(b"%PDF") and pdf.stat().st_size > 20_000
 
 
-def test_report_of_twelve_runs_in_under_30_s(example, tmp_path):
+def test_report_of_twelve_runs(example, tmp_path):
+    """One report of the twelve example runs (how long it takes is measured by bench/bench_report.py)."""
     from pencli.report.build import write_report
 
-    started = time.perf_counter()
     sections = api.report_runs(example, ["all"])
     write_report("twelve runs", sections, tmp_path / "all.html")
-    elapsed = time.perf_counter() - started
     assert len(sections) == 12
-    assert elapsed < 30, elapsed
+    html = (tmp_path / "all.html").read_text()
+    assert html.count("<img") >= 12
 
 
 def test_all_writes_one_report_per_run_material_and_sweep(example, tmp_path, runner):

@@ -1,0 +1,53 @@
+"""Time to write one HTML report of the twelve example runs, beside a baseline measured in the same run.
+
+Run: python -m bench.bench_report
+Baseline: the same number of figures (one line plot each) drawn and saved as PNG by matplotlib alone,
+so the ratio says what pen's reading, analysis and layout add to plotting.
+"""
+
+from __future__ import annotations
+
+import io
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+
+def main() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from pencli import api
+    from pencli.report.build import write_report
+
+    repo = Path(__file__).resolve().parents[1]
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        shutil.copy(repo / "runs.duckdb.example", work / "runs.duckdb")
+        shutil.copytree(repo / "runs", work / "runs")
+        for folder in ("fits", "sweeps"):
+            if (repo / folder).is_dir():
+                shutil.copytree(repo / folder, work / folder)
+        started = time.perf_counter()
+        sections = api.report_runs(work / "runs.duckdb", ["all"])
+        write_report("twelve runs", sections, work / "all.html")
+        pen_s = time.perf_counter() - started
+        figures = sum(len(s.images) for s in sections)
+        started = time.perf_counter()
+        x = np.linspace(0, 1, 20000)
+        for _ in range(figures):
+            fig, ax = plt.subplots(figsize=(8, 4))
+            ax.plot(x, np.sin(40 * x))
+            fig.savefig(io.BytesIO(), format="png", dpi=110)
+            plt.close(fig)
+        base_s = time.perf_counter() - started
+    print(f"report of 12 runs ({figures} figures): {pen_s:.1f} s; matplotlib alone drawing {figures} line plots: "
+          f"{base_s:.1f} s; ratio {pen_s / base_s:.1f}x")
+
+
+if __name__ == "__main__":
+    main()
