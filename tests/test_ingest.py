@@ -375,3 +375,17 @@ def test_runs_list_never_cuts_an_id(workspace, runner, tmp_path):
     lines = listing.stdout.splitlines()
     assert lines[0].split("\t")[0] == "run"  # not a terminal here: tab-separated, one run a line
     assert any(line.split("\t")[0] == long_id for line in lines[1:]), listing.stdout
+
+
+def test_a_dropped_sample_is_named_at_its_own_row(tmp_path, workspace, runner):
+    """Issue 13: a row missing at file row 8002 was reported at row 3684 (where the drift crossed tolerance)."""
+    import shutil
+
+    folder = tmp_path / "dropped"
+    shutil.copytree(EXAMPLE, folder)
+    lines = (folder / "data.csv").read_text().splitlines(keepends=True)
+    del lines[8001]  # file row 8002 (the header is row 1)
+    (folder / "data.csv").write_text("".join(lines))
+    r = invoke(runner, "ingest", folder)
+    assert r.exit_code == 1
+    assert "row 8002" in r.stderr and "uniform" in r.stderr, r.stderr
