@@ -237,6 +237,8 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
             return read_run_folder(folder, options, parameter_refs), ""
         except PenError as exc:
             return None, str(exc)
+        except Exception as exc:  # noqa: BLE001 - each run is its own unit: one line for it, the batch goes on
+            return None, f"{folder}: could not be read: {_one_line(exc)}"
 
     # Read the next runs while the current one is written: parsing releases the GIL, and the
     # catalog is still opened per run so a concurrent ingest can interleave.
@@ -264,12 +266,20 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
                     added = ws.add_run(run, command=command)
                 except PenError as exc:
                     outcome = IngestOutcome(str(folder), "rejected", message=str(exc))
+                except (OSError, MemoryError, ValueError) as exc:  # a full disk, no memory: this run, not the batch
+                    outcome = IngestOutcome(str(folder), "rejected", message=f"{folder}: not stored: {_one_line(exc)}")
                 else:
                     outcome = IngestOutcome(str(folder), "added" if added.created else "existing", added.run_id)
             outcomes.append(outcome)
             if progress is not None:
                 progress(outcome)
     return outcomes
+
+
+def _one_line(exc: BaseException) -> str:
+    """An unexpected error as one line: its kind and first line (``OSError: [Errno 28] No space left``)."""
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else 'no message'}"
 
 
 def add_run(run, db: str | Path, *, command: str):

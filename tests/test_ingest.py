@@ -389,3 +389,51 @@ def test_a_dropped_sample_is_named_at_its_own_row(tmp_path, workspace, runner):
     r = invoke(runner, "ingest", folder)
     assert r.exit_code == 1
     assert "row 8002" in r.stderr and "uniform" in r.stderr, r.stderr
+
+
+def test_any_failure_is_one_line_for_that_run_and_the_batch_goes_on(tmp_path, workspace, runner, monkeypatch):
+    """Issue 13: a full disk, a reader's unexpected error, a 'billion laughs' run.yaml and a repeated header
+    each become one line for their run; the other runs are stored and the summary is printed."""
+    import shutil
+
+    from pencli.store import workspace as store
+
+    folders = {}
+    for name in ("good", "laughs", "dup", "full", "crash"):
+        folders[name] = tmp_path / name
+        shutil.copytree(EXAMPLE, folders[name])
+        (folders[name] / "run.yaml").write_text(f"id: {name}\n")
+    lol = '["lol","lol","lol","lol","lol","lol","lol","lol","lol"]'
+    (folders["laughs"] / "run.yaml").write_text(
+        f"a: &a {lol}\nb: &b [*a,*a,*a,*a,*a,*a,*a,*a,*a]\nc: &c [*b,*b,*b,*b,*b,*b,*b,*b,*b]\n"
+        "d: &d [*c,*c,*c,*c,*c,*c,*c,*c,*c]\ne: &e [*d,*d,*d,*d,*d,*d,*d,*d,*d]\nid: laughs\n")
+    lines = (folders["dup"] / "data.csv").read_text().splitlines(keepends=True)
+    lines[0] = lines[0].replace("fx_n", "fz_n", 1)
+    (folders["dup"] / "data.csv").write_text("".join(lines))
+    real_add = store.Workspace.add_run
+
+    def add_run(self, run, **kwargs):
+        if run.info.get("id") == "full":
+            raise OSError(28, "No space left on device")
+        return real_add(self, run, **kwargs)
+
+    import pencli.io.runfolder as runfolder
+
+    real_read = runfolder.read_run_folder
+
+    def read(folder, *args, **kwargs):
+        if Path(folder).name == "crash":
+            raise RuntimeError("the reader tripped\nover something")
+        return real_read(folder, *args, **kwargs)
+
+    monkeypatch.setattr(store.Workspace, "add_run", add_run)
+    monkeypatch.setattr(runfolder, "read_run_folder", read)
+    r = invoke(runner, "ingest", *folders.values())
+    assert r.exit_code == 1, r.output
+    assert "1 added" in r.stdout + r.stderr and "4 rejected" in r.stdout + r.stderr
+    errors = [line for line in r.stderr.splitlines() if line.startswith("rejected")]
+    assert len(errors) == 4, r.stderr
+    assert any("alias" in e for e in errors) and any("'fz_n' twice" in e for e in errors)
+    assert any("No space left" in e for e in errors) and any("RuntimeError: the reader tripped" in e for e in errors)
+    assert "Traceback" not in r.output
+    assert [row["run_id"] for row in api.list_runs(workspace / "runs.duckdb")] == ["good"]

@@ -102,6 +102,7 @@ def read_csv_data(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
         raise DataError(f"{path}: {_locate_csv_problem(path) or text.splitlines()[0]}") from None
     if table.num_rows == 0:
         raise DataError(f"{path}: no data rows (header only); expected a header row and data rows")
+    _refuse_repeated_headers(path, table.column_names)
     columns: dict[str, np.ndarray] = {}
     for name in table.column_names:
         column = table.column(name)
@@ -113,6 +114,16 @@ def read_csv_data(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
             raise DataError(f"{path}: row {i + 2}: column {name} is empty; expected a number")
         columns[name] = column.to_numpy().astype(np.float64)
     return table.column_names, columns
+
+
+def _refuse_repeated_headers(path: Path, names: list[str]) -> None:
+    """A header naming a column twice is ambiguous: say which, and where."""
+    seen: dict[str, int] = {}
+    for i, name in enumerate(names):
+        if name in seen:
+            raise DataError(f"{path}: row 1: header names {name!r} twice (columns {seen[name] + 1} and {i + 1}); "
+                            f"expected each column once")
+        seen[name] = i
 
 
 def _first_non_numeric(values: list) -> tuple[int, Any]:
@@ -153,6 +164,7 @@ def read_xlsx_data(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
     if not rows:
         raise DataError(f"{path}: empty first sheet; expected a header row and data rows")
     header = [str(cell).strip() for cell in rows[0]]
+    _refuse_repeated_headers(path, header)
     while header and header[-1] == "":
         header.pop()
     body = rows[1:]

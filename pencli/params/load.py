@@ -8,6 +8,7 @@ almost always a typo that would otherwise be silently ignored.
 
 from __future__ import annotations
 
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -21,8 +22,30 @@ from pencli.params.validate import ParameterSet, validate_mapping
 PRESET_PACKAGE = "pencli.params.presets"
 
 
+MAX_YAML_BYTES = 1 << 20
+"""Largest parameter or run.yaml file read (1 MiB; a parameter file is a few hundred bytes). [bytes]"""
+
+
 class _StrictLoader(yaml.SafeLoader):
-    """SafeLoader that refuses duplicate mapping keys."""
+    """SafeLoader that refuses duplicate mapping keys and aliases, and reads YAML 1.2 numbers.
+
+    Aliases (``*name``) are refused: no parameter file needs them, and nested aliases expand a
+    370-byte file into gigabytes (the "billion laughs").  ``1.0e12`` is a number here, as in YAML 1.2
+    (YAML 1.1 reads it as a string for want of a sign in the exponent).
+    """
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.events.AliasEvent):
+            event = self.peek_event()
+            raise yaml.composer.ComposerError(None, None, f"alias *{event.anchor} is not accepted in pen's files "
+                                              f"(write the value out)", event.start_mark)
+        return super().compose_node(parent, index)
+
+
+_StrictLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+_StrictLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"), list("-+0123456789"))
 
 
 def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
@@ -42,6 +65,9 @@ _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _c
 def read_yaml(path: Path) -> Any:
     """Parse a YAML file strictly; errors name the file and line."""
     try:
+        size = path.stat().st_size
+        if size > MAX_YAML_BYTES:
+            raise ParameterError(f"{path}: {size} bytes; a parameter file is at most {MAX_YAML_BYTES} bytes")
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ParameterError(f"{path}: no such file") from None
