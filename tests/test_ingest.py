@@ -437,3 +437,28 @@ def test_any_failure_is_one_line_for_that_run_and_the_batch_goes_on(tmp_path, wo
     assert any("No space left" in e for e in errors) and any("RuntimeError: the reader tripped" in e for e in errors)
     assert "Traceback" not in r.output
     assert [row["run_id"] for row in api.list_runs(workspace / "runs.duckdb")] == ["good"]
+
+
+def test_runs_query_cannot_write_and_a_tampered_stage_is_detected(workspace, runner, tmp_path):
+    """Issue 13: `COPY ... TO` overwrote a raw stage, ATTACH modified another database; stage hashes were never
+    re-checked."""
+    import pyarrow.parquet as pq
+
+    assert invoke(runner, "ingest", EXAMPLE).exit_code == 0
+    raw = next((workspace / "runs").rglob("00-raw.parquet"))
+    before = raw.read_bytes()
+    for sql in (f"COPY (SELECT 1 AS x) TO '{raw}'", f"COPY (SELECT 1) TO '{tmp_path / 'out.csv'}'",
+                f"ATTACH '{tmp_path / 'other.duckdb'}' (READ_WRITE)", "CREATE TABLE t (x INTEGER)",
+                f"SELECT * FROM read_csv('{EXAMPLE / 'data.csv'}')"):
+        r = invoke(runner, "runs", "query", sql)
+        assert r.exit_code == 1 and "query failed" in r.stderr and len(r.stderr.strip().splitlines()) == 1, sql
+    assert raw.read_bytes() == before
+    assert not (tmp_path / "out.csv").exists() and not (tmp_path / "other.duckdb").exists()
+    assert invoke(runner, "runs", "query", "SELECT count(*) AS n FROM runs", "--json").exit_code == 0
+    # tamper with the raw stage behind pen's back: the next read refuses it, naming the file
+    table = pq.read_table(raw)
+    fz = table.column("fz_n").to_numpy().copy()
+    fz[100] += 1.0
+    pq.write_table(table.set_column(table.column_names.index("fz_n"), "fz_n", [fz]), raw)
+    r = invoke(runner, "tare", "all")
+    assert r.exit_code == 1 and "has changed since it was written" in r.stderr and str(raw) in r.stderr

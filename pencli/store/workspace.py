@@ -70,6 +70,13 @@ class StageRecord:
     created_at: dt.datetime
 
 
+def _stage_digest(table: pa.Table, stage_no: int) -> str:
+    """The hash the catalog keeps of a stage: the raw columns' content hash for stage 0, else the table's."""
+    if stage_no == 0:
+        return content_hash({name: table.column(name).to_numpy() for name in RAW_COLUMNS})
+    return table_hash(table)
+
+
 @contextlib.contextmanager
 def _atomically(con: duckdb.DuckDBPyConnection, tmp: Path | None, final: Path | None,
                 new_folder: Path | None = None) -> Iterator[None]:
@@ -156,7 +163,7 @@ class Workspace:
         finally:
             con.close()
 
-    def _open(self, *, write: bool) -> duckdb.DuckDBPyConnection:
+    def _open(self, *, write: bool, config: dict | None = None) -> duckdb.DuckDBPyConnection:
         if not write and not self.exists():
             raise StoreError(f"{self.db_path}: no workspace here; add runs first (pen ingest PATH or pen acquire), "
                              f"or point --db / $PEN_DB at one")
@@ -166,7 +173,7 @@ class Workspace:
         delay = 0.02
         while True:
             try:
-                con = duckdb.connect(str(self.db_path), read_only=not write)
+                con = duckdb.connect(str(self.db_path), read_only=not write, config=config or {})
                 break
             except duckdb.IOException as exc:
                 text = str(exc)
@@ -353,9 +360,17 @@ class Workspace:
                                  f"{', '.join(f'{r.stage_no}:{r.stage}' for r in records)}")
             chosen = matches[-1]
         try:
-            return pq.read_table(chosen.path), chosen
+            table = pq.read_table(chosen.path)
+        except FileNotFoundError:
+            raise StoreError(f"{chosen.path}: stage '{chosen.stage}' of run '{run_id}' is missing from the workspace; "
+                             f"restore the file, or re-ingest the run") from None
         except (OSError, pa.ArrowException) as exc:
             raise StoreError(f"{chosen.path}: cannot read stage '{chosen.stage}' of run '{run_id}': {exc}") from None
+        if _stage_digest(table, chosen.stage_no) != chosen.content_sha256:
+            raise StoreError(f"{chosen.path}: stage '{chosen.stage}' of run '{run_id}' has changed since it was "
+                             f"written (its content no longer matches the catalog's hash); restore it, or re-ingest "
+                             f"the run")
+        return table, chosen
 
     # ------------------------------------------------------------------ look-ups
     def resolve(self, ref: str) -> str:
@@ -415,15 +430,25 @@ class Workspace:
             return [dict(zip(names, row)) for row in cur.fetchall()]
 
     def query(self, sql: str) -> tuple[list[str], list[tuple]]:
-        """Run read-only SQL against the catalog."""
-        with self.connect() as con:
+        """Run SQL against the catalog that can read it and nothing else.
+
+        The connection is read-only and has no external access, locked: no COPY to a file, no ATTACH of
+        another database, no file reads (stage Parquet files included), no extensions.
+        """
+        con = self._open(write=False, config={"enable_external_access": False, "lock_configuration": True})
+        try:
             try:
                 cur = con.execute(sql)
             except duckdb.Error as exc:
-                raise StoreError(f"query failed: {str(exc).splitlines()[0]}") from None
+                first = str(exc).splitlines()[0]
+                if "disabled by configuration" in first or "read-only" in first or "attached in read-only" in first:
+                    first += " (pen runs query reads the catalog only: it writes nothing and opens no file)"
+                raise StoreError(f"query failed: {first}") from None
             if cur.description is None:
                 return [], []
             return [d[0] for d in cur.description], cur.fetchall()
+        finally:
+            con.close()
 
     # ------------------------------------------------------------------ fitted materials
     def add_material_version(self, material: str, fit: Mapping[str, Any], material_file: Mapping[str, Any],
