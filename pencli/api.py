@@ -323,6 +323,13 @@ def export_run(db: str | Path, ref: str, to: str | Path, *, data_format: str = "
     from pencli.store.workspace import raw_columns_of
 
     ws = workspace(db)
+    target = Path(to).resolve()
+    home = Path(db).resolve().parent
+    for folder in ("runs", "fits", "sweeps"):
+        inside = home / folder
+        if target == inside or inside in target.parents:
+            raise DataError(f"--to {to}: inside the workspace's {folder}/ folder, which pen alone writes; export "
+                            f"somewhere else")
     run_id = ws.resolve(ref)
     table, _ = ws.read_stage(run_id, "raw")
     row = ws.run_row(run_id)

@@ -462,3 +462,24 @@ def test_runs_query_cannot_write_and_a_tampered_stage_is_detected(workspace, run
     pq.write_table(table.set_column(table.column_names.index("fz_n"), "fz_n", [fz]), raw)
     r = invoke(runner, "tare", "all")
     assert r.exit_code == 1 and "has changed since it was written" in r.stderr and str(raw) in r.stderr
+
+
+def test_export_never_touches_the_workspace_and_force_replaces_only_its_own_files(workspace, runner):
+    """Issue 13: `export ID --to runs/ID --force` destroyed the run's stages; --force deleted unrelated files."""
+    invoke(runner, "ingest", EXAMPLE)
+    run_folder = next((workspace / "runs").iterdir())
+    before = {p: p.read_bytes() for p in run_folder.rglob("*") if p.is_file()}
+    for inside in (run_folder, workspace / "runs" / "new", workspace / "fits" / "x"):
+        r = invoke(runner, "export", "example-001", "--to", inside, "--force")
+        assert r.exit_code == 1 and "inside the workspace" in r.stderr, inside
+    assert {p: p.read_bytes() for p in run_folder.rglob("*") if p.is_file()} == before
+    assert invoke(runner, "tare", "example-001").exit_code == 0  # the run is intact
+    target = workspace / "t"
+    target.mkdir()
+    (target / "keep.txt").write_text("mine")
+    (target / "data.xlsx").write_bytes(b"stale")
+    r = invoke(runner, "export", "example-001", "--to", target, "--force")
+    assert r.exit_code == 0, r.output
+    assert (target / "keep.txt").read_text() == "mine"
+    assert (target / "data.csv").is_file() and not (target / "data.xlsx").exists()
+    assert invoke(runner, "ingest", target, "--json").exit_code == 0  # the exported folder reads back

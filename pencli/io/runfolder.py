@@ -267,10 +267,13 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
 
 def write_run_folder(target: str | Path, columns: Mapping[str, np.ndarray], parameters: Mapping[str, dict],
                      info: Mapping[str, Any], *, data_format: str = "csv", overwrite: bool = False) -> Path:
-    """Write a CONTRACT §3 folder atomically (a temporary folder renamed into place).
+    """Write a CONTRACT §3 folder (every file written first, then renamed into place).
 
     CSV values are written in the shortest form that reads back to the same
-    float64, so export → ingest is lossless.
+    float64, so export → ingest is lossless.  Into an existing folder
+    (``overwrite``) only the files of a run folder are replaced (the data file,
+    the parameter files, run.yaml; a data file of the other format goes, since
+    a folder with both is ambiguous); anything else in the folder is kept.
     """
     import yaml
 
@@ -293,10 +296,13 @@ def write_run_folder(target: str | Path, columns: Mapping[str, np.ndarray], para
             (tmp / "run.yaml").write_text(yaml.safe_dump(dict(info), sort_keys=False, allow_unicode=True,
                                                          default_flow_style=None), encoding="utf-8")
         if target.exists():
-            old = target.with_name(f".{target.name}.old-{os.getpid()}")
-            os.replace(target, old)
-            os.replace(tmp, target)
-            shutil.rmtree(old, ignore_errors=True)
+            for written in sorted(tmp.iterdir()):
+                os.replace(written, target / written.name)
+            if not info and (target / "run.yaml").exists():
+                (target / "run.yaml").unlink()
+            other = "data.xlsx" if data_format == "csv" else "data.csv"
+            if (target / other).exists():
+                (target / other).unlink()
         else:
             os.replace(tmp, target)
     finally:
