@@ -483,3 +483,15 @@ def test_export_never_touches_the_workspace_and_force_replaces_only_its_own_file
     assert (target / "keep.txt").read_text() == "mine"
     assert (target / "data.csv").is_file() and not (target / "data.xlsx").exists()
     assert invoke(runner, "ingest", target, "--json").exit_code == 0  # the exported folder reads back
+
+
+def test_conditioning_again_with_the_same_options_gives_the_same_stage(workspace, runner):
+    """Issue 13: each `pen tare` stacked a new stage (one run reached 8)."""
+    invoke(runner, "ingest", EXAMPLE)
+    for _ in range(3):
+        assert invoke(runner, "tare", "all").exit_code == 0
+        assert invoke(runner, "subtract-inertia", "all").exit_code == 0
+    stages = api.run_detail(workspace / "runs.duckdb", "example-001").stages
+    assert [s.stage for s in stages] == ["raw", "tare", "inertia"]
+    assert invoke(runner, "tare", "all", "--window", "1,20").exit_code == 0  # other options: a new stage
+    assert [s.stage for s in api.run_detail(workspace / "runs.duckdb", "example-001").stages][-1] == "tare"

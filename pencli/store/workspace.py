@@ -329,20 +329,33 @@ class Workspace:
     # ------------------------------------------------------------------ stages
     def add_stage(self, run_id: str, stage: str, table: pa.Table, *, parent_no: int, command: str,
                   parameters: Mapping[str, Any]) -> StageRecord:
-        """Append a conditioning stage to a run (atomic)."""
+        """Append a conditioning stage to a run (atomic).
+
+        The same step with the same parameters on the same parent giving the same table is the same stage:
+        the existing record is returned and nothing is written (re-running ``pen tare`` does not stack copies).
+        """
+        digest = table_hash(table)
         with self.connect(write=True) as con:
             last = con.execute("SELECT max(stage_no) FROM stages WHERE run_id = ?", [run_id]).fetchone()[0]
             if last is None:
                 raise StoreError(f"no run '{run_id}' in {self.db_path}")
+            recorded = json.loads(json.dumps(dict(parameters), default=str))  # as the catalog keeps them
+            same = [r for r in self._stages(con, run_id) if r.stage == stage and r.parent_no == parent_no
+                    and r.content_sha256 == digest and r.parameters == recorded]
+            if same and same[-1].path.is_file():
+                return same[-1]
             record = {"stage": stage, "parent": parent_no, "command": command, "parameters": dict(parameters)}
-            return self._write_stage(con, run_id, last + 1, table, record, table_hash(table))
+            return self._write_stage(con, run_id, last + 1, table, record, digest)
 
     def stages(self, run_id: str) -> list[StageRecord]:
         """All stages of a run, oldest first."""
         with self.connect() as con:
-            rows = con.execute("SELECT run_id, stage_no, stage, parent_no, path, content_sha256, command, parameters, "
-                               "pen_version, created_at FROM stages WHERE run_id = ? ORDER BY stage_no",
-                               [run_id]).fetchall()
+            return self._stages(con, run_id)
+
+    def _stages(self, con, run_id: str) -> list[StageRecord]:
+        rows = con.execute("SELECT run_id, stage_no, stage, parent_no, path, content_sha256, command, parameters, "
+                           "pen_version, created_at FROM stages WHERE run_id = ? ORDER BY stage_no",
+                           [run_id]).fetchall()
         return [StageRecord(r[0], r[1], r[2], r[3], self.runs_dir.parent / r[4], r[5], r[6], json.loads(r[7]),
                             r[8], r[9]) for r in rows]
 
