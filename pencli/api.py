@@ -102,7 +102,9 @@ def outside_fitted_ranges(penetrator: ParameterSet, material: ParameterSet, resu
     for key, (value, unit, label) in asked.items():
         if key in ranges:
             lo, hi = ranges[key]
-            slack = 1e-6 * max(abs(lo), abs(hi), 1.0)
+            # 1 % of what the fit saw: a full-depth prediction (133 mm) against runs recorded at 132.9 mm is
+            # not an extrapolation
+            slack = max(1e-6 * max(abs(lo), abs(hi), 1.0), 0.01 * (hi - lo))
             if value < lo - slack or value > hi + slack:
                 out.append(f"{label} {value:.4g} {unit} is outside what {material.name}'s fit saw ({lo:.4g}–{hi:.4g} "
                            f"{unit}); the coefficients are extrapolated")
@@ -218,11 +220,13 @@ def expand_sources(paths: Iterable[str | Path]) -> list[tuple[str, Path | None, 
 def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None = None, time_unit: str = "s",
            position_unit: str = "mm", force_unit: str = "N", torque_unit: str = "Nm",
            parameter_refs: Mapping[str, str] | None = None, command: str = "pen ingest",
-           progress: Callable[[IngestOutcome], None] | None = None) -> list[IngestOutcome]:
+           progress: Callable[[IngestOutcome], None] | None = None,
+           allow_out_of_range: bool = False) -> list[IngestOutcome]:
     """Ingest run folders into the workspace; each source is accepted or rejected on its own."""
     from pencli.io.runfolder import ReadOptions, parse_column_map, read_run_folder, unit_factor
 
-    options = ReadOptions(parse_column_map(columns), time_unit, position_unit, force_unit, torque_unit)
+    options = ReadOptions(parse_column_map(columns), time_unit, position_unit, force_unit, torque_unit,
+                          allow_out_of_range=allow_out_of_range)
     for quantity, unit in (("time", time_unit), ("position", position_unit), ("force", force_unit),
                            ("torque", torque_unit)):
         unit_factor(quantity, unit)

@@ -495,3 +495,17 @@ def test_conditioning_again_with_the_same_options_gives_the_same_stage(workspace
     assert [s.stage for s in stages] == ["raw", "tare", "inertia"]
     assert invoke(runner, "tare", "all", "--window", "1,20").exit_code == 0  # other options: a new stage
     assert [s.stage for s in api.run_detail(workspace / "runs.duckdb", "example-001").stages][-1] == "tare"
+
+
+def test_ingest_accepts_out_of_range_parameters_when_asked(workspace, runner, tmp_path):
+    """Issue 13: ingest advised --allow-out-of-range, which it did not have."""
+    import shutil
+
+    folder = tmp_path / "thick"
+    shutil.copytree(EXAMPLE, folder)
+    text = (folder / "penetrator.yaml").read_text().replace("blade_thickness_mm: 1.5", "blade_thickness_mm: 60")
+    (folder / "penetrator.yaml").write_text(text)
+    refused = invoke(runner, "ingest", folder)
+    assert refused.exit_code == 1 and "--allow-out-of-range" in refused.stderr
+    accepted = invoke(runner, "ingest", folder, "--allow-out-of-range")
+    assert accepted.exit_code == 0, accepted.output

@@ -249,3 +249,18 @@ def test_spring_length_at_contact_is_an_alternative_to_the_compressed_length(tmp
 def _write(path, mapping, yaml):
     path.write_text(yaml.safe_dump(mapping))
     return str(path)
+
+
+def test_full_depth_prediction_is_not_called_outside_a_fit_that_saw_full_depth(tmp_path):
+    """Issue 13: 'depth 133 mm is outside 0–133 mm' (runs recorded a hair short of the stops)."""
+    from pencli import api
+
+    mapping = load_file(REPO / "pencli" / "params" / "presets" / "material" / "grill_brick.yaml").to_mapping()
+    mapping["fitted_ranges"] = {"depth_mm": [0.0, 132.9]}
+    path = tmp_path / "fitted.yaml"
+    path.write_text(yaml.safe_dump(mapping))
+    full = api.predict("appendix_c", str(path), "appendix_c")
+    assert full.result.summary.full_penetration and not full.warnings, full.warnings
+    mapping["fitted_ranges"] = {"depth_mm": [0.0, 60.0]}
+    path.write_text(yaml.safe_dump(mapping))
+    assert any("depth" in w for w in api.predict("appendix_c", str(path), "appendix_c").warnings)

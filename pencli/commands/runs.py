@@ -42,6 +42,9 @@ def ingest(
                                                                     "material.yaml."),
     energizing: Optional[str] = typer.Option(None, "--energizing", help="Preset or file for folders without "
                                                                         "energizing.yaml."),
+    allow_out_of_range: bool = typer.Option(False, "--allow-out-of-range",
+                                            help="Accept parameter values outside their documented range (hard "
+                                                 "limits still hold)."),
     json_out: bool = typer.Option(False, "--json", help='Print [{"id": ..., "source": ...}, ...] (CONTRACT §6).'),
     db: Optional[Path] = DbOption,
 ) -> None:
@@ -54,13 +57,13 @@ def ingest(
     catalog = db_path(db)
     refs = {"penetrator": penetrator, "material": material, "energizing": energizing}
     if json_out:
-        outcomes = api.ingest(paths, catalog, columns=columns, time_unit=time_unit, position_unit=position_unit,
+        outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range, columns=columns, time_unit=time_unit, position_unit=position_unit,
                               force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs)
     else:
         with Progress(TextColumn("ingesting"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                       console=err_console, transient=True) as bar:
             task = bar.add_task("ingest", total=None)
-            outcomes = api.ingest(paths, catalog, columns=columns, time_unit=time_unit, position_unit=position_unit,
+            outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range, columns=columns, time_unit=time_unit, position_unit=position_unit,
                                   force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs,
                                   progress=lambda _o: bar.advance(task))
     rejected = [o for o in outcomes if o.status == "rejected"]

@@ -53,11 +53,14 @@ class ReadOptions:
     force_unit: str = "N"
     torque_unit: str = "Nm"
     sensor: SensorRange = SensorRange()
+    allow_out_of_range: bool = False
+    """Accept parameter values outside their documented range (hard bounds still hold)."""
 
     def as_record(self) -> dict[str, Any]:
         """For provenance."""
         return {"columns": dict(self.columns), "time_unit": self.time_unit, "position_unit": self.position_unit,
-                "force_unit": self.force_unit, "torque_unit": self.torque_unit}
+                "force_unit": self.force_unit, "torque_unit": self.torque_unit,
+                **({"allow_out_of_range": True} if self.allow_out_of_range else {})}
 
 
 def parse_column_map(text: str | None) -> dict[str, str]:
@@ -243,9 +246,10 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
     for kind, name in PARAMETER_FILES.items():
         path = folder / name
         if path.is_file():
-            sets[kind] = resolve(path, kind)  # type: ignore[arg-type]
+            sets[kind] = resolve(path, kind, allow_out_of_range=options.allow_out_of_range)  # type: ignore[arg-type]
         elif parameter_refs and parameter_refs.get(kind):
-            sets[kind] = resolve(parameter_refs[kind], kind)  # type: ignore[arg-type]
+            sets[kind] = resolve(parameter_refs[kind], kind,  # type: ignore[arg-type]
+                                 allow_out_of_range=options.allow_out_of_range)
         else:
             raise ParameterError(f"{folder}: missing {name} (or give --{kind} PRESET_OR_FILE)")
     info: dict[str, Any] = {}
