@@ -509,3 +509,21 @@ def test_ingest_accepts_out_of_range_parameters_when_asked(workspace, runner, tm
     assert refused.exit_code == 1 and "--allow-out-of-range" in refused.stderr
     accepted = invoke(runner, "ingest", folder, "--allow-out-of-range")
     assert accepted.exit_code == 0, accepted.output
+
+
+def test_written_files_and_folders_honour_the_umask(workspace, runner, tmp_path):
+    """Issue 13: outputs were 0600 and folders 0700 whatever the umask (tempfile's modes)."""
+    import stat
+
+    from pencli.io.atomic import write_atomic
+
+    old = os.umask(0o022)
+    try:
+        out = write_atomic(tmp_path / "a.txt", lambda p: p.write_text("x"))
+        assert stat.S_IMODE(out.stat().st_mode) == 0o644
+        invoke(runner, "ingest", EXAMPLE)
+        assert invoke(runner, "export", "example-001", "--to", tmp_path / "exported").exit_code == 0
+        assert stat.S_IMODE((tmp_path / "exported").stat().st_mode) == 0o755
+        assert stat.S_IMODE((tmp_path / "exported" / "data.csv").stat().st_mode) == 0o644
+    finally:
+        os.umask(old)

@@ -13,6 +13,17 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 
+def _umask() -> int:
+    current = os.umask(0)
+    os.umask(current)
+    return current
+
+
+def honour_umask(path: Path, *, folder: bool = False) -> None:
+    """Give ``path`` the mode a plain open()/mkdir() would have (tempfile makes 0600 files and 0700 folders)."""
+    os.chmod(path, (0o777 if folder else 0o666) & ~_umask())
+
+
 @contextlib.contextmanager
 def atomic_path(target: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; rename it over ``target`` on success."""
@@ -23,6 +34,8 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        if tmp_path.exists():
+            honour_umask(tmp_path)
         os.replace(tmp_path, target)
     finally:
         if tmp_path.exists():

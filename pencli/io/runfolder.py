@@ -24,6 +24,7 @@ import numpy as np
 
 from pencli.errors import DataError, ParameterError
 from pencli.io.checks import SensorRange, check_run_columns
+from pencli.io.atomic import honour_umask
 from pencli.params.load import read_yaml, resolve
 from pencli.params.validate import ParameterSet
 from pencli.store.rundata import RAW_COLUMNS, RunData
@@ -286,6 +287,7 @@ def write_run_folder(target: str | Path, columns: Mapping[str, np.ndarray], para
         raise DataError(f"{target}: exists and is not empty; choose another --to or pass --force")
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    honour_umask(tmp, folder=True)
     try:
         if data_format == "csv":
             _write_csv(tmp / "data.csv", columns)
