@@ -995,7 +995,6 @@ def _latest_fit_with(versions: Sequence[dict], run_id: str) -> dict | None:
 def report_runs(db: str | Path, refs: Sequence[str]) -> list:
     """Sections for runs: raw channels (Fig. 11), measurements (Fig. 12), model against data (Fig. 13),
     energy per term (Fig. 14), parameters and provenance."""
-    import pyarrow.parquet as pq
 
     from pencli.filter.tare import tare as tare_run
     from pencli.fit.resistance import with_coefficients
@@ -1032,7 +1031,7 @@ def report_runs(db: str | Path, refs: Sequence[str]) -> list:
                 run_id, {c: table.column(c).to_numpy() for c in table.column_names}, events))
         fit = _latest_fit_with(versions, run_id)
         if fit is not None and fit["model_data_path"]:
-            data = pq.read_table(ws.db_path.parent / fit["model_data_path"],
+            data = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
                                  filters=[("run_id", "=", run_id)]).to_pydict()
             section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v) for k, v in data.items()}))
             p, m, e = _sets_from_mappings(params, run_id)
@@ -1049,7 +1048,6 @@ def report_runs(db: str | Path, refs: Sequence[str]) -> list:
 
 def report_material(db: str | Path, material: str, version: int | None = None) -> list:
     """Sections for a fitted material version: coefficients, intervals, correlation, runs, Fig. 13, Fig. 16."""
-    import pyarrow.parquet as pq
 
     from pencli.fit.resistance import with_coefficients
     from pencli.report import figures
@@ -1076,7 +1074,7 @@ def report_material(db: str | Path, material: str, version: int | None = None) -
                            [[r["run_id"], r["n_samples"], r["rms_n"], r["nrmse"], r["r2"]] for r in fit["runs"]]))
     section.add_figure(figures.fit_intervals(material, fit))
     if row["model_data_path"]:
-        table = pq.read_table(ws.db_path.parent / row["model_data_path"]).to_pydict()
+        table = ws.read_table(row["model_data_path"], "fit's model-vs-data table").to_pydict()
         ids = np.asarray(table["run_id"])
         for run_id in list(dict.fromkeys(table["run_id"]))[:12]:
             sel = ids == run_id
@@ -1097,7 +1095,6 @@ def report_material(db: str | Path, material: str, version: int | None = None) -
 
 def report_sweep(db: str | Path, sweep_id: int) -> list:
     """Sections for a sweep: heat map with the full-penetration boundary (Fig. 14), 4-D scatter (Fig. 15)."""
-    import pyarrow.parquet as pq
 
     from pencli.report import figures
     from pencli.report.build import Section
@@ -1108,7 +1105,7 @@ def report_sweep(db: str | Path, sweep_id: int) -> list:
         raise StoreError(f"no sweep {sweep_id} in {db}")
     record = dict(zip(names, rows[0]))
     variables = json.loads(record["variables"])
-    table = {k: np.asarray(v) for k, v in pq.read_table(ws.db_path.parent / record["path"]).to_pydict().items()}
+    table = {k: np.asarray(v) for k, v in ws.read_table(record["path"], f"sweep {sweep_id}'s table").to_pydict().items()}
     keys = list(variables)
     section = Section(f"sweep {sweep_id}: {record['penetrator']} · {record['material']} · {record['energizing']}",
                       provenance={k: str(v) for k, v in record.items()})

@@ -111,3 +111,17 @@ window.addEventListener('load', () => {
     assert match, dom[:500]
     total, loaded = int(match.group(1)), int(match.group(2))
     assert total >= 4 and loaded == total
+
+
+def test_a_workspace_copied_without_its_fits_folder_is_one_line(example, tmp_path, runner):
+    """Issue 13: a missing fits/ folder made `pen report` print a FileNotFoundError traceback."""
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(Path(example).parent / "runs", copy / "runs")
+    shutil.copy(example, copy / "runs.duckdb")
+    r = invoke(runner, "report", "--material", "mpacs_c", "--out", tmp_path / "m.html", "--db", copy / "runs.duckdb",
+               "--no-pdf")
+    assert r.exit_code == 1 and "missing from the workspace" in r.stderr and "fits/" in r.stderr, r.output
+    assert "Traceback" not in r.output and len(r.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "m.html").exists()

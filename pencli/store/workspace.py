@@ -385,6 +385,17 @@ class Workspace:
                              f"the run")
         return table, chosen
 
+    def read_table(self, relative: str, what: str, *, filters=None) -> pa.Table:
+        """A table pen wrote beside the catalog (fits/, sweeps/), or one line naming the file and what it is."""
+        path = self.db_path.parent / relative
+        try:
+            return pq.read_table(path, filters=filters)
+        except FileNotFoundError:
+            raise StoreError(f"{path}: the {what} is missing from the workspace (was it copied without its "
+                             f"{Path(relative).parts[0]}/ folder?); restore the file") from None
+        except (OSError, pa.ArrowException) as exc:
+            raise StoreError(f"{path}: cannot read the {what}: {str(exc).splitlines()[0]}") from None
+
     # ------------------------------------------------------------------ look-ups
     def resolve(self, ref: str) -> str:
         """A run id, a run folder under runs/, or an ingested source folder → run id."""
