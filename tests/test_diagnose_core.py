@@ -139,3 +139,29 @@ def test_block_surface_below_the_file_still_ends_at_the_hard_stops(tmp_path):
     events = api.workspace(db).read_stage("low-block")[1].parameters["events"]
     assert events["end"] == "full_depth"
     assert events["final_depth_m"] == pytest.approx(0.133 - 1.5e-3, abs=0.3e-3)
+
+
+def test_a_slow_arrival_at_the_stops_is_not_an_arrest():
+    """Hold-out finding: a blade reaching the stops at 1.9 m/s, 0.7 mm short of full depth in file coordinates
+    (stand-off scatter) was taken for an arrest; an arrest decelerating to rest nearby stays an arrest."""
+    from pencli.filter.tare import detect_events
+
+    rate, step = 30000.0, 0.32e-3
+    t = np.arange(-0.05, 0.12, 1 / rate)
+
+    def record(v_contact, decel, stop_at):
+        x = np.full(t.size, -0.148)
+        flight = (t >= 0) & (t < 0.02)
+        x[flight] = -0.148 + 0.148 * (t[flight] / 0.02) ** 2
+        inside = t >= 0.02
+        tc = np.minimum(t[inside] - 0.02, v_contact / decel)  # at rest once the speed is spent
+        travel = v_contact * tc - 0.5 * decel * tc * tc
+        x[inside] = np.minimum(travel, stop_at)
+        return step * np.floor(x / step + 0.5)
+
+    stops = detect_events(t, record(14.673, 800.0, 0.1323), 0.133)  # 1.9 m/s left at 132.3 mm: the stops
+    arrest = detect_events(t, record(14.6, 800.0, 0.2), 0.133)  # comes to rest at 133.2 mm... without stops
+    natural = detect_events(t, record(14.4, 800.0, 0.2), 0.133)  # ...or at 129.6 mm
+    assert stops.end == "full_depth"
+    assert natural.end == "arrest"
+    assert arrest.end == "full_depth"  # at the full depth within tolerance

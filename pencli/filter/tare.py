@@ -38,16 +38,27 @@ full depth in file coordinates; there an abrupt stop still counts as the hard st
 def _abrupt_stop(time_s: np.ndarray, depth_m: np.ndarray, last_change: int, contact_speed_m_s: float) -> bool:
     """The motion ends at speed (the hard stops), not decelerating to rest (arrest).
 
-    Over the last 1 ms before the final encoder change the tip still moves at more than a fifth of its
-    contact speed; an arrest's speed falls to zero there.
+    A parabola through the last 3 ms before the final encoder change gives the
+    speed there and the deceleration.  In an arrest the tip has less than one
+    encoder count to travel after its last count; at the stops it is cut off
+    with more than that still to go (1.5 counts here), or is not decelerating.
     """
+    from pencli.filter.derivatives import encoder_step_m
+
     rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
-    span = max(int(1e-3 * rate), 4)
-    lo = max(last_change - span, 0)
-    if last_change - lo < 3:
+    lo = max(last_change - max(int(3e-3 * rate), 12), 0)
+    seg_t, seg_x = time_s[lo:last_change + 1], depth_m[lo:last_change + 1]
+    if seg_t.size < 5:
         return False
-    speed = (depth_m[last_change] - depth_m[lo]) / (time_s[last_change] - time_s[lo])
-    return bool(speed > 0.2 * abs(contact_speed_m_s))
+    t0 = float(seg_t.mean())
+    a, b, _ = np.polyfit(seg_t - t0, seg_x, 2)
+    speed = 2 * a * (float(time_s[last_change]) - t0) + b
+    if speed <= 0:
+        return False
+    if a >= 0:  # not decelerating at all
+        return True
+    travel_left = speed * speed / (4 * -a)  # v² / (2 |x''|), x'' = 2a
+    return bool(travel_left > 1.5 * encoder_step_m(depth_m))
 
 
 @dataclass(frozen=True)
