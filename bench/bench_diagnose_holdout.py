@@ -1,6 +1,6 @@
 """The diagnosis measured on the hold-out truth world (tests/holdout_world.py), which it was never tuned on.
 
-Run: python -m bench.bench_diagnose_holdout [--quick] [--out FILE.json]
+Run: python -m bench.bench_diagnose_holdout [--quick] [--base SEED] [--no-ladder] [--out FILE.jsonl]
 
 Every campaign is written as CONTRACT §3 run folders and goes through
 ingest → tare → subtract-inertia → diagnose, as the README says.  Parts:
@@ -102,7 +102,8 @@ def main() -> None:
         OUT = Path(sys.argv[sys.argv.index("--out") + 1])
     quick = "--quick" in sys.argv
     rows = {"accuracy": [], "nulls": [], "ladder": []}
-    base = 70000
+    base = int(sys.argv[sys.argv.index("--base") + 1]) if "--base" in sys.argv else 70000
+    no_ladder = "--no-ladder" in sys.argv
     n_nulls = 4 if quick else 20
     for i in range(n_nulls):
         rows["accuracy"].append(keep("accuracy", run(base + i)))
@@ -123,7 +124,7 @@ def main() -> None:
         for i in range(40):
             rows["nulls"].append(keep("nulls", run(base + 1000 + i)))
             show(f"extra null {i}", rows["nulls"][-1])
-    ladder_seeds = [base + i for i in range(2)]  # twins of the first accuracy nulls
+    ladder_seeds = [] if no_ladder else [base + i for i in range(2)]  # twins of the first accuracy nulls
     null_ms = {r["seed"]: r["baseline_ms_n2"] for r in rows["accuracy"] if not r["truth"]}
     for name in CATALOGUE:
         for seed in ladder_seeds:
