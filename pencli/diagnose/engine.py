@@ -22,8 +22,12 @@ null distribution:
 - an effect is significant when its held-out improvement, standardised by
   its own null spread, exceeds the null distribution of the *largest* such
   score over all effects (a family-wise test; Gumbel tail);
-- the resistance view has a gap when the baseline's held-out error exceeds
-  its null distribution (log-normal tail);
+- the resistance view has a gap the runs share when a generic profile (any
+  force profile in depth, or in time since contact, common to the runs)
+  closes part of the baseline's misfit on held-out runs beyond what it
+  closes on the replicates (:data:`~pencli.diagnose.effects.PROBES`; Gumbel
+  tail over the probes); the absolute gap (``gap_z``) is reported, not used:
+  a slight mismatch of the noise model would pass for a gap;
 - the drive view has a gap when contact speeds fall below prediction by more
   than their scatter allows, after the measurement bias the replicates show
   (one-sided t-test).
