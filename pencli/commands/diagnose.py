@@ -14,7 +14,7 @@ from rich.table import Table
 from pencli import api
 from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console
 from pencli.diagnose.effects import EFFECTS
-from pencli.diagnose.engine import BOOTSTRAP, FALSE_ALARM
+from pencli.diagnose import BOOTSTRAP, FALSE_ALARM
 
 app = PenTyper()
 

@@ -20,9 +20,12 @@ runs_app = PenTyper(help="List, show and query the runs of a workspace.", invoke
 
 
 def _unit(quantity: str):
-    from pencli.io.runfolder import unit_factor
+    def check(unit: str) -> float:
+        from pencli.io.runfolder import unit_factor  # at parse time, not start-up (pyarrow)
 
-    return usage_check(lambda unit: unit_factor(quantity, unit))
+        return unit_factor(quantity, unit)
+
+    return usage_check(check)
 
 
 @app.command("ingest")

@@ -47,6 +47,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
+from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of
 from pencli.diagnose.linear import Spec, Statistics
 from pencli.diagnose.null import (RunNull, fit_noise, gumbel_quantile, normal_quantile, replicate_campaign,
@@ -56,10 +57,6 @@ from pencli.filter.tare import Events
 from pencli.fit.resistance import with_coefficients
 from pencli.model.dynamics import flight_of, simulate
 
-FALSE_ALARM = 0.01
-"""Default probability that a campaign with no effect gets any verdict but ``none``."""
-BOOTSTRAP = 60
-"""Default number of null replicates."""
 EXPLAIN_SHARE = 0.5
 """An effect explains a gap when it removes at least this share of the gap's excess over the null floor."""
 AMBIGUITY_Z = 1.96
