@@ -691,13 +691,11 @@ def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
     names = ("time_s", "depth_m", "velocity_m_s", "acceleration_m_s2", "force_n", "resistance_n")
     for c in _conditioned_runs(db, refs, names):
         col, events = c.columns, c.events
-        pre = col["time_s"] < min(events.motion_start_s, 0.0) - 5e-3
-        noise = float(np.std(col["resistance_n"][pre])) if pre.sum() > 10 else 1.0
         params = c.stage.parameters
         out.append(DiagnosisRun(c.run_id, design_from_sets(*c.sets), col["time_s"], col["depth_m"], col["velocity_m_s"],
                                 col["acceleration_m_s2"], col["force_n"], col["resistance_n"], events.motion_start_s,
                                 events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
-                                events.end, events.contact_speed_m_s, float(params["load_cell_mass_kg"]), noise,
+                                events.end, events.contact_speed_m_s, float(params["load_cell_mass_kg"]),
                                 float(params.get("encoder_step_m", 0.16e-3)), str(params.get("method", "spline")),
                                 force_onset(col["time_s"], col["force_n"], events.contact_s)))
     return out

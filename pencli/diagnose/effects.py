@@ -57,8 +57,6 @@ class DiagnosisRun:
     end: str
     contact_speed_m_s: float
     load_cell_mass_kg: float
-    noise_n: float
-    """Standard deviation of the resistance over the pre-trigger span (sensor noise). [N]"""
     encoder_step_m: float = 0.16e-3
     """Position quantum the derivatives were smoothed for (from the record). [m]"""
     derivative_method: str = "spline"
@@ -96,6 +94,12 @@ class DiagnosisRun:
     def pre_trigger(self) -> np.ndarray:
         """At rest before the release, clear of it by 5 ms: where the sensor noise is read."""
         return self.time_s < min(self.motion_start_s, 0.0) - 5e-3
+
+    @property
+    def noise_n(self) -> float:
+        """Standard deviation of the resistance over the pre-trigger span (sensor noise; 1 N without one). [N]"""
+        pre = self.pre_trigger
+        return float(np.std(self.resistance_n[pre])) if pre.sum() > 10 else 1.0
 
 
 @dataclass(frozen=True)

@@ -49,7 +49,7 @@ import numpy as np
 
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of
-from pencli.diagnose.linear import Spec, Statistics
+from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
 from pencli.diagnose.null import (RunNull, fit_noise, gumbel_quantile, normal_quantile, replicate_campaign,
                                   student_quantile)
 from pencli.errors import FitError
@@ -88,14 +88,12 @@ class _Columns:
 
 @dataclass(frozen=True)
 class _Candidate:
-    effect: str
     member: Member
     spec: Spec
-    n_extra: int
 
 
-def _register(columns: _Columns, bases: Sequence[Basis], runs: Sequence[DiagnosisRun], uses, effect: Effect,
-              member: Member, base_spec: Spec) -> _Candidate:
+def _register(columns: _Columns, bases: Sequence[Basis], runs: Sequence[DiagnosisRun], uses, member: Member,
+              base_spec: Spec) -> _Candidate:
     built = [member.columns(run, basis) for run, basis in zip(runs, bases)]
     extra = [columns.add([b.extra[:, j][u] for b, u in zip(built, uses)]) for j in range(built[0].extra.shape[1])]
     base = list(base_spec.columns)
@@ -104,7 +102,7 @@ def _register(columns: _Columns, bases: Sequence[Basis], runs: Sequence[Diagnosi
     offset = base_spec.offset
     if built[0].offset is not None:
         offset = columns.add([b.offset[u] for b, u in zip(built, uses)])
-    return _Candidate(effect.name, member, Spec(tuple(base + extra), offset), len(extra))
+    return _Candidate(member, Spec(tuple(base + extra), offset))
 
 
 def _combine(a: _Candidate, b: _Candidate, base_spec: Spec) -> Spec | None:
@@ -130,21 +128,18 @@ class _Family:
     """Per fold, the member chosen on the training runs (measured data)."""
 
 
-def _score_family(stats: Statistics, candidates: Sequence[_Candidate], specs: Sequence[Spec] | None = None
-                  ) -> tuple[_Family, dict]:
-    """Score candidates (one family, or pairs) and pick members per fold and target."""
-    specs = list(specs or [c.spec for c in candidates])
+def _score_family(stats: Statistics, specs: Sequence[Spec]) -> tuple[_Family, dict]:
+    """Score the members of one family (or of pairs) and pick members per fold and target."""
     groups: dict[int, list[int]] = {}
-    for i, s in enumerate(specs):
-        groups.setdefault(len(s.columns), []).append(i)
-    n_runs = stats.n_runs
+    for i, spec in enumerate(specs):
+        groups.setdefault(len(spec.columns), []).append(i)
     n_targets = stats.cross.shape[2]
-    train = np.empty((len(specs), n_runs, n_targets))
+    train = np.empty((len(specs), stats.n_runs, n_targets))
     heldout = np.empty_like(train)
     total = np.empty((len(specs), n_targets))
     coefficients: dict[int, np.ndarray] = {}
     strength: dict[int, np.ndarray] = {}
-    for size, idx in groups.items():
+    for idx in groups.values():
         scores = stats.score([specs[i] for i in idx])
         train[idx], heldout[idx], total[idx] = scores.train, scores.heldout, scores.total
         for j, i in enumerate(idx):
@@ -154,7 +149,35 @@ def _score_family(stats: Statistics, candidates: Sequence[_Candidate], specs: Se
     per_fold = np.take_along_axis(heldout, pick[None], axis=0)[0]  # (runs, targets)
     best = int(np.argmin(total[:, 0]))
     family = _Family(per_fold.mean(axis=0), best, [int(k) for k in pick[:, 0]])
-    return family, {"coefficients": coefficients[best], "strength": strength[best], "total": total[best]}
+    return family, {"coefficients": coefficients[best], "strength": strength[best]}
+
+
+@dataclass(frozen=True)
+class _Tested:
+    """A family scored against a reference model, with its standardised improvement."""
+
+    family: _Family
+    fit: dict
+    z: float
+    centre: float
+    """Null median of the held-out improvement. [N²]"""
+    scale: float
+    """Null 1.4826 × MAD of it. [N²]"""
+
+
+def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str, Sequence[Spec]], alpha: float
+                ) -> tuple[dict[str, _Tested], float]:
+    """Score each family's held-out improvement over ``reference`` (held-out mean squares, data then null
+    replicates) and the threshold its z must beat: the Gumbel tail, at ``alpha``, of the largest z over the
+    families on the null replicates (one test for the whole set)."""
+    tested = {}
+    for name, specs in families.items():
+        family, fit = _score_family(stats, specs)
+        tested[name] = _Tested(family, fit, *_standardise(reference - family.heldout))
+    if not tested:
+        return tested, math.inf
+    null_z = np.column_stack([((reference - t.family.heldout)[1:] - t.centre) / t.scale for t in tested.values()])
+    return tested, gumbel_quantile(null_z.max(axis=1), alpha)
 
 
 # ----------------------------------------------------------------------------- drive side
@@ -468,7 +491,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     zero = columns.add([np.zeros(int(u.sum())) for u in uses])
     base_spec = Spec((0, 1, 2, 3), zero)
     first = Statistics(columns.matrices(), [y[:, None] for y in ys])
-    _, fitted = _score_family(first, [], [base_spec])
+    _, fitted = _score_family(first, [base_spec])
     cs = fitted["strength"][:, 0]
     shared = fitted["coefficients"][:, 0]
     values = {"strength_factor": float(np.mean(cs)), "sidewall_pressure_kpa": float(shared[0]),
@@ -481,47 +504,30 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     # ---- null replicates through the campaign's own chain
     say("null replicates", 0.05)
     fitted_y = [c * b.strength[u] + b.friction[u] * shared[0] + b.damping[u] * shared[1] + b.inertia[u] * shared[2]
-         for b, u, c in zip(bases, uses, cs)]
+                for b, u, c in zip(bases, uses, cs)]
     nulls = [_null_of(r, u, f) for r, u, f in zip(runs, uses, fitted_y)]
     replicates = replicate_campaign(nulls, bootstrap, seed, workers=workers)
 
-    # ---- every candidate of every resistance-view effect, one matrix per run
+    # ---- every candidate of every resistance-view effect (and the probes), one matrix per run
     say("scoring effects", 0.5)
     law_effects = [EFFECTS[n] for n in names if EFFECTS[n].side != "drive"]
     candidates: dict[str, list[_Candidate]] = {
-        e.name: [_register(columns, bases, runs, uses, e, m, base_spec) for m in e.members] for e in law_effects}
-    probe_candidates = {e.name: [_register(columns, bases, runs, uses, e, m, base_spec) for m in e.members]
-                        for e in PROBES.values()}
-    targets = [np.column_stack([y, rep.resistance_n]) for y, rep in zip(ys, replicates)]
-    stats = Statistics(columns.matrices(), targets)
-    baseline, base_fit = _score_family(stats, [], [base_spec])
+        e.name: [_register(columns, bases, runs, uses, m, base_spec) for m in e.members]
+        for e in (*law_effects, *PROBES.values())}
+    matrices = columns.matrices()
+    stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(ys, replicates)])
+    baseline, _ = _score_family(stats, [base_spec])
     S0 = baseline.heldout
-    z_gap, floor_sq, _ = _standardise(np.log(np.maximum(S0, 1e-300)))
+    z_gap = _standardise(np.log(np.maximum(S0, 1e-300)))[0]
     floor_sq = float(np.mean(S0[1:]))
     excess = float(S0[0]) - floor_sq
-    families: dict[str, tuple[_Family, dict]] = {}
-    stats_by: dict[str, tuple[float, float, float]] = {}
-    for i, e in enumerate(law_effects):
-        families[e.name] = _score_family(stats, candidates[e.name])
-        stats_by[e.name] = _standardise(S0 - families[e.name][0].heldout)
-        say("scoring effects", 0.5 + 0.35 * (i + 1) / max(len(law_effects), 1))
-
-    # family-wise threshold: the null distribution of the largest standardised improvement
-    if law_effects:
-        null_z = np.column_stack([((S0 - families[n][0].heldout)[1:] - m) / s
-                                  for n, (_, m, s) in stats_by.items()])
-        z_threshold = gumbel_quantile(null_z.max(axis=1), alpha)
-    else:
-        z_threshold = math.inf
-    # a gap shared by the runs: a generic profile (in depth or in time since contact) that closes part of it on
-    # held-out runs beyond what it closes on the null replicates (family-wise over the probes)
-    probes = {}
-    for name, cands in probe_candidates.items():
-        family, _ = _score_family(stats, cands)
-        probes[name] = (family, _standardise(S0 - family.heldout))
-    probe_null = np.column_stack([((S0 - fam.heldout)[1:] - m) / sc for fam, (_, m, sc) in probes.values()])
-    gap_threshold = gumbel_quantile(probe_null.max(axis=1), alpha)
-    z_probe = max(z for _, (z, _, _) in probes.values())
+    tested, z_threshold = _familywise(stats, S0, {e.name: [c.spec for c in candidates[e.name]]
+                                                  for e in law_effects}, alpha)
+    say("scoring effects", 0.85)
+    # a gap the runs share: a generic profile (in depth or in time since contact) closing part of it on held-out
+    # runs beyond what it closes on the null replicates
+    probes, gap_threshold = _familywise(stats, S0, {n: [c.spec for c in candidates[n]] for n in PROBES}, alpha)
+    z_probe = max(t.z for t in probes.values())
     resistance_gap = z_probe > gap_threshold
 
     # ---- drive view
@@ -540,8 +546,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     # ---- effect reports
     reports: dict[str, EffectReport] = {}
     for e in law_effects:
-        family, fit = families[e.name]
-        z, mean, sd = stats_by[e.name]
+        t = tested[e.name]
+        family, fit = t.family, t.fit
         cand = candidates[e.name][family.best]
         coefs = fit["coefficients"][3:, 0]
         spread_c = np.std(fit["coefficients"][3:, 1:], axis=1, ddof=1) if coefs.size else np.zeros(0)
@@ -551,9 +557,9 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                      "shapes_chosen_per_fold": _shape_spread(chosen)}
         reports[e.name] = EffectReport(
             e.name, e.side, "resistance", e.describe(cand.member, coefs, context), intervals,
-            math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), bool(z > z_threshold), round(z, 2),
+            math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), bool(t.z > z_threshold), round(t.z, 2),
             (S0[0] - family.heldout[0]) / excess if excess > 0 else None,
-            math.sqrt(max(mean + z_threshold * sd, 0.0)))
+            math.sqrt(max(t.centre + z_threshold * t.scale, 0.0)))
     dyn_base = None
     if "propulsion_loss" in names:
         loss = _fit_loss(runs, measured - bias)
@@ -568,11 +574,12 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     # ---- verdict
     say("pairs", 0.88)
     significant = sorted((r for r in reports.values() if r.significant and r.view == "resistance"),
-                         key=lambda r: -(S0[0] - families[r.name][0].heldout[0]))
+                         key=lambda r: -(S0[0] - tested[r.name].family.heldout[0]))
     verdict, verdict_effects, notes, pair = "none", [], [], None
     if significant:
         top = significant[0]
-        pair = _best_second(stats, candidates, families, top.name, base_spec, S0, alpha)
+        pair = _best_second(stats, {e.name: candidates[e.name] for e in law_effects}, tested, top.name, base_spec,
+                            S0, alpha)
         top_share = reports[top.name].explained_share
         explains = not resistance_gap or top_share is None or top_share >= EXPLAIN_SHARE
         pair_share = (S0[0] - pair["heldout"]) / excess if pair and excess > 0 else None
@@ -614,15 +621,15 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
             if effect.side == "drive":
                 change = _trajectory_change(effect, None, (), runs, values, r.params["loss"])
             else:
-                family, fit = families[r.name]
-                change = _trajectory_change(effect, candidates[r.name][family.best].member,
-                                            fit["coefficients"][3:, 0], runs, values)
+                t = tested[r.name]
+                change = _trajectory_change(effect, candidates[r.name][t.family.best].member,
+                                            t.fit["coefficients"][3:, 0], runs, values)
         final.append(replace(r, trajectory_change=change, axis=EFFECTS[r.name].axis))
     final.sort(key=lambda r: (-int(r.significant), -r.shrink_pct))
-    ambiguities = _ambiguities(final, families, S0)
+    ambiguities = _ambiguities(final, tested, S0)
 
     # ---- where, along what, series
-    base_res = _heldout_residuals(runs, bases, uses, ys)
+    base_res = _residuals(stats, matrices, ys, base_spec)
     series_data = _residual_series(runs, uses, base_res)
     where = _where(series_data, floor_sq)
     if drive_gap:
@@ -637,9 +644,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         "null_rms_n": math.sqrt(floor_sq),
         "gap_z": round(z_gap, 2),
         "resistance_gap": bool(resistance_gap),
-        "probes": {name: {"z": round(z, 2), "shrink_pct": round(100.0 * (1.0 - math.sqrt(max(fam.heldout[0], 0.0)
-                                                                                      / S0[0])), 2)}
-                   for name, (fam, (z, _, _)) in probes.items()},
+        "probes": {name: {"z": round(t.z, 2), "shrink_pct": round(100.0 * (1.0 - math.sqrt(
+            max(t.family.heldout[0], 0.0) / S0[0])), 2)} for name, t in probes.items()},
         "contact_speed_error_mean": float(np.mean(ratios)),
         "drive_t": round(t_drive, 2),
         "drive_gap": bool(drive_gap),
@@ -653,7 +659,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                                      "beyond_own_family": pair["beyond_own_family"],
                                      "significant": pair["significant"]}
     series = []
-    after = _verdict_residuals(runs, bases, uses, ys, candidates, families, verdict_effects)
+    after = _verdict_residuals(stats, matrices, ys, candidates, tested, verdict_effects, base_spec)
     for i, (run, t, x, _, _, res) in enumerate(series_data):
         series.append({"run_id": run.run_id, "time_s": t, "depth_m": x, "time_since_contact_s": t - run.contact_s,
                        "baseline_residual_n": res, "effect_residual_n": after[i] if after is not None else None})
@@ -681,8 +687,8 @@ def _shape_spread(chosen: Sequence[Mapping]) -> dict:
             for k, v in out.items()}
 
 
-def _best_second(stats: Statistics, candidates, families, top: str, base_spec: Spec, S0: np.ndarray,
-                 alpha: float) -> dict | None:
+def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], tested: Mapping[str, _Tested],
+                 top: str, base_spec: Spec, S0: np.ndarray, alpha: float) -> dict | None:
     """The effect that adds most on top of ``top`` (its best member held), tested against the null.
 
     Significant when (1) ``top`` leaves a gap its own null would not, (2) the second effect's standardised
@@ -692,48 +698,44 @@ def _best_second(stats: Statistics, candidates, families, top: str, base_spec: S
     little of the first effect's shape mismatch, and another shape of the first family fits it at least as
     well, while a second cause is something no shape of the first can mimic.
     """
-    lead = candidates[top][families[top][0].best]
-    S_top = families[top][0].heldout
-    z_left, _, _ = _standardise(np.log(np.maximum(S_top, 1e-300)))
-    if z_left <= normal_quantile(alpha):  # the first effect leaves no gap its own null would not
-        return None
-    scored = {}
+    lead = candidates[top][tested[top].family.best]
+    S_top = tested[top].family.heldout
+    if _standardise(np.log(np.maximum(S_top, 1e-300)))[0] <= normal_quantile(alpha):
+        return None  # the first effect leaves no gap its own null would not
+    combined = {}
     for name, cands in candidates.items():
-        pairs = [(c, _combine(lead, c, base_spec)) for c in cands]
-        pairs = [(c, s) for c, s in pairs if s is not None and c is not lead]
-        if not pairs:
-            continue
-        family, _ = _score_family(stats, [c for c, _ in pairs], [s for _, s in pairs])
-        scored[name] = (family, _standardise(S_top - family.heldout))
-    own = scored.pop(top, None)
+        specs = [spec for spec in (_combine(lead, c, base_spec) for c in cands if c is not lead) if spec is not None]
+        if specs:
+            combined[name] = specs
+    own_specs = combined.pop(top, None)
+    scored, threshold = _familywise(stats, S_top, combined, alpha)
     if not scored:
         return None
-    null_z = np.column_stack([((S_top - fam.heldout)[1:] - m) / s for fam, (_, m, s) in scored.values()])
-    threshold = gumbel_quantile(null_z.max(axis=1), alpha)
-    name = max(scored, key=lambda n: S_top[0] - scored[n][0].heldout[0])
-    family, (z, _, _) = scored[name]
+    name = max(scored, key=lambda n: S_top[0] - scored[n].family.heldout[0])
+    second = scored[name]
     remainder = float(S_top[0]) - float(np.mean(S0[1:]))
-    share = (float(S_top[0]) - float(family.heldout[0])) / remainder if remainder > 0 else 0.0
+    share = (float(S_top[0]) - float(second.family.heldout[0])) / remainder if remainder > 0 else 0.0
     beyond_own = True
-    if own is not None:
-        diff = own[0].heldout - family.heldout  # > 0 when the other effect does better than a second own shape
+    if own_specs:
+        own, _ = _score_family(stats, own_specs)
+        diff = own.heldout - second.family.heldout  # > 0 when the other effect does better than a second own shape
         beyond_own = float(diff[0]) > AMBIGUITY_Z * float(np.std(diff[1:], ddof=1))
-    return {"effect": name, "heldout": float(family.heldout[0]), "z": round(z, 2), "threshold": threshold,
-            "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own),
-            "significant": bool(z > threshold and share >= EXPLAIN_SHARE and beyond_own),
-            "shrink_pct": round(100.0 * (1.0 - math.sqrt(max(family.heldout[0], 0.0) / S0[0])), 2)}
+    return {"effect": name, "heldout": float(second.family.heldout[0]), "z": round(second.z, 2),
+            "threshold": threshold, "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own),
+            "significant": bool(second.z > threshold and share >= EXPLAIN_SHARE and beyond_own),
+            "shrink_pct": round(100.0 * (1.0 - math.sqrt(max(second.family.heldout[0], 0.0) / S0[0])), 2)}
 
 
-def _ambiguities(reports: Sequence[EffectReport], families, S0) -> list[dict]:
+def _ambiguities(reports: Sequence[EffectReport], tested: Mapping[str, _Tested], S0) -> list[dict]:
     """Significant effects whose held-out improvement is within null noise of the best one's."""
     significant = [e for e in reports if e.significant and e.view == "resistance"]
     if len(significant) < 2:
         return []
     top = significant[0]
-    d_top = S0 - families[top.name][0].heldout
+    d_top = S0 - tested[top.name].family.heldout
     out = []
     for other in significant[1:]:
-        diff = d_top - (S0 - families[other.name][0].heldout)
+        diff = d_top - (S0 - tested[other.name].family.heldout)
         sd = float(np.std(diff[1:], ddof=1))
         if abs(float(diff[0])) > AMBIGUITY_Z * max(sd, 1e-300):
             continue
@@ -744,58 +746,19 @@ def _ambiguities(reports: Sequence[EffectReport], families, S0) -> list[dict]:
     return out
 
 
-def _heldout_residuals(runs, bases, uses, ys, extra: Sequence[tuple[np.ndarray, ...]] | None = None,
-                       eq9: Sequence[np.ndarray | None] | None = None):
-    """Held-out residual of each run under the baseline (plus fixed extra columns per run), for figures.
-
-    ``eq9``: per run, a replacement (n, 4) for the Eq. 9 columns (a force-chain filter), or None.
-    """
-    from scipy.optimize import lsq_linear
-
-    mats = []
-    for i, (b, u) in enumerate(zip(bases, uses)):
-        own = eq9[i] if eq9 is not None and eq9[i] is not None else b.matrix()[u]
-        cols = [own[:, j] for j in range(4)]
-        if extra is not None:
-            cols += list(extra[i])
-        mats.append(np.column_stack(cols))
-    out = []
-    for k in range(len(runs)):
-        train = [i for i in range(len(runs)) if i != k]
-        n_shared = mats[0].shape[1] - 1
-        rows = []
-        for j, i in enumerate(train):
-            block = np.zeros((mats[i].shape[0], len(train) + n_shared))
-            block[:, j] = mats[i][:, 0]
-            block[:, len(train):] = mats[i][:, 1:]
-            rows.append(block / math.sqrt(mats[i].shape[0]))
-        X = np.vstack(rows)
-        y = np.concatenate([ys[i] / math.sqrt(mats[i].shape[0]) for i in train])
-        lower = np.r_[np.zeros(len(train) + 3), np.full(n_shared - 3, -np.inf)]
-        theta = lsq_linear(X, y, bounds=(lower, np.inf), method="bvls").x[len(train):]
-        rest = ys[k] - mats[k][:, 1:] @ theta
-        s = mats[k][:, 0]
-        out.append(rest - max(float(s @ rest) / max(float(s @ s), 1e-300), 0.0) * s)
-    return out
+def _residuals(stats: Statistics, matrices, ys, spec: Spec) -> list[np.ndarray]:
+    """Each run's held-out residual under ``spec``, from the same fold fits as the scores (for figures). [N]"""
+    folds = stats.score([spec]).folds[0]
+    return heldout_residuals(matrices, ys, spec, folds)
 
 
-def _verdict_residuals(runs, bases, uses, ys, candidates, families, verdict_effects):
-    """Held-out residuals with the verdict's law or extra-column effects added (None when nothing to add)."""
-    chosen = [n for n in verdict_effects if n in families]
+def _verdict_residuals(stats: Statistics, matrices, ys, candidates, tested: Mapping[str, _Tested],
+                       verdict_effects: Sequence[str], base_spec: Spec) -> list[np.ndarray] | None:
+    """Held-out residuals with the verdict's resistance-view effects added (None when there are none)."""
+    chosen = [candidates[n][tested[n].family.best] for n in verdict_effects if n in tested]
     if not chosen:
         return None
-    extra, eq9 = [], []
-    targets = list(ys)
-    for i, (run, basis, u) in enumerate(zip(runs, bases, uses)):
-        cols, own = [], None
-        for name in chosen:
-            member = candidates[name][families[name][0].best].member
-            built = member.columns(run, basis)
-            cols += [built.extra[:, j][u] for j in range(built.extra.shape[1])]
-            if built.offset is not None:
-                targets[i] = targets[i] - built.offset[u]
-            if built.base is not None:
-                own = built.base[u]
-        extra.append(tuple(cols))
-        eq9.append(own)
-    return _heldout_residuals(runs, bases, uses, targets, extra, eq9)
+    spec = chosen[0].spec
+    if len(chosen) > 1:
+        spec = _combine(chosen[0], chosen[1], base_spec) or spec
+    return _residuals(stats, matrices, ys, spec)

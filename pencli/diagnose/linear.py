@@ -51,6 +51,8 @@ class Scores:
     """(models, 3 + k, targets): shared coefficients of the all-runs fit (P, C, K, extra...)."""
     strength: np.ndarray
     """(models, runs, targets): per-run strength factors of the all-runs fit."""
+    folds: np.ndarray
+    """(models, runs, 3 + k): shared coefficients of the fold that leaves each run out, measured data (target 0)."""
 
 
 class Statistics:
@@ -83,15 +85,30 @@ class Statistics:
         R = self.n_runs
         heldout = np.empty((len(specs), R, C.shape[2]))
         train = np.empty_like(heldout)
+        folds = np.empty((len(specs), R, J.shape[1] - 1))
         for k in range(R):
             theta = bounded_solve(A_all - Dr[k], b_all - cr[k])
+            folds[:, k, :] = theta[:, :, 0]
             heldout[:, k, :] = _quadratic(Dr[k], cr[k], ttr[k], theta)
             train[:, k, :] = _quadratic(A_all - Dr[k], b_all - cr[k], t_all - ttr[k], theta) / (R - 1)
         theta = bounded_solve(A_all, b_all)
         total = _quadratic(A_all, b_all, t_all, theta) / R
         # strength factors: cs_i = (c_i0 − D_i0,rest · θ) / D_i00
         strength = (c[:, :, 0, :] - np.einsum("rmq,mqt->rmt", D[:, :, 0, 1:], theta)) / d00
-        return Scores(heldout, train, total, theta, np.moveaxis(strength, 0, 1))
+        return Scores(heldout, train, total, theta, np.moveaxis(strength, 0, 1), folds)
+
+
+def heldout_residuals(matrices: list[np.ndarray], targets: list[np.ndarray], spec: Spec,
+                      folds: np.ndarray) -> list[np.ndarray]:
+    """Each run's residual when the model ``spec`` is fitted without it (``folds``: (runs, 3 + k) from
+    :attr:`Scores.folds`); the run's own strength factor is refitted, as in the scores. [N]"""
+    cols = list(spec.columns)
+    out = []
+    for W, y, theta in zip(matrices, targets, folds):
+        rest = y - W[:, spec.offset] - W[:, cols[1:]] @ theta
+        s = W[:, cols[0]]
+        out.append(rest - (float(s @ rest) / max(float(s @ s), 1e-300)) * s)
+    return out
 
 
 def _quadratic(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray) -> np.ndarray:

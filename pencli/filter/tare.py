@@ -35,7 +35,7 @@ STANDOFF_TOLERANCE_M = 5e-3
 full depth in file coordinates; there an abrupt stop still counts as the hard stops. [m]"""
 
 
-def _abrupt_stop(time_s: np.ndarray, depth_m: np.ndarray, last_change: int, contact_speed_m_s: float) -> bool:
+def _abrupt_stop(time_s: np.ndarray, depth_m: np.ndarray, last_change: int) -> bool:
     """The motion ends at speed (the hard stops), not decelerating to rest (arrest).
 
     A parabola through the last 3 ms before the final encoder change gives the
@@ -145,7 +145,7 @@ def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, 
     last_change = int(changes[-1])
     final_depth = float(depth_m[last_change])
     if final_depth >= full_depth_m - FULL_DEPTH_TOLERANCE_M or (
-            final_depth >= full_depth_m - STANDOFF_TOLERANCE_M and _abrupt_stop(time_s, depth_m, last_change, speed)):
+            final_depth >= full_depth_m - STANDOFF_TOLERANCE_M and _abrupt_stop(time_s, depth_m, last_change)):
         end = "full_depth"
         stop = float(time_s[last_change])
     else:
