@@ -17,7 +17,7 @@ import pytest
 from scipy.optimize import lsq_linear
 from scipy.signal import lfilter
 
-from pencli.diagnose.linear import Spec, Statistics
+from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
 from pencli.diagnose.null import fit_noise, gumbel_quantile
 from pencli.filter.derivatives import encoder_step_m
 from pencli.filter.tare import force_onset
@@ -59,7 +59,7 @@ def _direct_heldout(mats, ys, k, bounded):
     rest = ys[k] - mats[k][:, 1:] @ shared
     s = mats[k][:, 0]
     r = rest - (s @ rest) / (s @ s) * s
-    return float(np.mean(r ** 2)), shared
+    return float(np.mean(r ** 2)), r
 
 
 @pytest.mark.parametrize("c_true", [0.7, -0.5])
@@ -72,8 +72,12 @@ def test_gram_leave_one_out_matches_stacked_least_squares(c_true):
     full = Statistics(with_zero, noisy).score([Spec(tuple(range(q)), offset=q)])
     for k in range(len(mats)):
         for target in (0, 1):
-            expected, shared = _direct_heldout(mats, [n[:, target] for n in noisy], k, bounded=True)
+            expected, residual = _direct_heldout(mats, [n[:, target] for n in noisy], k, bounded=True)
             assert full.heldout[0, k, target] == pytest.approx(expected, rel=1e-6)
+            if target == 0:  # the residual series the figures draw, from the same fold fits
+                drawn = heldout_residuals(with_zero, [n[:, 0] for n in noisy], Spec(tuple(range(q)), offset=q),
+                                          full.folds[0])[k]
+                assert np.allclose(drawn, residual, rtol=1e-6, atol=1e-9 * np.abs(residual).max())
     if c_true < 0:  # the bound is active: C sits at 0 in the all-runs fit
         assert full.coefficients[0, 1, 0] == pytest.approx(0.0, abs=1e-9)
     # the last extra column used as a known offset instead (target y − x_last), against the direct fit of that
