@@ -1,6 +1,6 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
-Run: python -m bench.bench_diagnose [--quick]
+Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED]]
 Prints, per campaign, the truth and the verdict, then: top-1 accuracy (the
 true effect first, or named by the report as indistinguishable from the
 first), false-positive rate on null campaigns, median held-out shrink of the
@@ -26,8 +26,9 @@ from tests.campaigns import BLOCKS, SIX, diagnosis_campaigns, judge, make_campai
 
 def run_one(label, material, effects, seed, nuisances=None):
     with tempfile.TemporaryDirectory() as tmp:
-        db = make_campaign(Path(tmp), material, seed=seed, shots=SIX, effects=effects,
-                           block_kpa=BLOCKS if material == "mpacs_c" else None, **(nuisances or {}))
+        nuisances = {"shots": SIX, **(nuisances or {})}
+        db = make_campaign(Path(tmp), material, seed=seed, effects=effects,
+                           block_kpa=BLOCKS if material == "mpacs_c" else None, **nuisances)
         api.tare_runs(db, ["all"])
         api.subtract_inertia_runs(db, ["all"])
         t0 = time.perf_counter()
@@ -37,12 +38,12 @@ def run_one(label, material, effects, seed, nuisances=None):
 
 def main() -> None:
     quick = "--quick" in sys.argv
-    if "--varied" in sys.argv:  # random forms and nuisances: python -m bench.bench_diagnose --varied 28 [SEED]
-        at = sys.argv.index("--varied")
+    option = next((o for o in ("--varied", "--nulls") if o in sys.argv), None)
+    if option:  # random forms and nuisances: python -m bench.bench_diagnose --varied|--nulls 28 [SEED]
+        at = sys.argv.index(option)
         count = int(sys.argv[at + 1])
         base_seed = int(sys.argv[at + 2]) if len(sys.argv) > at + 2 else 2000
-        campaigns = [(label, material, effects, truth, nuisances)
-                     for label, material, effects, truth, nuisances in varied_campaigns(count, base_seed)]
+        campaigns = varied_campaigns(count, base_seed, nulls_only=option == "--nulls")
     else:
         campaigns = [(*c, None) for c in diagnosis_campaigns(quick)]
         base_seed = 500

@@ -685,7 +685,7 @@ def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
     """Each run's inertia stage as a :class:`~pencli.diagnose.effects.DiagnosisRun`."""
 
     from pencli.diagnose.effects import DiagnosisRun
-    from pencli.filter.tare import force_onset
+    from pencli.filter.inertia import kinematic_events
 
     out = []
     names = ("time_s", "depth_m", "velocity_m_s", "acceleration_m_s2", "force_n", "resistance_n")
@@ -697,7 +697,7 @@ def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
                                 events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
                                 events.end, events.contact_speed_m_s, float(params["load_cell_mass_kg"]),
                                 float(params.get("encoder_step_m", 0.16e-3)), str(params.get("method", "spline")),
-                                force_onset(col["time_s"], col["force_n"], events.contact_s)))
+                                kinematic_events(col["time_s"], col["force_n"], events).contact_s))
     return out
 
 

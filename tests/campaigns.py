@@ -25,14 +25,21 @@ def twelve_shots() -> list[tuple[str, int]]:
 
 
 def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, effects=(), block_kpa=None,
-                  rig_extra=None, record_material: dict | None = None, standoff_mm: list | None = None) -> Path:
+                  rig_extra=None, record_material: dict | None = None, standoff_mm: list | None = None,
+                  strength_scale: list | None = None, encoder_mm: float | None = None) -> Path:
     """Fire a campaign into ``folder/runs.duckdb``; returns the catalog path.
 
     ``standoff_mm``: per shot, the true stand-off minus the file's (stand-off scatter).
+    ``strength_scale``: per shot, the block's true strength over the recorded one (unrecorded scatter).
+    ``encoder_mm``: the string encoder's step (default: the bundled encoder's).
     """
     folder.mkdir(parents=True, exist_ok=True)
     db = folder / "runs.duckdb"
     shots = shots or twelve_shots()
+    position_cal = None
+    if encoder_mm is not None:
+        position_cal = folder / "encoder.yaml"
+        position_cal.write_text(yaml.safe_dump({"counts_per_mm": 1.0 / float(encoder_mm)}))
     for i, (blade, springs) in enumerate(shots):
         mapping = load_preset(material, "material").to_mapping()
         mapping.pop("notes", None)
@@ -46,10 +53,12 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
                "effects": [dict(e) for e in effects], **(rig_extra or {})}
         if standoff_mm is not None:
             rig["surface_offset_error_mm"] = float(standoff_mm[i % len(standoff_mm)])
+        if strength_scale is not None:
+            rig["strength_scale"] = float(strength_scale[i % len(strength_scale)])
         rig_file = folder / f"rig-{i}.yaml"
         rig_file.write_text(yaml.safe_dump(rig))
         shot = api.acquire(springs=springs, penetrator=f"al6061_{blade}mm", material=str(material_file), rig=rig_file,
-                           duration_s=1.0, info={"id": f"r{i:02d}-{blade}mm-{springs}s"})
+                           position_cal=position_cal, duration_s=1.0, info={"id": f"r{i:02d}-{blade}mm-{springs}s"})
         api.add_run(shot.run, db, command="test campaign")
     return db
 
@@ -121,25 +130,34 @@ def random_effect(name: str, rng) -> dict:
     return {"name": name, **params}
 
 
-def random_nuisances(rng, n_shots: int) -> dict:
-    """make_campaign keywords for a campaign with varied nuisances: noise level and colour, rate, stand-off."""
+POOL = [(b, s) for b in BLADES for s in SPRINGS]
+
+
+def random_nuisances(rng) -> dict:
+    """make_campaign keywords for a campaign with varied nuisances: noise level and colour, rate, encoder
+    step, 4–8 runs of random blades and springs, unrecorded block scatter 3–6 %, stand-off scatter."""
+    n_shots = int(rng.integers(4, 9))
+    picks = rng.choice(len(POOL), n_shots, replace=n_shots > len(POOL))
     return {"rig_extra": {"force_noise_n": float(rng.uniform(0.5, 6.0)),
                           "correlated_noise_n": float(rng.choice([0.0, rng.uniform(0.5, 3.0)])),
                           "correlated_noise_ms": float(rng.uniform(0.1, 2.0)),
                           "sampling_rate_hz": float(rng.choice([30000.0, 60000.0]))},
+            "shots": [POOL[int(k)] for k in picks],
+            "encoder_mm": float(rng.choice([0.08, 0.16, 0.32])),
+            "strength_scale": [float(x) for x in rng.normal(1.0, rng.uniform(0.03, 0.06), n_shots)],
             "standoff_mm": [float(x) for x in rng.normal(0.0, rng.uniform(0.3, 1.5), n_shots)]}
 
 
-def varied_campaigns(count: int, seed: int):
+def varied_campaigns(count: int, seed: int, *, nulls_only: bool = False):
     """(label, material, hidden effects, acceptable verdicts, nuisances) with random forms and nuisances:
-    nulls, every single effect and pairs in turn."""
+    nulls, every single effect and pairs in turn (or nulls alone)."""
     import numpy as np
 
     rng = np.random.default_rng(seed)
     names = list(RANDOM_FORMS)
     out = []
     for i in range(count):
-        kind = i % 14
+        kind = 0 if nulls_only else i % 14
         material = str(rng.choice(["mpacs_c", "grill_brick"]))
         if kind < 2:
             label, effects, truth = f"null-{i}", [], {"none"}
@@ -149,7 +167,7 @@ def varied_campaigns(count: int, seed: int):
         else:
             a, b = rng.choice([n for n in names if n not in ("strength_gradient",)], 2, replace=False)
             label, effects, truth = f"pair-{i}", [random_effect(str(a), rng), random_effect(str(b), rng)], {a, b}
-        out.append((label, material, effects, truth, random_nuisances(rng, len(SIX))))
+        out.append((label, material, effects, truth, random_nuisances(rng)))
     return out
 
 

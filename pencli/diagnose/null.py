@@ -21,7 +21,7 @@ from the data: the replicates perturb what is measured, not the regressors
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -95,6 +95,11 @@ class RunNull:
     load_cell_mass_kg: float
     noise: NoiseModel
     method: str
+    kinematic_contact_s: float
+    """Where the derivatives break the motion at contact (:func:`pencli.filter.inertia.kinematic_events`). [s]"""
+    model: tuple | None = None
+    """The baseline's motion in the material: (depth [m], acceleration [m/s²], NaN before contact; its stop [s]),
+    or None to make the replicates from the spline through the record alone."""
 
 
 @dataclass(frozen=True)
@@ -112,23 +117,31 @@ class Replicates:
 def replicate_run(null: RunNull, count: int, seed: int) -> Replicates:
     """``count`` null replicates of one run (see the module docstring).
 
-    The acceleration error of a replicate is D(x̃ + q) − D(x̃): the derivative
-    method D applied to the smoothed motion x̃ re-quantised (random encoder
-    phase, zeroed at rest) minus D applied to x̃ itself.  For a linear method
-    (the default least-squares spline) this is exactly D applied to the
-    quantisation error, so the smoother's own resolution bias, common to data
-    and replicates, cancels and no "true" trajectory is needed.
+    The motion a replicate is measured from is the smoothed record x̃ in flight and, from the contact on,
+    the baseline's own dynamics (``null.model``), whose acceleration has the jumps at contact and stop that
+    the encoder cannot resolve.  The acceleration error of a replicate is D(x* + q) − a*: the derivative
+    method D applied to that motion re-quantised (random encoder phase, zeroed at rest) minus its true
+    acceleration a*, which in flight is D(x̃) (the smoother's own resolution bias, common to data and
+    replicates, cancels).  Without a model the whole motion is x̃, as in flight.
     """
     rng = np.random.default_rng(seed)
     t = null.time_s
     rate = (t.size - 1) / (t[-1] - t[0])
-    breaks = motion_breaks(t, null.events)
+    motion = replace(null.events, contact_s=null.kinematic_contact_s)
     step = null.encoder_step_m
-    smooth, velocity, _ = smooth_motion(null.depth_m, rate, breaks, step)
+    smooth, velocity, _ = smooth_motion(null.depth_m, rate, motion_breaks(t, motion), step)
     smooth = np.where(null.at_rest & (t < null.events.contact_s), null.depth_m, smooth)
     true_contact = float(np.interp(null.events.contact_s, t, velocity))
-    joins = motion_joins(t, null.events)
+    inside = np.zeros(t.size, dtype=bool)
+    if null.model is not None:
+        model_depth, model_accel, model_stop = null.model
+        inside = np.isfinite(model_depth)
+        smooth = np.where(inside, model_depth, smooth)
+        motion = replace(motion, stop_s=min(model_stop, float(t[-1])))
+    breaks, joins = motion_breaks(t, motion), motion_joins(t, motion)
     _, reference = derivatives(smooth, rate, breaks, null.method, count_m=step, joins=joins)
+    if null.model is not None:
+        reference = np.where(inside, model_accel, reference)
     noise = null.noise.simulate(t.size, rng, count)
     phases = rng.uniform(0.0, step, count)
     depth = step * np.round((smooth[:, None] + phases) / step) - phases

@@ -12,12 +12,12 @@ flight :math:`R = 0`, so the same record also measures :math:`m_{lc}`
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from pencli.filter.derivatives import DEFAULT_METHOD, derivatives, encoder_step_m
-from pencli.filter.tare import Events
+from pencli.filter.tare import STANDOFF_TOLERANCE_M, Events, force_onset
 
 
 @dataclass(frozen=True)
@@ -108,8 +108,9 @@ def subtract_inertia(time_s: np.ndarray, depth_m: np.ndarray, force_n: np.ndarra
     """
     rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
     step = encoder_step_m(depth_m)
-    velocity, acceleration = derivatives(depth_m, rate, motion_breaks(time_s, events), method, count_m=step,
-                                         joins=motion_joins(time_s, events))
+    motion = kinematic_events(time_s, force_n, events)
+    velocity, acceleration = derivatives(depth_m, rate, motion_breaks(time_s, motion), method, count_m=step,
+                                         joins=motion_joins(time_s, motion))
     at_rest = (time_s < events.motion_start_s - 1.0 / rate) | (time_s > events.stop_s)
     velocity = np.where(at_rest, 0.0, velocity)
     acceleration = np.where(at_rest, 0.0, acceleration)
@@ -117,6 +118,24 @@ def subtract_inertia(time_s: np.ndarray, depth_m: np.ndarray, force_n: np.ndarra
     mass = estimate.value_kg if (use_flight_mass and estimate is not None) else load_cell_mass_kg
     resistance = force_n - mass * acceleration  # R = F − m_lc·a
     return Kinematics(velocity, acceleration, resistance, mass, estimate, step)
+
+
+def kinematic_events(time_s: np.ndarray, force_n: np.ndarray, events: Events) -> Events:
+    """``events`` with the contact where the force sees it, for the derivatives' breaks and joins.
+
+    The acceleration jumps when the tip meets the material.  The position's
+    contact is where the tip passes the file's stand-off; a block whose surface
+    sits elsewhere (stand-off scatter) moves the jump by a fraction of a
+    millisecond, and a spline broken at the wrong sample smears it into a
+    biased acceleration for milliseconds after contact.  The force's change
+    point (:func:`pencli.filter.tare.force_onset`) is used when it lies within
+    the stand-off tolerance of the position's contact, at the contact speed.
+    """
+    span = min(4e-3, STANDOFF_TOLERANCE_M / max(events.contact_speed_m_s, 0.1))
+    seen = force_onset(time_s, force_n, events.contact_s, span_s=span)
+    if not events.motion_start_s < seen < events.stop_s:
+        return events
+    return replace(events, contact_s=seen)
 
 
 def motion_joins(time_s: np.ndarray, events: Events) -> list[tuple[float, int]]:
