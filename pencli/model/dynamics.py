@@ -261,6 +261,15 @@ def _event(fn, direction: float):
     return fn
 
 
+def _root(fn, lo: float, hi: float) -> float:
+    """Root of ``fn`` on [lo, hi] where it changes sign (Brent's method, to round-off)."""
+    from scipy.optimize import brentq
+
+    if fn(lo) >= 0.0:
+        return lo
+    return float(brentq(fn, lo, hi, xtol=1e-15, rtol=4 * np.finfo(float).eps))
+
+
 def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float, rtol: float = _RTOL,
                            extra=None):
     """Integrate from contact; returns (segments, end, t_end, y_end)."""
@@ -295,6 +304,14 @@ def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: fl
             y_hit[0] = depth
             return segments, "full_depth", t_hit, y_hit
         if i == 1:
+            if y_hit[0] > depth:
+                # the tip passed the stops and would have come back within the same step, so the depth
+                # event saw no sign change at the step ends: the stops were reached first, where x = depth
+                t_full = _root(lambda tt: sol.sol(tt)[0] - depth, float(sol.t[0]), t_hit)
+                y_full = np.array(sol.sol(t_full), dtype=float)
+                y_full[0] = depth
+                segments[-1] = (sol.t[0], t_full, sol.sol, sol.t)
+                return segments, "full_depth", t_full, y_full
             y_hit[1] = 0.0
             return segments, "arrest", t_hit, y_hit
         y_hit[0] = release_depth  # springs at free length: restart without that event
