@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
+import yaml
 
 from pencli.params.load import load_preset
 from tests.conftest import invoke
@@ -36,3 +38,32 @@ def test_full_depth_just_short_of_the_arrest_point_is_full_depth(runner):
     assert got["penetration_time_s"] == pytest.approx(want["penetration_time_s"], rel=1e-4)
     assert got["residual_ke_j"] > 0.0
     assert abs(got["energy_balance_error_j"]) < 1e-6
+
+
+@pytest.mark.parametrize("compressed_mm", [500.0, 620.0])  # free length 500 mm: zero stroke, and beyond it
+def test_springs_not_compressed_at_release_are_a_gravity_drop(runner, tmp_path, compressed_mm):
+    """Issue 12 defect 6: CONTRACT §2 puts the spring force at 0 beyond the free length, so springs at zero
+    stroke (or longer than free) are a valid design: the body falls under gravity alone."""
+    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", spring_compressed_length_mm=compressed_mm)
+    assert e["spring_nominal_length_mm"] == 500.0
+    energizing = tmp_path / "drop.yaml"
+    energizing.write_text(yaml.safe_dump(e))
+    result = invoke(runner, "predict", "-p", "appendix_c", "-m", "grill_brick", "-e", energizing, "--json")
+    assert result.exit_code == 0, result.output
+    got = json.loads(result.stdout)
+    g = m.get("gravity_m_s2", 9.81)
+    assert got["contact_speed_m_s"] == pytest.approx(math.sqrt(2 * g * e["surface_offset_mm"] / 1e3), rel=1e-9)
+    assert got["spring_energy_j"] == 0.0
+    want = reference_run(p, m, e)
+    for key in ("contact_speed_m_s", "penetration_time_s", "final_depth_mm", "peak_resistance_n"):
+        assert got[key] == pytest.approx(want[key], rel=1e-4), key
+    out = tmp_path / "drop.parquet"
+    swept = invoke(runner, "sweep", "-p", "appendix_c", "-m", "grill_brick", "-e", energizing,
+                   "--vary", f"surface_offset_mm=100,{e['surface_offset_mm']}", "--out", out, "--json")
+    assert swept.exit_code == 0, swept.output
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(out).to_pydict()
+    row = table["surface_offset_mm"].index(e["surface_offset_mm"])
+    assert table["end"][row] != "invalid"
+    assert table["final_depth_mm"][row] == pytest.approx(want["final_depth_mm"], rel=1e-4)

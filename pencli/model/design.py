@@ -77,8 +77,9 @@ class Design:
 
     @property
     def stroke_m(self) -> float:
-        """L0 − Lc, travel from release until the springs reach free length. [m]"""
-        return self.nominal_length_m - self.compressed_length_m
+        """max(L0 − Lc, 0), travel from release until the springs reach free length (0: springs not
+        compressed at release, a gravity drop). [m]"""
+        return max(self.nominal_length_m - self.compressed_length_m, 0.0)
 
     @property
     def frontal_area_m2(self) -> float:

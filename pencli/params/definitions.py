@@ -243,7 +243,6 @@ RULES: tuple[Rule, ...] = (
     Rule("penetrator", ("load_cell_mass_kg", "sprung_mass_kg"),
          "must not exceed sprung_mass_kg (it is part of the moving body)",
          lambda v: v["load_cell_mass_kg"] <= v["sprung_mass_kg"]),
-    Rule("energizing", ("spring_compressed_length_mm", "spring_nominal_length_mm"),
-         "must be less than spring_nominal_length_mm (the springs must be compressed)",
-         lambda v: v["spring_compressed_length_mm"] < v["spring_nominal_length_mm"]),
 )
+"""Springs at or beyond their free length at release are a valid design (CONTRACT §2 puts the spring force
+at 0 while L ≥ L0): a gravity drop."""
