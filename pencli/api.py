@@ -815,7 +815,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
                    float(simulate(design_from_sets(p, m, e), output_rate_hz=1000.0).summary.contact_speed_m_s))
     variables = [parse_vary(spec, base, resolution) for spec in vary]
     if sample:
-        columns = draw({v.key: (float(v.values.min()), float(v.values.max())) for v in variables}, n, sample, seed)
+        columns = draw({v.key: v.domain() for v in variables}, n, sample, seed)
     else:
         columns = grid(variables)
     total = len(next(iter(columns.values())))

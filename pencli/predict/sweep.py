@@ -32,6 +32,12 @@ class Variable:
 
     key: str
     values: np.ndarray
+    discrete: bool = False
+    """A set of values (a list, or a whole-number key): a sample draws from the set, not the range."""
+
+    def domain(self) -> tuple[float, float] | np.ndarray:
+        """What a sample draws from: the set of values, or the (low, high) range."""
+        return self.values if self.discrete else (float(self.values.min()), float(self.values.max()))
 
     @property
     def unit(self) -> str:
@@ -49,6 +55,7 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variabl
     if key != SPEED and key not in BY_KEY:
         hint = f" (did you mean 'coefficients.{key}'?)" if f"coefficients.{key}" in BY_KEY else ""
         raise ParameterError(f"--vary {spec!r}: unknown key '{key}'{hint}; any CONTRACT §1 key or {SPEED}")
+    discrete = False
     try:
         if "%" in text:
             deltas = [float(p.strip().rstrip("%")) / 100.0 for p in text.split(",")]
@@ -61,11 +68,12 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variabl
             values = np.linspace(lo, hi, resolution)
         else:
             values = np.array([float(p) for p in text.split(",")])
+            discrete = True
     except (ValueError, KeyError):
         raise ParameterError(f"--vary {spec!r}: could not read the values") from None
-    if key == "spring_count":
-        values = np.unique(np.round(values))
-    return Variable(key, np.asarray(values, dtype=float))
+    if key != SPEED and BY_KEY[key].dtype is int:
+        values, discrete = np.unique(np.round(values)), True
+    return Variable(key, np.asarray(values, dtype=float), discrete)
 
 
 def grid(variables: Sequence[Variable]) -> dict[str, np.ndarray]:
@@ -74,17 +82,31 @@ def grid(variables: Sequence[Variable]) -> dict[str, np.ndarray]:
     return {v.key: m.ravel() for v, m in zip(variables, mesh)}
 
 
-def sample(ranges: Mapping[str, tuple[float, float]], n: int, method: str, seed: int = 0) -> dict[str, np.ndarray]:
-    """``n`` designs by Latin hypercube (``lhs``) or uniform random sampling within the ranges."""
+def sample(domains: Mapping[str, tuple[float, float] | np.ndarray], n: int, method: str, seed: int = 0
+           ) -> dict[str, np.ndarray]:
+    """``n`` designs by Latin hypercube (``lhs``) or uniform random sampling.
+
+    Each key's domain is a (low, high) range, sampled continuously, or an array of values (a list given
+    to ``--vary``, or a whole-number key), from which each design takes one value: the strata of the
+    hypercube map onto the values in equal shares.
+    """
     rng = np.random.default_rng(seed)
-    keys = list(ranges)
+    keys = list(domains)
     if method == "lhs":
         u = (rng.permuted(np.tile(np.arange(n), (len(keys), 1)), axis=1).T + rng.random((n, len(keys)))) / n
     elif method == "random":
         u = rng.random((n, len(keys)))
     else:
         raise ParameterError(f"--sample {method!r}: expected lhs or random")
-    return {k: ranges[k][0] + u[:, i] * (ranges[k][1] - ranges[k][0]) for i, k in enumerate(keys)}
+    out = {}
+    for i, k in enumerate(keys):
+        domain = domains[k]
+        if isinstance(domain, tuple):
+            out[k] = domain[0] + u[:, i] * (domain[1] - domain[0])
+        else:
+            values = np.asarray(domain, dtype=float)
+            out[k] = values[np.minimum((u[:, i] * values.size).astype(int), values.size - 1)]
+    return out
 
 
 def si_designs(base: Mapping[str, float], columns: Mapping[str, np.ndarray]) -> tuple[dict, np.ndarray | None]:
