@@ -39,7 +39,7 @@ class Prediction:
     def to_dict(self) -> dict:
         """CONTRACT §5 record plus where the parameters came from."""
         record = self.result.to_dict()
-        record["warnings"] = list(self.warnings)
+        record["warnings"] = list(self.warnings) + ([self.result.message] if self.result.message else [])
         record["penetrator"] = self.penetrator.name
         record["material"] = self.material.name
         record["energizing"] = self.energizing.name

@@ -67,3 +67,45 @@ def test_springs_not_compressed_at_release_are_a_gravity_drop(runner, tmp_path, 
     row = table["surface_offset_mm"].index(e["surface_offset_mm"])
     assert table["end"][row] != "invalid"
     assert table["final_depth_mm"][row] == pytest.approx(want["final_depth_mm"], rel=1e-4)
+
+
+@pytest.mark.parametrize("sets,names", [
+    (["density_kg_m3=1e300"], "density_kg_m3"),
+    (["blade_width_mm=1e300", "blade_thickness_mm=1e299"], "blade_width_mm"),
+])
+def test_absurd_inputs_end_in_one_line(runner, sets, names):
+    """Issue 12 defect 9: density 1e300 gave a traceback, width 1e300 hung past 600 s."""
+    args = ["predict", "-p", "appendix_c", "-m", "grill_brick", "-e", "appendix_c", "--allow-out-of-range"]
+    for s in sets:
+        args += ["--set", s]
+    result = invoke(runner, *args)
+    assert result.exit_code == 1
+    assert isinstance(result.exception, SystemExit)  # a handled error, not a traceback
+    lines = [ln for ln in result.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:") and names in lines[0], result.output
+
+
+def test_a_long_fall_is_sampled_within_bounded_memory(runner):
+    """Issue 12 defect 9: a stand-off of 1e9 mm sampled 450 s at 50 kHz (3.3 GB); now at most MAX_SAMPLES."""
+    from pencli import api
+    from pencli.model.dynamics import MAX_SAMPLES
+
+    pred = api.predict("appendix_c", "grill_brick", "appendix_c", overrides=["surface_offset_mm=1e9"],
+                       allow_out_of_range=True)
+    assert len(pred.result.trajectory) <= MAX_SAMPLES + 16
+    g = pred.design.gravity_m_s2
+    # a long drop: the contact speed is the free fall's from the end of the spring stroke
+    assert pred.result.summary.contact_speed_m_s == pytest.approx(math.sqrt(2 * g * 1e6), rel=1e-3)
+    assert any("sampled at" in w for w in pred.to_dict()["warnings"])
+
+
+def test_an_energy_balance_beyond_tolerance_is_a_warning(monkeypatch):
+    """Issue 12 defect 9: the balance error was never reported; beyond the tolerance it is a warning."""
+    from pencli import api
+    import pencli.model.dynamics as dyn
+
+    quiet = api.predict("appendix_c", "grill_brick", "appendix_c")
+    assert not any("energy balance" in w for w in quiet.to_dict()["warnings"])
+    monkeypatch.setattr(dyn, "ENERGY_TOLERANCE", 1e-30)
+    loud = api.predict("appendix_c", "grill_brick", "appendix_c")
+    assert any("energy balance" in w for w in loud.to_dict()["warnings"])

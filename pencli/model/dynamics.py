@@ -38,6 +38,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
+from pencli.errors import ModelError
 from pencli.model.design import Design
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, resistance_law
 
@@ -49,6 +50,41 @@ PHASES: tuple[str, ...] = ("flight", "penetration")
 
 _RTOL = 1e-10
 _T_MAX_S = 60.0  # give up on a run that neither arrests nor reaches full depth in this time
+MAX_EVALUATIONS = 2_000_000
+"""Right-hand-side evaluations one penetration may take (a few seconds); beyond it the design's scales are
+too far apart for float64 and the simulation ends with one line instead of running on."""
+MAX_SAMPLES = 1_000_000
+"""Trajectory samples kept at most (~100 MB); a longer motion is sampled more coarsely and says so."""
+ENERGY_TOLERANCE = 1e-6
+"""Energy balance error, relative to the energy put in, beyond which a result carries a warning. [–]"""
+FORCE_LIMIT_N = 1e30
+"""Forces beyond this are outside what float64 integrates meaningfully. [N]"""
+
+_TERM_KEYS = {
+    "strength": ("microstructure_strength_kpa", "coefficients.strength_factor", "blade_width_mm", "blade_thickness_mm"),
+    "friction": ("coefficients.sidewall_pressure_kpa", "friction_coefficient", "blade_width_mm"),
+    "damping": ("coefficients.damping_kpa_s_m", "blade_width_mm", "blade_thickness_mm"),
+    "inertia": ("density_kg_m3", "coefficients.inertia_coefficient", "blade_width_mm", "blade_thickness_mm"),
+    "drive": ("spring_stiffness_kn_m", "spring_count", "spring_nominal_length_mm", "spring_compressed_length_mm"),
+    "weight": ("sprung_mass_kg", "gravity_m_s2"),
+}
+
+
+class SimulationLimit(ModelError):
+    """A design the model cannot simulate in bounded time and memory (one line, names the inputs)."""
+
+
+def _check_scales(design: Design, law: ResistanceLaw, speed_m_s: float) -> None:
+    """Refuse a design whose forces overflow float64 before integrating it."""
+    depth = design.penetration_depth_m
+    forces = {"strength": law.strength_n, "friction": law.friction_n_m * depth,
+              "damping": law.damping_n_s_m * speed_m_s, "inertia": law.inertia_n_s2_m2 * speed_m_s ** 2,
+              "drive": design.drive_stiffness_n_m * design.stroke_m,
+              "weight": design.effective_mass_kg * design.gravity_m_s2}
+    for term, force in forces.items():
+        if not math.isfinite(force) or abs(force) > FORCE_LIMIT_N:
+            raise SimulationLimit(f"the {term} force is {force:.3g} N (from {', '.join(_TERM_KEYS[term])}); "
+                                  f"beyond {FORCE_LIMIT_N:g} N the model cannot be integrated in float64")
 
 
 @dataclass(frozen=True)
@@ -240,8 +276,14 @@ def _make_rhs(law: ResistanceLaw, mass: float, stiffness: float, stroke: float, 
               extra=None):
     a0, a1, b, d = law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2
     weight = mass * gravity
+    calls = [0]
 
     def rhs(_t, y):
+        calls[0] += 1
+        if calls[0] > MAX_EVALUATIONS:
+            raise SimulationLimit(f"the penetration took more than {MAX_EVALUATIONS:,} integration steps (the "
+                                  f"design's time scales are too far apart: check stiffness, masses and the "
+                                  f"Eq. 9 coefficients)")
         x, v = y[0], y[1]
         vp = v if v > 0.0 else 0.0
         compression = stroke - x - offset
@@ -330,6 +372,8 @@ def _peak(law: ResistanceLaw, segments, extra=None) -> tuple[float, float]:
 
     best_r, best_x = -math.inf, 0.0
     for t_start, t_end, dense, steps in segments:
+        if not t_end > t_start:
+            continue
         grid = np.union1d(np.linspace(t_start, t_end, 401), steps[(steps >= t_start) & (steps <= t_end)])
         states = dense(grid)
         values = resistance(states)
@@ -388,6 +432,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         t_contact, v_contact = 0.0, float(speed_at_contact_m_s)
         u_start, initial_ke = design.surface_offset_m, 0.5 * mass * v_contact ** 2
 
+    _check_scales(design, law, v_contact)
     segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact, rtol, extra_resistance)
     x_end, v_end = float(y_end[0]), float(y_end[1])
     full = end == "full_depth"
@@ -410,6 +455,11 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
     else:  # stopped at the surface
         peak_n, peak_x = law.strength_n, 0.0
 
+    notes = []
+    if t_end * output_rate_hz > MAX_SAMPLES:
+        notes.append(f"the motion lasts {t_end:.3g} s: its trajectory is sampled at {MAX_SAMPLES / t_end:.3g} Hz "
+                     f"instead of {output_rate_hz:g} Hz to stay within {MAX_SAMPLES:,} samples")
+        output_rate_hz = MAX_SAMPLES / t_end
     trajectory = _sample(design, law, flight, segments, speed_at_contact_m_s is None, t_contact, v_contact,
                          t_end, y_end, output_rate_hz, extra_resistance)
     summary = Summary(
@@ -431,8 +481,14 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         initial_ke_j=initial_ke,
         energy_balance_error_j=balance,
     )
-    message = "" if end != "stalled" else (
-        f"neither arrest nor full depth within {_T_MAX_S:g} s of contact; figures are at that time")
+    if end == "stalled":
+        notes.insert(0, f"neither arrest nor full depth within {_T_MAX_S:g} s of contact; figures are at that time")
+    energy_in = initial_ke + abs(spring_j) + abs(gravity_j)
+    if abs(balance) > ENERGY_TOLERANCE * max(energy_in, 1.0):
+        notes.append(f"the energy balance closes only to {balance:.3g} J of {energy_in:.3g} J put in "
+                     f"(tolerance {ENERGY_TOLERANCE:g}); the design's scales strain float64, treat the figures "
+                     f"with care")
+    message = "; ".join(notes)
     return SimulationResult(design, chosen, speed_at_contact_m_s, summary, trajectory,
                             success=end != "stalled", message=message)
 
