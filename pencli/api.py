@@ -11,17 +11,26 @@ import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
 from pencli.errors import DataError, ParameterError, PenError, StoreError
 from pencli.model.design import Design, design_from_sets
-from pencli.model.dynamics import SimulationResult, simulate
+
+if TYPE_CHECKING:
+    from pencli.model.dynamics import SimulationResult
 from pencli.params.definitions import Kind
 from pencli.params.load import all_presets, load_file, load_preset, preset_names, resolve
 from pencli.params.overrides import parse_overrides
 from pencli.params.validate import ParameterSet
+
+
+def simulate(*args, **kwargs):
+    """:func:`pencli.model.dynamics.simulate`, imported when first needed (scipy stays out of `pen --help`)."""
+    from pencli.model.dynamics import simulate as run
+
+    return run(*args, **kwargs)
 
 
 @dataclass(frozen=True)

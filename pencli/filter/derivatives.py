@@ -19,7 +19,6 @@ import warnings
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from pencli.errors import DataError
 
@@ -32,6 +31,8 @@ def _segments(n: int, breaks: Sequence[int]) -> list[tuple[int, int]]:
 def savgol(x: np.ndarray, rate_hz: float, breaks: Sequence[int], window_s: float = 1.5e-3, order: int = 3
            ) -> tuple[np.ndarray, np.ndarray]:
     """Savitzky–Golay local cubic fits, window ``window_s``, per segment. [m/s, m/s²]"""
+    from scipy.signal import savgol_filter
+
     v = np.zeros_like(x)
     a = np.zeros_like(x)
     dt = 1.0 / rate_hz
