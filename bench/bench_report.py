@@ -27,11 +27,11 @@ def main() -> None:
     repo = Path(__file__).resolve().parents[1]
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        shutil.copy(repo / "runs.duckdb.example", work / "runs.duckdb")
-        shutil.copytree(repo / "runs", work / "runs")
-        for folder in ("fits", "sweeps"):
-            if (repo / folder).is_dir():
-                shutil.copytree(repo / folder, work / folder)
+        example = repo / "examples" / "workspace"
+        shutil.copy(example / "runs.duckdb", work / "runs.duckdb")
+        for folder in ("runs", "fits", "sweeps"):
+            if (example / folder).is_dir():
+                shutil.copytree(example / folder, work / folder)
         started = time.perf_counter()
         sections = api.report_runs(work / "runs.duckdb", ["all"])
         write_report("twelve runs", sections, work / "all.html")

@@ -5,8 +5,10 @@ rebuild): Grill Brick and MPACS C, blades of 1, 1.5 and 2 mm, 2, 4 and 6
 springs.  MPACS C strength is measured per block (the paper: 5600–8200 kPa),
 so each MPACS C run records its own block's strength.  No hidden effect.
 
-Writes ``runs.duckdb.example`` and its ``runs/`` folder at the repository
-root (or ``--out PATH``), replacing what was there.
+Writes ``examples/workspace/runs.duckdb`` and its ``runs/``, ``fits/`` and
+``sweeps/`` folders (or ``--out PATH``), replacing what was there.  The
+example has a folder of its own, so that a workspace made in the repository
+root (the default ``./runs.duckdb``) never shares its ``runs/``.
 """
 
 from __future__ import annotations
@@ -93,7 +95,7 @@ def build_report(db: Path, out: Path, pdf: bool = False) -> list[Path]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "runs.duckdb.example",
+    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "examples" / "workspace" / "runs.duckdb",
                         help="catalog to write (runs/ goes beside it)")
     parser.add_argument("--report", type=Path, nargs="?", const=Path(__file__).resolve().parents[1] / "examples"
                         / "report", help="also condition, fit, sweep, diagnose and write the full report here")

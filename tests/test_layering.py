@@ -59,3 +59,13 @@ def test_heavy_libraries_are_not_imported_at_module_level_by_the_cli():
             "if m in sys.modules]; print(','.join(heavy))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "", f"imported at start-up: {out}"
+
+
+def test_the_example_workspace_has_a_folder_of_its_own():
+    """Issue 13 item 4: the example's runs/ sat in the repository root, where the default workspace
+    (./runs.duckdb) keeps its runs, so `pen acquire --save` wrote into the tracked example."""
+    from tests.conftest import REPO
+
+    example = REPO / "examples" / "workspace"
+    assert (example / "runs.duckdb").is_file() and (example / "runs").is_dir()
+    assert not (REPO / "runs").exists() and not (REPO / "fits").exists() and not (REPO / "sweeps").exists()

@@ -19,9 +19,9 @@ from tests.conftest import REPO, invoke
 def example(tmp_path_factory) -> Path:
     """A copy of the bundled example workspace (analysed: stages, two fits, a sweep)."""
     root = tmp_path_factory.mktemp("example")
-    shutil.copy(REPO / "runs.duckdb.example", root / "runs.duckdb")
+    shutil.copy(REPO / "examples" / "workspace" / "runs.duckdb", root / "runs.duckdb")
     for folder in ("runs", "fits", "sweeps"):
-        shutil.copytree(REPO / folder, root / folder)
+        shutil.copytree(REPO / "examples" / "workspace" / folder, root / folder)
     return root / "runs.duckdb"
 
 
