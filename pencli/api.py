@@ -295,6 +295,40 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text[0] if text else 'no message'}"
 
 
+def check_can_save(db: str | Path, run_id: str | None = None) -> None:
+    """Raise (one line) when a run could not be saved into ``db``: checked before the rig fires."""
+    target = Path(db)
+    home = target.parent if str(target.parent) else Path(".")
+    if not home.is_dir():
+        raise StoreError(f"{db}: folder {home} does not exist; create it or give --db elsewhere before firing")
+    for path in (target, home / "runs"):
+        if path.exists() and not os.access(path, os.W_OK):
+            raise StoreError(f"{path}: not writable, so the shot could not be saved; fix it or give --db elsewhere "
+                             f"before firing")
+    if not target.exists() and not os.access(home, os.W_OK):
+        raise StoreError(f"{home}: not writable, so the shot could not be saved; fix it or give --db elsewhere "
+                         f"before firing")
+    if run_id and target.exists():
+        ws = workspace(db)
+        if any(row["run_id"] == run_id for row in ws.list_runs()):
+            raise StoreError(f"{db}: run id {run_id!r} is taken; give another --id before firing")
+
+
+def rescue_run(run, folder: str | Path | None = None) -> Path:
+    """Write an unsaved shot as a CONTRACT §3 run folder (a new folder under ``folder`` or the system's
+    temporary folder) so that no recorded shot is lost; returns where."""
+    import tempfile
+
+    from pencli.io.runfolder import write_run_folder
+
+    parent = Path(folder) if folder is not None else Path(tempfile.gettempdir())
+    target = Path(tempfile.mkdtemp(prefix=f"pen-unsaved-{run.info.get('id', 'shot')}-", dir=parent))
+    return write_run_folder(target, run.columns, {"penetrator": run.penetrator.to_mapping(),
+                                                  "material": run.material.to_mapping(),
+                                                  "energizing": run.energizing.to_mapping()},
+                            dict(run.info), overwrite=True)
+
+
 def add_run(run, db: str | Path, *, command: str):
     """Add an in-memory :class:`~pencli.store.rundata.RunData` (e.g. from the rig) to the workspace."""
     from pencli.io.checks import check_run_columns

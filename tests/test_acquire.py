@@ -144,3 +144,79 @@ def test_nidaq_without_the_package_says_how_to_install(workspace, runner, monkey
     monkeypatch.setitem(sys.modules, "nidaqmx", None)
     r = invoke(runner, "acquire", "--springs", "4", "--driver", "nidaq", "--yes", "--save")
     assert r.exit_code == 1 and "pen[daq]" in r.stderr
+
+
+def test_a_shot_that_cannot_be_saved_is_not_fired(workspace, runner, monkeypatch):
+    """Issue 13 item 7: on a read-only workspace the shot was recorded, then lost.  Now nothing fires."""
+    import os
+    import stat
+
+    import pencli.acquire.sim as sim
+
+    made = invoke(runner, "acquire", "--springs", "2", "--yes", "--save", "--id", "first")  # makes the workspace
+    assert made.exit_code == 0, made.output
+    fired = []
+    monkeypatch.setattr(sim.SimRig, "fire", lambda self: fired.append(1))
+    os.chmod(workspace / "runs.duckdb", stat.S_IRUSR)
+    try:
+        if os.access(workspace / "runs.duckdb", os.W_OK):
+            pytest.skip("running as a user whom file permissions do not stop")
+        r = invoke(runner, "acquire", "--springs", "2", "--yes", "--save")
+    finally:
+        os.chmod(workspace / "runs.duckdb", stat.S_IRUSR | stat.S_IWUSR)
+    assert r.exit_code == 1 and "not writable" in r.output and "before firing" in r.output
+    assert fired == []
+
+
+def test_a_taken_run_id_is_refused_before_firing(workspace, runner, monkeypatch):
+    r = invoke(runner, "acquire", "--springs", "2", "--yes", "--save", "--id", "dup")
+    assert r.exit_code == 0, r.output
+    import pencli.acquire.sim as sim
+
+    fired = []
+    monkeypatch.setattr(sim.SimRig, "fire", lambda self: fired.append(1))
+    r = invoke(runner, "acquire", "--springs", "2", "--yes", "--save", "--id", "dup")
+    assert r.exit_code == 1 and "'dup' is taken" in r.output and fired == []
+
+
+def test_without_a_terminal_a_recorded_shot_is_kept_not_dropped_at_a_prompt(workspace, runner):
+    """Issue 13 item 7: with --yes --json and no terminal, the shot was fired and then discarded at the
+    save prompt."""
+    r = invoke(runner, "acquire", "--springs", "2", "--yes", "--json")
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    assert out["saved"] is True and out["id"]
+    assert [row["run_id"] for row in api.list_runs(workspace / "runs.duckdb")] == [out["id"]]
+
+
+def test_a_shot_whose_save_fails_after_firing_is_written_somewhere_and_said_where(workspace, runner, monkeypatch,
+                                                                                 tmp_path_factory):
+    import tempfile
+
+    from pencli.errors import StoreError
+
+    rescue = tmp_path_factory.mktemp("rescue")
+    monkeypatch.setattr(tempfile, "tempdir", str(rescue))
+
+    def full_disk(*args, **kwargs):
+        raise StoreError("runs.duckdb: no space left on device")
+
+    monkeypatch.setattr(api, "add_run", full_disk)
+    r = invoke(runner, "acquire", "--springs", "2", "--yes", "--save", "--id", "lost")
+    assert r.exit_code == 1
+    assert "no space left" in r.output and "kept as a run folder" in r.output
+    kept = list(rescue.glob("pen-unsaved-lost-*"))
+    assert len(kept) == 1 and str(kept[0]) in r.output.replace("\n", "")
+    outcome = api.ingest([kept[0]], workspace / "other.duckdb")  # the rescued shot ingests as it was
+    assert outcome
+    assert [row["run_id"] for row in api.list_runs(workspace / "other.duckdb")] == ["lost"]
+
+
+def test_a_workspace_in_a_missing_folder_is_refused_before_firing(workspace, runner, monkeypatch):
+    import pencli.acquire.sim as sim
+
+    fired = []
+    monkeypatch.setattr(sim.SimRig, "fire", lambda self: fired.append(1))
+    r = invoke(runner, "acquire", "--springs", "2", "--yes", "--save", "--db", workspace / "nowhere" / "runs.duckdb")
+    assert r.exit_code == 1 and "does not exist" in r.output and "before firing" in r.output
+    assert fired == [] and not (workspace / "nowhere").exists()

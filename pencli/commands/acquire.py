@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import List, Optional
 
@@ -12,6 +13,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from pencli import api
+from pencli.errors import PenError
 from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json
 
 app = PenTyper()
@@ -61,6 +63,11 @@ def acquire(
         return typer.confirm("Springs energised. Fire?", default=False, err=True)
 
     info = {"id": run_id, "operator": operator, "notes": notes, "tags": list(tag or [])}
+    interactive = sys.stdin.isatty() and not json_out
+    if save is None and not interactive:
+        save = True  # nobody to ask: a recorded shot is kept, never dropped at a prompt that cannot be answered
+    if save:
+        api.check_can_save(db_path(db), run_id)  # before firing: a shot that cannot be saved is not fired
     with Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), console=err_console,
                   transient=True, disable=json_out) as bar:
         task = bar.add_task("arming", total=None)
@@ -87,7 +94,11 @@ def acquire(
         save = typer.confirm("Save this run?", default=True, err=True)
     added = None
     if save:
-        added = api.add_run(shot.run, db_path(db), command="pen acquire")
+        try:
+            added = api.add_run(shot.run, db_path(db), command="pen acquire")
+        except PenError as exc:
+            where = api.rescue_run(shot.run)
+            raise fail(f"{exc}; the shot is kept as a run folder in {where} (pen ingest it when fixed)")
     if json_out:
         print_json({"id": added.run_id if added else None, "saved": bool(save), "summary": summary})
         return
