@@ -4,7 +4,9 @@ Each replicate re-measures every run through the campaign's *own* sensor
 chain, as read from its data:
 
 - the true motion is the run's smoothed trajectory (the spline through its
-  encoder record);
+  encoder record) in flight and, from the contact on, the baseline's own
+  dynamics (whose acceleration jumps at contact and stop as the data's do,
+  which the encoder cannot resolve and the spline does not reproduce);
 - the encoder quantises it to the record's own step (a random phase per
   replicate), and the same derivative method re-derives velocity and
   acceleration from it, so derivative errors are the pipeline's own;

@@ -126,8 +126,8 @@ def kinematic_events(time_s: np.ndarray, force_n: np.ndarray, events: Events) ->
     The acceleration jumps when the tip meets the material.  The position's
     contact is where the tip passes the file's stand-off; a block whose surface
     sits elsewhere (stand-off scatter) moves the jump by a fraction of a
-    millisecond, and a spline broken at the wrong sample smears it into a
-    biased acceleration for milliseconds after contact.  The force's change
+    millisecond (0.1–0.2 ms for 1 mm of scatter on the sim rig), and the
+    spline should break where the jump is.  The force's change
     point (:func:`pencli.filter.tare.force_onset`) is used when it lies within
     the stand-off tolerance of the position's contact, at the contact speed.
     """
