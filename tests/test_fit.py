@@ -27,7 +27,8 @@ TABLE1 = {
 
 EDGE_BIAS = (
     "known bias, traced in issue 11: the smoothing spline's free ends at contact and stop bias the resistance "
-    "where the speed is highest, so the fit finds C = +2.6 kPa·s/m on MPACS C and +1.7 on Grill Brick (truth 0). "
+    "where the speed is highest, so the fit finds C = +2.5 [1.8, 3.1] kPa·s/m on MPACS C (truth 0); on Grill "
+    "Brick C = +1.4 [-0.05, 2.9] now just contains 0 since the spline breaks at the force's contact (was +1.7). "
     "Before issue 11 the spline's failures on some encoder phases made the intervals 10x wider and hid it "
     "(C = 2.2 [-4.3, 8.6]); trimming 3 ms instead of 0.5 ms at each window edge gives C = 0.0 [-0.6, 0.6], K 34.37 "
     "(truth 34.4). Fix: edge-aware derivatives or a wider trim, then drop this marker")
@@ -57,7 +58,8 @@ def test_resistance_fit_recovers_table1(campaign):
 
 def test_damping_interval_contains_the_true_zero(campaign, request):
     material, db = campaign
-    request.applymarker(pytest.mark.xfail(strict=True, reason=EDGE_BIAS))
+    if material == "mpacs_c":
+        request.applymarker(pytest.mark.xfail(strict=True, reason=EDGE_BIAS))
     damping = api.fit(db, material, ["all"], record=False).result.coefficients["damping_kpa_s_m"]
     assert damping.ci95[0] <= 0.0 <= damping.ci95[1]
     # (the run bootstrap can miss 0 for C: it cannot see a residual pattern that every run shares)
