@@ -217,3 +217,23 @@ def test_replicates_carry_the_derivative_error_the_data_have_near_contact_and_st
     data, model, spline = (math.sqrt(float(np.mean(x))) for x in (data_sq, model_sq, spline_sq))
     assert 0.7 * data < model < 1.4 * data, (data, model, spline)
     assert spline < 0.8 * data, (data, model, spline)  # measured: 4.3, 4.6 and 2.9 m/s²
+
+
+def test_an_effect_the_dynamic_model_cannot_finish_is_a_note_not_a_crash(monkeypatch):
+    """The outside-effect hold-out campaign crashed the whole diagnosis once the simulator got a step budget:
+    the trajectory change of an effect whose fitted force the model cannot finish is a note."""
+    import pencli.model.dynamics as dyn
+    from pencli import api
+    from pencli.diagnose import engine
+    from pencli.diagnose.effects import EFFECTS
+    from tests.conftest import REPO
+
+    runs = api.load_diagnosis_runs(REPO / "examples" / "workspace" / "runs.duckdb", ["gb-*"])
+    values = {"strength_factor": 1.6, "sidewall_pressure_kpa": 7.1, "damping_kpa_s_m": 0.0,
+              "inertia_coefficient": 45.0}
+    effect = EFFECTS["sidewall_pressure_growth"]
+    member = effect.members[0]
+    coefficients = np.full(len(member.profiles), 0.1)  # a law member: one coefficient per profile
+    monkeypatch.setattr(dyn, "MAX_EVALUATIONS", 50)
+    change = engine._trajectory_change(effect, member, coefficients, runs, values)
+    assert "did not finish" in change["note"] and "integration steps" in change["note"]

@@ -52,7 +52,7 @@ from pencli.diagnose.effects import EFFECTS, INDISTINGUISHABLE, PROBES, Basis, D
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
 from pencli.diagnose.null import (RunNull, fit_noise, gumbel_quantile, normal_quantile, replicate_campaign,
                                   student_quantile)
-from pencli.errors import FitError
+from pencli.errors import FitError, ModelError
 from pencli.filter.tare import Events
 from pencli.fit.resistance import with_coefficients
 from pencli.model.dynamics import flight_of, simulate
@@ -395,12 +395,15 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
         return {"note": "a measurement effect: the trajectory does not change"}
     run = sorted(runs, key=lambda r: r.contact_speed_m_s)[len(runs) // 2]
     base_design = with_coefficients(run.design, values)
-    before = simulate(base_design, rtol=1e-8).summary
-    if effect.side == "drive":
-        after = simulate(replace(base_design, efficiency=base_design.efficiency * (1 - loss)), rtol=1e-8).summary
-    else:
-        after = simulate(base_design, rtol=1e-8,
-                         extra_resistance=member.force(coefficients, run.design, values)).summary
+    try:
+        before = simulate(base_design, rtol=1e-8).summary
+        if effect.side == "drive":
+            after = simulate(replace(base_design, efficiency=base_design.efficiency * (1 - loss)), rtol=1e-8).summary
+        else:
+            after = simulate(base_design, rtol=1e-8,
+                             extra_resistance=member.force(coefficients, run.design, values)).summary
+    except ModelError as exc:  # the effect's fitted force can make the motion one the model cannot finish
+        return {"run": run.run_id, "note": f"the dynamic model with this effect did not finish: {exc}"}
     return {
         "run": run.run_id,
         "penetration_time_pct": 100 * (after.penetration_time_s / before.penetration_time_s - 1)
@@ -460,7 +463,10 @@ def _model_motion(run: DiagnosisRun, ts: np.ndarray, contact_s: float, values: M
         return None
     design = replace(with_coefficients(run.design, values),
                      surface_offset_m=run.design.surface_offset_m + depth_c)  # the block's surface as met
-    result = simulate(design, speed_at_contact_m_s=speed, output_rate_hz=run.rate_hz, rtol=1e-8)
+    try:
+        result = simulate(design, speed_at_contact_m_s=speed, output_rate_hz=run.rate_hz, rtol=1e-8)
+    except ModelError:
+        return None  # the replicates then come from the spline through the record
     if not result.success or result.trajectory.time_s.size < 4:
         return None
     traj = result.trajectory
