@@ -298,7 +298,7 @@ def _one_line(exc: BaseException) -> str:
 def check_can_save(db: str | Path, run_id: str | None = None) -> None:
     """Raise (one line) when a run could not be saved into ``db``: checked before the rig fires."""
     target = Path(db)
-    home = target.parent if str(target.parent) else Path(".")
+    home = target.parent
     if not home.is_dir():
         raise StoreError(f"{db}: folder {home} does not exist; create it or give --db elsewhere before firing")
     for path in (target, home / "runs"):
@@ -323,9 +323,7 @@ def rescue_run(run, folder: str | Path | None = None) -> Path:
 
     parent = Path(folder) if folder is not None else Path(tempfile.gettempdir())
     target = Path(tempfile.mkdtemp(prefix=f"pen-unsaved-{run.info.get('id', 'shot')}-", dir=parent))
-    return write_run_folder(target, run.columns, {"penetrator": run.penetrator.to_mapping(),
-                                                  "material": run.material.to_mapping(),
-                                                  "energizing": run.energizing.to_mapping()},
+    return write_run_folder(target, run.columns, {ps.kind: ps.to_mapping() for ps in run.parameter_sets()},
                             dict(run.info), overwrite=True)
 
 

@@ -69,9 +69,14 @@ class DiagnosisRun:
         return (self.time_s.size - 1) / (self.time_s[-1] - self.time_s[0])
 
     @property
+    def seen_contact_s(self) -> float:
+        """Contact as the force sees it, else by position: where the acceleration jumps. [s]"""
+        return self.contact_s if self.force_contact_s is None else self.force_contact_s
+
+    @property
     def contact_span_s(self) -> tuple[float, float]:
         """Earliest and latest contact by position and by force. [s]"""
-        seen = self.contact_s if self.force_contact_s is None else self.force_contact_s
+        seen = self.seen_contact_s
         return min(self.contact_s, seen), max(self.contact_s, seen)
 
     @property
@@ -426,7 +431,7 @@ def _lag_members() -> tuple[Member, ...]:
 def _mode_columns(run: DiagnosisRun, b: Basis, frequency_hz: float, damping_ratio: float, scale: float
                   ) -> np.ndarray:
     # struck when the tip meets the material: the force's contact, not the file's stand-off
-    struck = run.contact_s if run.force_contact_s is None else run.force_contact_s
+    struck = run.seen_contact_s
     tc = np.maximum(b.t - struck, 0.0)
     w0 = 2 * math.pi * frequency_hz
     wd = w0 * math.sqrt(1 - damping_ratio ** 2)
@@ -562,7 +567,7 @@ def _depth_profile(run: DiagnosisRun, b: Basis) -> Columns:
 
 
 def _time_profile(run: DiagnosisRun, b: Basis) -> Columns:
-    struck = run.contact_s if run.force_contact_s is None else run.force_contact_s
+    struck = run.seen_contact_s
     tc = np.where(b.t >= struck, b.t - struck, -1.0)
     return Columns(_hats(tc, np.arange(0.0, 0.0401, 0.001)))
 

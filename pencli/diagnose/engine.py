@@ -437,7 +437,7 @@ def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted: np.ndarray, values:
     noise = fit_noise(run.resistance_n[pre]) if pre.sum() >= 64 else fit_noise(np.zeros(0))
     if noise.level_n == 0.0:
         noise = replace(noise, innovation_n=max(run.noise_n, 1e-6), level_n=max(run.noise_n, 1e-6))
-    contact = run.contact_s if run.force_contact_s is None else run.force_contact_s
+    contact = run.seen_contact_s
     return RunNull(ts, run.depth_m[span], run.acceleration_m_s2[span], at_rest, use, fitted, events,
                    run.design.penetration_depth_m, run.encoder_step_m, run.load_cell_mass_kg, noise,
                    run.derivative_method, contact, _model_motion(run, ts, contact, values))

@@ -40,7 +40,7 @@ from scipy.optimize import minimize_scalar
 
 from pencli.errors import ModelError
 from pencli.model.design import Design
-from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, resistance_law
+from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, resistance_law, term_keys
 
 MODEL_NAME = "contract-2/eq9-1dof"
 """Identifier of the reference dynamic model, recorded with every result."""
@@ -60,11 +60,7 @@ ENERGY_TOLERANCE = 1e-6
 FORCE_LIMIT_N = 1e30
 """Forces beyond this are outside what float64 integrates meaningfully. [N]"""
 
-_TERM_KEYS = {
-    "strength": ("microstructure_strength_kpa", "coefficients.strength_factor", "blade_width_mm", "blade_thickness_mm"),
-    "friction": ("coefficients.sidewall_pressure_kpa", "friction_coefficient", "blade_width_mm"),
-    "damping": ("coefficients.damping_kpa_s_m", "blade_width_mm", "blade_thickness_mm"),
-    "inertia": ("density_kg_m3", "coefficients.inertia_coefficient", "blade_width_mm", "blade_thickness_mm"),
+_DRIVE_KEYS = {
     "drive": ("spring_stiffness_kn_m", "spring_count", "spring_nominal_length_mm", "spring_compressed_length_mm"),
     "weight": ("sprung_mass_kg", "gravity_m_s2"),
 }
@@ -83,7 +79,8 @@ def _check_scales(design: Design, law: ResistanceLaw, speed_m_s: float) -> None:
               "weight": design.effective_mass_kg * design.gravity_m_s2}
     for term, force in forces.items():
         if not math.isfinite(force) or abs(force) > FORCE_LIMIT_N:
-            raise SimulationLimit(f"the {term} force is {force:.3g} N (from {', '.join(_TERM_KEYS[term])}); "
+            keys = _DRIVE_KEYS[term] if term in _DRIVE_KEYS else term_keys(term)
+            raise SimulationLimit(f"the {term} force is {force:.3g} N (from {', '.join(keys)}); "
                                   f"beyond {FORCE_LIMIT_N:g} N the model cannot be integrated in float64")
 
 

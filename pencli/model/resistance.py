@@ -138,6 +138,21 @@ class ResistanceLaw:
                 self.damping_n_s_m * v_pos, self.inertia_n_s2_m2 * v_pos * v_pos)
 
 
+TERM_FUNCTIONS = {"strength": strength_term, "friction": friction_term, "damping": damping_term,
+                  "inertia": inertia_term}
+"""Each Eq. 9 term's function; its arguments are named after the :class:`~pencli.model.design.Design` fields."""
+
+
+def term_keys(term: str) -> tuple[str, ...]:
+    """The parameter-file keys an Eq. 9 term depends on, read from its function's arguments."""
+    import inspect
+
+    from pencli.params.definitions import PARAMETERS
+
+    arguments = inspect.signature(TERM_FUNCTIONS[term]).parameters
+    return tuple(p.key for p in PARAMETERS if p.si_name and p.si_name in arguments)
+
+
 def resistance_law(design, terms: Iterable[str] | None = None) -> ResistanceLaw:
     """Eq. 9 coefficients of ``design`` with only ``terms`` switched on.
 
