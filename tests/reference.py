@@ -30,8 +30,11 @@ def reference_run(p: dict, m: dict, e: dict, speed_at_contact: float | None = No
     k = e["spring_stiffness_kn_m"] * 1000
     eta = e["propulsion_efficiency_pct"] / 100
     L0 = e["spring_nominal_length_mm"] / 1000
-    Lc = e["spring_compressed_length_mm"] / 1000
     s0 = e["surface_offset_mm"] / 1000
+    if "spring_length_at_contact_mm" in e:  # BAM's spring length at contact = compressed length + stand-off
+        Lc = e["spring_length_at_contact_mm"] / 1000 - s0
+    else:
+        Lc = e["spring_compressed_length_mm"] / 1000
     mass = p["sprung_mass_kg"] + n * e["spring_mass_kg"] / 3
 
     def resistance(x, v):
