@@ -186,3 +186,19 @@ def test_sampled_sweep_keeps_a_list_a_set_of_values(tmp_path):
               sample="lhs", n=300, seed=1, out=lhs)
     counts = np.unique(pq.read_table(lhs).to_pydict()["spring_count"], return_counts=True)[1]
     assert list(counts) == [100, 100, 100]  # the hypercube's strata split equally among the values
+
+
+def test_batch_peak_depth_is_located_inside_the_step():
+    """Issue 12 defect 5: the batch read the peak resistance's depth at step ends (up to 19 % off where R peaks
+    inside a step); against the scalar simulator's dense output on random designs."""
+    d = random_designs(400, 11)
+    batch = simulate_batch(d).figures
+    errors = []
+    for i in range(400):
+        ref = scalar(d, i)
+        if ref.end == "no_contact" or ref.peak_resistance_depth_mm <= 0.0:
+            continue
+        errors.append(abs(batch["peak_resistance_depth_mm"][i] / ref.peak_resistance_depth_mm - 1.0))
+        assert batch["peak_resistance_n"][i] == pytest.approx(ref.peak_resistance_n, rel=1e-4), i
+    assert len(errors) > 200
+    assert max(errors) < 1e-3, max(errors)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+import numpy as np
+
 from pencli.params.definitions import PARAMETERS
 from pencli.params.validate import ParameterSet
 
@@ -17,6 +19,9 @@ from pencli.params.validate import ParameterSet
 @dataclass(frozen=True)
 class Design:
     """Every parameter of the three kinds, SI.
+
+    The batch simulator builds one whose fields are equal-length numpy arrays (one design per element);
+    the properties below are written to work on either.
 
     Coefficients a material file does not give are ``nan``; the simulator
     refuses to use a term whose coefficient is ``nan``.
@@ -79,7 +84,7 @@ class Design:
     def stroke_m(self) -> float:
         """max(L0 − Lc, 0), travel from release until the springs reach free length (0: springs not
         compressed at release, a gravity drop). [m]"""
-        return max(self.nominal_length_m - self.compressed_length_m, 0.0)
+        return np.maximum(self.nominal_length_m - self.compressed_length_m, 0.0)
 
     @property
     def frontal_area_m2(self) -> float:

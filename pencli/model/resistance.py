@@ -57,7 +57,7 @@ def strength_term(x, blade_width_m, blade_thickness_m, tip_angle_rad, strength_p
     friction_coefficient : μ. [–]
     """
     value = (blade_width_m * blade_thickness_m * strength_factor * strength_pa
-             * (math.sin(tip_angle_rad) + friction_coefficient * math.cos(tip_angle_rad)))  # Eq. 9 (Eq. 1)
+             * (np.sin(tip_angle_rad) + friction_coefficient * np.cos(tip_angle_rad)))  # Eq. 9 (Eq. 1)
     return np.where(np.asarray(x) > 0, value, 0.0)
 
 
@@ -174,11 +174,23 @@ def resistance_law(design, terms: Iterable[str] | None = None) -> ResistanceLaw:
             raise ModelError(
                 f"the material gives no {key}, needed by the {term} term; fit it (pen fit), "
                 f"set it (--set {key}=VALUE) or leave the term out (--terms)")
+    a0, a1, b, d = eq9_coefficients(design, chosen)
+    return ResistanceLaw(float(a0), float(a1), float(b), float(d))
+
+
+def eq9_coefficients(design, terms: Iterable[str] = TERMS) -> tuple:
+    """(a0 [N], a1 [N/m], b [N·s/m], d [N·s²/m²]) of R = a0 + a1·x + b·v + d·v² in contact, from the term
+    functions themselves (at x = 1 m, v = 1 m/s), 0 for a term switched off.
+
+    ``design`` is a :class:`~pencli.model.design.Design` whose fields may be numpy arrays (the batch
+    simulator's designs): the coefficients are then arrays too.
+    """
     w, T = design.blade_width_m, design.blade_thickness_m
-    on = {t: (t in chosen) for t in TERMS}
-    a0 = float(strength_term(1.0, w, T, design.tip_angle_rad, design.strength_pa, design.strength_factor,
-                             design.friction_coefficient)) if on["strength"] else 0.0
-    a1 = float(friction_term(1.0, w, design.friction_coefficient, design.sidewall_pressure_pa)) if on["friction"] else 0.0
-    b = float(damping_term(1.0, 1.0, w, T, design.damping_pa_s_m)) if on["damping"] else 0.0
-    d = float(inertia_term(1.0, 1.0, w, T, design.inertia_coefficient, design.density_kg_m3)) if on["inertia"] else 0.0
-    return ResistanceLaw(a0, a1, b, d)
+    zero = np.zeros(np.shape(w))
+    return (strength_term(1.0, w, T, design.tip_angle_rad, design.strength_pa, design.strength_factor,
+                          design.friction_coefficient) if "strength" in terms else zero,
+            friction_term(1.0, w, design.friction_coefficient, design.sidewall_pressure_pa)
+            if "friction" in terms else zero,
+            damping_term(1.0, 1.0, w, T, design.damping_pa_s_m) if "damping" in terms else zero,
+            inertia_term(1.0, 1.0, w, T, design.inertia_coefficient, design.density_kg_m3)
+            if "inertia" in terms else zero)

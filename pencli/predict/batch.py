@@ -24,6 +24,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from pencli.model.design import Design
+from pencli.model.resistance import eq9_coefficients
 
 STEPS = 160
 """RK4 steps over a design's estimated penetration time.  A design still moving after that many steps
@@ -65,18 +66,12 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
                    steps: int = STEPS) -> BatchResult:
     """Simulate every design of ``d`` (see :func:`designs_from`); all four Eq. 9 terms on."""
     n = d["blade_width_m"].size
-    m = d["sprung_mass_kg"] + d["spring_count"] * d["spring_mass_kg"] / 3.0  # m_eff
-    kd = d["efficiency"] * d["spring_count"] * d["spring_stiffness_n_m"]  # η·n·k
-    stroke = np.maximum(d["nominal_length_m"] - d["compressed_length_m"], 0.0)  # 0: a gravity drop
-    s0 = d["surface_offset_m"]
-    g = d["gravity_m_s2"]
-    w, T = d["blade_width_m"], d["blade_thickness_m"]
-    a0 = w * T * d["strength_factor"] * d["strength_pa"] * (np.sin(d["tip_angle_rad"])
-                                                           + d["friction_coefficient"] * np.cos(d["tip_angle_rad"]))  # Eq. 9
-    a1 = 2.0 * d["friction_coefficient"] * d["sidewall_pressure_pa"] * w  # Eq. 9 friction per depth
-    b = w * T * d["damping_pa_s_m"]  # Eq. 9 damping per speed
-    dd = w * T * d["inertia_coefficient"] * d["density_kg_m3"]  # Eq. 9 inertia per speed²
-    depth = d["penetration_depth_m"]
+    design = Design(**d)  # one design per element: the design rules and Eq. 9 come from the model core
+    m, kd, stroke = design.effective_mass_kg, design.drive_stiffness_n_m, design.stroke_m  # stroke 0: a drop
+    s0, g = design.surface_offset_m, design.gravity_m_s2
+    w, T = design.blade_width_m, design.blade_thickness_m
+    a0, a1, b, dd = eq9_coefficients(design)  # R = a0 + a1·x + b·v + dd·v² in contact
+    depth = design.penetration_depth_m
 
     # ---- flight, closed form (as pencli.model.dynamics.Flight)
     U = stroke + m * g / kd
@@ -175,6 +170,25 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
         better = live & (r_end > pk)
         pk = np.where(better, r_end, pk)
         pkx = np.where(better, x_end, pkx)
+        # a maximum of R inside the step (R rises at its start and falls at its end): located on the Hermite
+        # interpolant, not read at a step end, so its depth is as accurate as the steps
+        rise0 = P["a1"] * vs + (P["b"] + 2.0 * P["dd"] * np.maximum(vs, 0.0)) * a_s
+        rise1 = _resistance_slope(xs, vs, a_s, xn, vn, an, h, s, P)
+        inner = np.flatnonzero(live & (rise0 > 0.0) & (rise1 < 0.0))
+        if inner.size:
+            q = {key: val[inner] for key, val in P.items()}
+            args = (xs[inner], vs[inner], a_s[inner], xn[inner], vn[inner], an[inner], h[inner])
+            lo, hi = np.zeros(inner.size), s[inner].copy()
+            for _ in range(40):
+                mid = 0.5 * (lo + hi)
+                up = _resistance_slope(*args, mid, q) > 0.0
+                lo, hi = np.where(up, mid, lo), np.where(up, hi, mid)
+            xm, vm = _hermite_xv(*args, 0.5 * (lo + hi))
+            vm = np.maximum(vm, 0.0)
+            rm = q["a0"] + q["a1"] * xm + (q["b"] + q["dd"] * vm) * vm
+            top = rm > pk[inner]
+            pk[inner] = np.where(top, rm, pk[inner])
+            pkx[inner] = np.where(top, xm, pkx[inner])
         ts = np.where(live, ts + s * h, ts)
         eds = np.where(live, eds + s * ed, eds)  # a partial step's energy: its power is ~0 at arrest
         eis = np.where(live, eis + s * ei, eis)
@@ -229,6 +243,20 @@ def _hermite_xv(x0, v0, a0, x1, v1, a1, h, s):
     return x, v
 
 
+def _hermite_slopes(x0, v0, a0, x1, v1, a1, h, s):
+    """d/ds of the Hermite x(s) and v(s) on a step of length h."""
+    s2 = s * s
+    d00, d10, d01, d11 = 6 * s2 - 6 * s, 3 * s2 - 4 * s + 1, -6 * s2 + 6 * s, 3 * s2 - 2 * s
+    return d00 * x0 + d10 * h * v0 + d01 * x1 + d11 * h * v1, d00 * v0 + d10 * h * a0 + d01 * v1 + d11 * h * a1
+
+
+def _resistance_slope(x0, v0, a0, x1, v1, a1, h, s, P):
+    """dR/ds of R = a0 + a1·x + b·v + dd·v² along the Hermite interpolant of a step (sign is what matters)."""
+    _, v = _hermite_xv(x0, v0, a0, x1, v1, a1, h, s)
+    dx, dv = _hermite_slopes(x0, v0, a0, x1, v1, a1, h, s)
+    return P["a1"] * dx + (P["b"] + 2.0 * P["dd"] * np.maximum(v, 0.0)) * dv
+
+
 def _newton(f, df, s):
     for _ in range(8):
         slope = df(s)
@@ -238,17 +266,11 @@ def _newton(f, df, s):
 
 def _hermite_roots(x0, v0, a0, x1, v1, a1, h, depth):
     """Fractions s of the step where the Hermite v(s) = 0 and where x(s) = depth (Newton from linear guesses)."""
-    def dbasis(s):
-        s2 = s * s
-        return 6 * s2 - 6 * s, 3 * s2 - 4 * s + 1, -6 * s2 + 6 * s, 3 * s2 - 2 * s
-
     def dx(s):
-        d00, d10, d01, d11 = dbasis(s)
-        return d00 * x0 + d10 * h * v0 + d01 * x1 + d11 * h * v1
+        return _hermite_slopes(x0, v0, a0, x1, v1, a1, h, s)[0]
 
     def dv(s):
-        d00, d10, d01, d11 = dbasis(s)
-        return d00 * v0 + d10 * h * a0 + d01 * v1 + d11 * h * a1
+        return _hermite_slopes(x0, v0, a0, x1, v1, a1, h, s)[1]
 
     guess_v = np.clip(v0 / np.where(v0 > v1, v0 - v1, 1.0), 0.0, 1.0)
     guess_x = np.clip((depth - x0) / np.where(x1 > x0, x1 - x0, 1.0), 0.0, 1.0)
