@@ -1144,19 +1144,23 @@ def report_sweep(db: str | Path, sweep_id: int) -> list:
         raise StoreError(f"no sweep {sweep_id} in {db}")
     record = dict(zip(names, rows[0]))
     variables = json.loads(record["variables"])
-    table = {k: np.asarray(v) for k, v in ws.read_table(record["path"], f"sweep {sweep_id}'s table").to_pydict().items()}
     keys = list(variables)
+    figs = ("penetration_time_s", "peak_resistance_n", "residual_ke_j", "final_depth_mm")
+    wanted = list(dict.fromkeys([*keys, *figs, "full_penetration"]))  # only what the figures need
+    arrow = ws.read_table(record["path"], f"sweep {sweep_id}'s table", columns=wanted)
+    table = {name: arrow.column(name).to_numpy(zero_copy_only=False) for name in wanted}
+    del arrow
     section = Section(f"sweep {sweep_id}: {record['penetrator']} · {record['material']} · {record['energizing']}",
                       provenance={k: str(v) for k, v in record.items()})
     section.tables.append(("variables", ["key", "unit", "min", "max", "points"],
                            [[k, v["unit"], v["min"], v["max"], v["points"]] for k, v in variables.items()]))
-    figs = ("penetration_time_s", "peak_resistance_n", "residual_ke_j", "final_depth_mm")
     section.tables.append(("figures over the sweep", ["figure", "min", "max"],
                            [[f, float(np.min(table[f])), float(np.max(table[f]))] for f in figs]))
     if len(keys) >= 2:
         for value in ("penetration_time_s", "peak_resistance_n"):
             section.add_figure(figures.sweep_map(table, keys[0], keys[1], value))
     section.add_figure(figures.sweep_scatter(table, keys))
+    section.add_figure(figures.sweep_partial(table, keys))
     return [section]
 
 

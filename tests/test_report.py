@@ -41,7 +41,7 @@ def test_every_figure_kind_renders_from_the_example_workspace(example, tmp_path,
     kinds = {
         "runs": (["gb-1.0-2", "mc-2.0-4"], 8),  # raw, measurements, model vs data, energy per term, per run
         "material": (["--material", "mpacs_c"], 2 + 6),  # intervals + Fig. 16 + model vs data per run
-        "sweep": (["--sweep", "1"], 3),  # two heat maps with the boundary, the 4-D scatter
+        "sweep": (["--sweep", "1"], 4),  # two heat maps with the boundary, the 4-D scatter, partial dependence
         "diagnosis": (["mc-*", "--diagnose"], 1),
     }
     for name, (args, count) in kinds.items():
@@ -53,6 +53,20 @@ def test_every_figure_kind_renders_from_the_example_workspace(example, tmp_path,
         assert all(_not_blank(i) for i in images), name
         pdf = out.with_suffix(".pdf")
         assert pdf.read_bytes().startswith(b"%PDF") and pdf.stat().st_size > 20_000
+
+
+def test_report_of_a_sampled_sweep_is_binned(workspace, runner):
+    """Issue 13 #1: the report of a Latin-hypercube sweep built a grid of every sampled value against every
+    other (7.28 TiB at 10⁶ designs; 80 GB here, a MemoryError): a sampled sweep's maps are binned."""
+    r = invoke(runner, "sweep", "-p", "appendix_c", "-m", "mpacs_c", "-e", "appendix_c",
+               "--vary", "coefficients.strength_factor=0.5:2", "--vary", "coefficients.inertia_coefficient=20:60",
+               "--vary", "blade_thickness_mm=1:2", "--sample", "lhs", "--n", "100000", "--json")
+    assert r.exit_code == 0, r.output
+    out = workspace / "sweep.html"
+    r = invoke(runner, "report", "--sweep", "1", "--out", out)
+    assert r.exit_code == 0, r.output
+    images = _images(out.read_text())
+    assert len(images) == 4 and all(_not_blank(i) for i in images)
 
 
 def test_report_of_twelve_runs(example, tmp_path):

@@ -109,24 +109,84 @@ def energy_per_term(title: str, energies: Mapping[str, float], supplied: Mapping
     return fig
 
 
+MAP_CELLS = 60
+"""Cells per axis of a sweep map when a variable takes more values than that (a sampled sweep)."""
+
+
+def _cells(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(cell centres, cell index of each value): the values themselves on a grid of few values, else
+    MAP_CELLS equal cells over their range.  Memory: the values and one index array."""
+    values = np.asarray(values, dtype=float)
+    levels = np.unique(values)
+    if levels.size <= MAP_CELLS:
+        return levels, np.searchsorted(levels, values)
+    lo, hi = float(np.min(values)), float(np.max(values))
+    edges = np.linspace(lo, hi if hi > lo else lo + 1.0, MAP_CELLS + 1)
+    return 0.5 * (edges[:-1] + edges[1:]), np.clip(np.searchsorted(edges, values, side="right") - 1, 0, MAP_CELLS - 1)
+
+
+def _cell_means(ix: np.ndarray, iy: np.ndarray, shape: tuple[int, int], values: np.ndarray) -> np.ndarray:
+    """Mean of ``values`` in each (iy, ix) cell (NaN where empty)."""
+    flat = iy * shape[1] + ix
+    count = np.bincount(flat, minlength=shape[0] * shape[1])
+    total = np.bincount(flat, weights=np.asarray(values, dtype=float), minlength=shape[0] * shape[1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1), np.nan).reshape(shape)
+
+
 def sweep_map(table: Mapping[str, np.ndarray], x: str, y: str, value: str = "penetration_time_s"):
-    """Fig. 14: a figure over two varied parameters as a heat map, with the full-penetration boundary."""
+    """Fig. 14: a figure over two varied parameters as a heat map, with the full-penetration boundary.
+
+    On a grid of two variables each cell is one design; with more variables, or a sampled sweep, a cell
+    shows the mean over the designs that fall in it (so memory is the table's, whatever the sweep's size),
+    and the boundary is where half of a cell's designs reach full depth.
+    """
     plt = _plt()
-    xs, ys = np.unique(table[x]), np.unique(table[y])
-    grid = np.full((ys.size, xs.size), np.nan)
-    full = np.zeros((ys.size, xs.size))
-    ix = np.searchsorted(xs, table[x])
-    iy = np.searchsorted(ys, table[y])
-    grid[iy, ix] = table[value]
-    full[iy, ix] = np.asarray(table["full_penetration"], dtype=float)
+    xs, ix = _cells(table[x])
+    ys, iy = _cells(table[y])
+    grid = _cell_means(ix, iy, (ys.size, xs.size), table[value])
+    full = _cell_means(ix, iy, (ys.size, xs.size), np.asarray(table["full_penetration"], dtype=float))
     fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
     mesh = ax.pcolormesh(xs, ys, grid, shading="nearest", cmap="viridis")
-    fig.colorbar(mesh, ax=ax, label=value)
-    if 0 < full.mean() < 1 and xs.size > 1 and ys.size > 1:
-        ax.contour(xs, ys, full, levels=[0.5], colors="w", linewidths=2)
+    fig.colorbar(mesh, ax=ax, label=value + (" (cell mean)" if ix.size > xs.size * ys.size else ""))
+    filled = np.nan_to_num(full, nan=0.0)
+    if 0 < np.nanmean(full) < 1 and xs.size > 1 and ys.size > 1:
+        ax.contour(xs, ys, filled, levels=[0.5], colors="w", linewidths=2)
     ax.set_xlabel(x)
     ax.set_ylabel(y)
     fig.suptitle(f"{value} over {x} × {y}\n(white line: full-penetration boundary)", fontsize=10)
+    return fig
+
+
+def sweep_partial(table: Mapping[str, np.ndarray], keys: Sequence[str], value: str = "penetration_time_s"):
+    """Partial dependence: each varied parameter against ``value`` (cell mean and 10–90 % band over the
+    other parameters) and the share of designs reaching full depth."""
+    plt = _plt()
+    keys = list(keys)
+    fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys) + 1, 3.6), constrained_layout=True,
+                             squeeze=False)
+    v = np.asarray(table[value], dtype=float)
+    full = np.asarray(table["full_penetration"], dtype=float)
+    for ax, key in zip(axes[0], keys):
+        centres, idx = _cells(table[key])
+        order = np.argsort(idx, kind="stable")
+        bounds = np.searchsorted(idx[order], np.arange(centres.size + 1))
+        stats = np.full((centres.size, 3), np.nan)
+        for c in range(centres.size):
+            part = v[order[bounds[c]:bounds[c + 1]]]
+            if part.size:
+                stats[c] = np.quantile(part, [0.1, 0.5, 0.9])
+        ax.fill_between(centres, stats[:, 0], stats[:, 2], color="tab:blue", alpha=0.25, label="10–90 %")
+        ax.plot(centres, stats[:, 1], color="tab:blue", label=f"median {value}")
+        ax.set_xlabel(key)
+        twin = ax.twinx()
+        share = np.bincount(idx, weights=full, minlength=centres.size) / np.maximum(
+            np.bincount(idx, minlength=centres.size), 1)
+        twin.plot(centres, share, color="k", ls="--", lw=1, label="share at full depth")
+        twin.set_ylim(-0.02, 1.02)
+    axes[0][0].set_ylabel(value)
+    axes[0][0].legend(fontsize=7, loc="upper left")
+    fig.suptitle(f"{value} against each varied parameter (dashed: share of designs at full depth)", fontsize=10)
     return fig
 
 

@@ -385,11 +385,12 @@ class Workspace:
                              f"the run")
         return table, chosen
 
-    def read_table(self, relative: str, what: str, *, filters=None) -> pa.Table:
-        """A table pen wrote beside the catalog (fits/, sweeps/), or one line naming the file and what it is."""
+    def read_table(self, relative: str, what: str, *, filters=None, columns=None) -> pa.Table:
+        """A table pen wrote beside the catalog (fits/, sweeps/), or one line naming the file and what it is
+        (``columns``: read only these)."""
         path = self.db_path.parent / relative
         try:
-            return pq.read_table(path, filters=filters)
+            return pq.read_table(path, filters=filters, columns=columns)
         except FileNotFoundError:
             raise StoreError(f"{path}: the {what} is missing from the workspace (was it copied without its "
                              f"{Path(relative).parts[0]}/ folder?); restore the file") from None
