@@ -213,15 +213,12 @@ def expand_sources(paths: Iterable[str | Path]) -> list[tuple[str, Path | None, 
             elif is_run_folder(path):
                 out.append((text, path, ""))
             else:
-                found = sorted(p.parent for p in path.rglob("data.csv")) + sorted(
-                    p.parent for p in path.rglob("data.xlsx"))
+                # run folders below: CONTRACT §3 ones (data.csv, data.xlsx) and BAM-era ones (one workbook or
+                # CSV of any name, read with --columns)
+                found = {p.parent for p in path.rglob("*") if p.is_file() and p.suffix.lower() in (".csv", ".xlsx")}
                 if not found:
-                    bam = sorted(p for p in path.iterdir() if p.suffix.lower() in (".csv", ".xlsx"))
-                    if bam:
-                        out.append((text, path, ""))
-                    else:
-                        out.append((text, None, f"{path}: no run folders (data.csv or data.xlsx) inside"))
-                for folder in sorted(set(found)):
+                    out.append((text, None, f"{path}: no run folders (data.csv, data.xlsx or a BAM workbook) inside"))
+                for folder in sorted(found):
                     out.append((text, folder, ""))
     return out
 

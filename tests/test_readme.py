@@ -1,0 +1,93 @@
+"""Every `pen` command the README shows runs as written (issue 13: the README's own LHS example failed).
+
+The commands are read from the README's indented code blocks, in order, and run through a shell in a scratch
+folder laid out as the README assumes: the example workspace under ``examples/workspace``, lab folders to
+ingest (CONTRACT §3 folders exported from the example), a BAM-era workbook under ``old/``, ``my_blade.yaml``.
+The two set-up commands (install, test) are what CI runs; they are not re-run here.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.conftest import REPO
+from tests.helpers import COLUMNS, synthetic_columns, write_folder
+
+SETUP = ("python -m pip", "python -m pytest")
+
+
+def readme_commands(text: str) -> list[str]:
+    """`pen …` lines of the README's indented code blocks (continuations joined, trailing comments cut)."""
+    out, pending = [], ""
+    for line in text.splitlines():
+        if not line.startswith("    "):
+            pending = ""
+            continue
+        body = line[4:]
+        if pending:
+            body = pending + " " + body.strip()
+            pending = ""
+        elif body.startswith("$ "):
+            body = body[2:]
+        if not body.startswith("pen "):
+            continue
+        if body.rstrip().endswith("\\"):
+            pending = body.rstrip()[:-1].rstrip()
+            continue
+        out.append(re.sub(r"\s{2,}#.*$", "", body).strip())
+    return out
+
+
+def _prepare(root: Path) -> None:
+    shutil.copytree(REPO / "examples" / "workspace", root / "examples" / "workspace")
+    pen = [sys.executable, "-m", "pencli"]
+    env = {**os.environ, "PEN_DB": ""}
+    example = str(root / "examples" / "workspace" / "runs.duckdb")
+    lab = root / "lab" / "2026-11-20"
+    for run in ("mc-1.0-4", "mc-1.0-6", "mc-1.5-2", "mc-1.5-6", "mc-2.0-2", "mc-2.0-4", "gb-1.0-2"):
+        subprocess.run([*pen, "export", run, "--to", str(lab / run), "--db", example], check=True, env=env,
+                       capture_output=True)
+    from openpyxl import Workbook
+
+    cols = synthetic_columns(n=800)
+    folder = root / "old" / "experiment_12"
+    write_folder(folder, cols)
+    (folder / "data.csv").unlink()
+    wb = Workbook()
+    sheet = wb.active
+    sheet.append(["Time (ms)", "Pos", "Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+    for row in np.column_stack([cols[c] for c in COLUMNS]):
+        sheet.append([row[0] * 1000, *row[1:]])
+    wb.save(folder / "experiment_12.xlsx")
+    shown = subprocess.run([*pen, "params", "show", "al6061_1mm"], check=True, env=env, capture_output=True,
+                           text=True).stdout
+    (root / "my_blade.yaml").write_text(shown.replace("name: al6061_1mm", "name: my_blade"))
+
+
+def test_readme_commands_are_found():
+    commands = readme_commands((REPO / "README.md").read_text())
+    assert len(commands) > 30
+    assert any("--sample lhs" in c for c in commands) and any(c.startswith("pen diagnose") for c in commands)
+    assert not any(c.startswith(SETUP) for c in commands)
+
+
+@pytest.mark.slow
+def test_every_readme_command_runs_as_written(tmp_path):
+    _prepare(tmp_path)
+    env = {k: v for k, v in os.environ.items() if k != "PEN_DB"}
+    env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
+    failures = []
+    for command in readme_commands((REPO / "README.md").read_text()):
+        done = subprocess.run(["bash", "-c", command], cwd=tmp_path, env=env, capture_output=True, text=True,
+                              timeout=600)
+        if done.returncode != 0:
+            failures.append(f"{command}\n  exit {done.returncode}: {(done.stderr or done.stdout).strip()[-400:]}")
+    assert not failures, "\n".join(failures)
