@@ -780,13 +780,21 @@ class SweepOutcome:
     seconds: float
 
 
-def evaluate_columns(base: dict, columns: dict, *, engine: str = "local", scheduler: str | None = None,
+def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: str | None = None,
                      workers: int = 2, progress: Callable[[int, int], None] | None = None):
-    """Yield (chunk columns, results) in order; local processes or a dask cluster do the work."""
+    """Yield (chunk columns, results) in order; local processes or a dask cluster do the work.
 
-    n = len(next(iter(columns.values())))
-    starts = list(range(0, n, CHUNK))
-    chunks = [{k: np.asarray(v[s:s + CHUNK]) for k, v in columns.items()} for s in starts]
+    ``columns``: the designs' varied columns, or a :class:`~pencli.predict.sweep.Grid` whose chunks are
+    made as they are needed (a few chunks in flight at a time, so memory does not grow with the sweep).
+    """
+    if isinstance(columns, dict):
+        n = len(next(iter(columns.values())))
+
+        def take(start: int, stop: int) -> dict:
+            return {k: np.asarray(v[start:stop]) for k, v in columns.items()}
+    else:
+        n, take = columns.size, columns.take
+    chunks = (take(s, min(s + CHUNK, n)) for s in range(0, n, CHUNK))
     done = 0
     if engine == "dask":
         try:
@@ -797,6 +805,7 @@ def evaluate_columns(base: dict, columns: dict, *, engine: str = "local", schedu
                                                       dashboard_address=None)
         client = Client(scheduler or cluster)
         try:
+            chunks = list(chunks)
             futures = client.map(_run_chunk, [base] * len(chunks), chunks, pure=False)
             for chunk, future in zip(chunks, futures):
                 result = future.result()
@@ -811,22 +820,34 @@ def evaluate_columns(base: dict, columns: dict, *, engine: str = "local", schedu
         return
     if engine != "local":
         raise ParameterError(f"--engine {engine!r}: expected local or dask")
-    if len(chunks) == 1 or workers <= 1:
-        results = (_run_chunk(base, c) for c in chunks)
-        for chunk, result in zip(chunks, results):
+    if n <= CHUNK or workers <= 1:
+        for chunk in chunks:
+            result = _run_chunk(base, chunk)
             done += len(next(iter(chunk.values())))
             if progress:
                 progress(done, n)
             yield chunk, result
         return
+    from collections import deque
     from concurrent.futures import ProcessPoolExecutor
 
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        for chunk, result in zip(chunks, pool.map(_run_chunk, [base] * len(chunks), chunks)):
+        flight: deque = deque()
+        for chunk in chunks:
+            flight.append((chunk, pool.submit(_run_chunk, base, chunk)))
+            if len(flight) < 2 * workers:
+                continue
+            chunk, future = flight.popleft()
             done += len(next(iter(chunk.values())))
             if progress:
                 progress(done, n)
-            yield chunk, result
+            yield chunk, future.result()
+        while flight:
+            chunk, future = flight.popleft()
+            done += len(next(iter(chunk.values())))
+            if progress:
+                progress(done, n)
+            yield chunk, future.result()
 
 
 def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str] = (), resolution: int = 20,
@@ -840,7 +861,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from pencli.predict.sweep import SPEED, grid, parse_vary
+    from pencli.predict.sweep import MAX_DESIGNS, SPEED, Grid, parse_vary
     from pencli.predict.sweep import sample as draw
 
     if not vary:
@@ -852,13 +873,17 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     base[SPEED] = (float(speed_at_contact_m_s) if speed_at_contact_m_s is not None else
                    float(simulate(design_from_sets(p, m, e), output_rate_hz=1000.0).summary.contact_speed_m_s))
     variables = [parse_vary(spec, base, resolution) for spec in vary]
+    total = n if sample else Grid(variables).size
+    if total > MAX_DESIGNS:
+        raise ParameterError(f"{'--n' if sample else '--resolution/--vary'}: {total:.3g} designs; pen sweeps at most "
+                             f"{MAX_DESIGNS:.0e} (about 100 GB of Parquet): lower --resolution or --n, or "
+                             f"sample the space (--sample lhs --n N)")
     if sample:
         columns = draw({v.key: v.domain() for v in variables}, n, sample, seed)
+        if speed_at_contact_m_s is not None and SPEED not in columns:
+            columns[SPEED] = np.full(total, float(speed_at_contact_m_s))
     else:
-        columns = grid(variables)
-    total = len(next(iter(columns.values())))
-    if speed_at_contact_m_s is not None and SPEED not in columns:
-        columns[SPEED] = np.full(total, float(speed_at_contact_m_s))
+        columns = Grid(variables, {SPEED: float(speed_at_contact_m_s)} if speed_at_contact_m_s is not None else None)
     ws = workspace(db) if db is not None else None
     target = Path(out) if out is not None else (ws.sweep_path() if ws is not None else None)
     started = _time.perf_counter()

@@ -202,3 +202,27 @@ def test_batch_peak_depth_is_located_inside_the_step():
         assert batch["peak_resistance_n"][i] == pytest.approx(ref.peak_resistance_n, rel=1e-4), i
     assert len(errors) > 200
     assert max(errors) < 1e-3, max(errors)
+
+
+def test_a_huge_grid_is_refused_in_one_line_and_a_large_one_is_made_in_slices(workspace, runner, monkeypatch):
+    """Issue 13: `--resolution 100000` on two variables built the whole grid before chunking (MemoryError)."""
+    r = invoke(runner, "sweep", "-p", "appendix_c", "-m", "mpacs_c", "-e", "appendix_c", "--resolution", "100000",
+               "--vary", "blade_width_mm=100:200", "--vary", "blade_thickness_mm=1:2")
+    assert r.exit_code == 1 and "1e+10 designs" in r.stderr and "--sample" in r.stderr, r.output
+    assert "Traceback" not in r.output and not list(workspace.glob("sweeps/*"))
+    import pencli.predict.sweep as sweep_module
+
+    biggest = []
+    take = sweep_module.Grid.take
+
+    def spy(self, start, stop):
+        biggest.append(stop - start)
+        return take(self, start, stop)
+
+    monkeypatch.setattr(sweep_module.Grid, "take", spy)
+    r = invoke(runner, "sweep", "-p", "appendix_c", "-m", "mpacs_c", "-e", "appendix_c", "--resolution", "400",
+               "--vary", "blade_width_mm=100:200", "--vary", "blade_thickness_mm=1:2", "--json")
+    assert r.exit_code == 0, r.output
+    from pencli.api import CHUNK
+
+    assert sum(biggest) == 160_000 and max(biggest) <= CHUNK < 160_000

@@ -76,10 +76,33 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variabl
     return Variable(key, np.asarray(values, dtype=float), discrete)
 
 
+MAX_DESIGNS = 10 ** 9
+"""Largest sweep pen starts (about 100 GB of Parquet and hours of work; a sample covers such spaces)."""
+
+
+class Grid:
+    """Every combination of the variables' values (first variable slowest), made a slice at a time: a grid
+    is never held whole, whatever its size."""
+
+    def __init__(self, variables: Sequence[Variable], fixed: Mapping[str, float] | None = None):
+        self.variables = tuple(variables)
+        self.fixed = dict(fixed or {})
+        """Columns of one value for every design (a given speed at contact)."""
+        self.shape = tuple(int(v.values.size) for v in self.variables)
+        self.size = math.prod(self.shape)
+
+    def take(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """Designs ``start`` to ``stop`` (exclusive) of the grid, as columns."""
+        index = np.unravel_index(np.arange(start, stop), self.shape)
+        out = {v.key: v.values[i] for v, i in zip(self.variables, index)}
+        out.update({k: np.full(stop - start, float(value)) for k, value in self.fixed.items() if k not in out})
+        return out
+
+
 def grid(variables: Sequence[Variable]) -> dict[str, np.ndarray]:
-    """Every combination of the variables' values (first variable slowest)."""
-    mesh = np.meshgrid(*[v.values for v in variables], indexing="ij")
-    return {v.key: m.ravel() for v, m in zip(variables, mesh)}
+    """Every combination of the variables' values (first variable slowest), whole (small grids only)."""
+    g = Grid(variables)
+    return g.take(0, g.size)
 
 
 def sample(domains: Mapping[str, tuple[float, float] | np.ndarray], n: int, method: str, seed: int = 0
