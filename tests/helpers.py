@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable, Sequence
 
 import numpy as np
 import yaml
@@ -64,3 +65,20 @@ def snapshot(workspace: Path) -> tuple:
     runs = workspace / "runs"
     files = tuple(sorted(str(p.relative_to(workspace)) for p in runs.rglob("*"))) if runs.exists() else ()
     return rows, files
+
+
+def write_bam_workbook(folder: Path, columns: dict[str, np.ndarray], headers: Sequence[str],
+                       convert: Callable[[np.ndarray], list]) -> Path:
+    """A run folder whose data is a BAM-era workbook (``experiment_12.xlsx``) with other headers and units:
+    ``convert`` maps a row of the CONTRACT §3 columns to the workbook's row."""
+    from openpyxl import Workbook
+
+    write_folder(folder, columns)
+    (folder / "data.csv").unlink()
+    wb = Workbook()
+    sheet = wb.active
+    sheet.append(list(headers))
+    for row in np.column_stack([columns[c] for c in COLUMNS]):
+        sheet.append(convert(row))
+    wb.save(folder / "experiment_12.xlsx")
+    return folder

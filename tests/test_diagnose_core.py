@@ -171,19 +171,9 @@ def test_a_slow_arrival_at_the_stops_is_not_an_arrest():
     assert arrest.end == "full_depth"  # at the full depth within tolerance
 
 
-def test_replicates_carry_the_derivative_error_the_data_have_near_contact_and_stop(tmp_path, monkeypatch):
-    """The acceleration error of a run measured by a fine encoder, against the sim rig's true acceleration,
-    is mostly near the ends of the penetration, where the encoder cannot resolve how the acceleration
-    changes.  Null replicates measured from the baseline's dynamics carry an error of that size there;
-    replicates from the spline alone (the old recipe) carried two thirds of it, and nulls false-alarmed."""
-    from dataclasses import replace
-
+def _keep_sim_truths(monkeypatch) -> list:
+    """The sim rig's true motion of every shot it fires from now on (the diagnosis never sees it)."""
     import pencli.acquire.sim as sim
-    from pencli import api
-    from pencli.diagnose import engine
-    from pencli.diagnose.effects import basis_of
-    from pencli.diagnose.null import replicate_run
-    from tests.campaigns import make_campaign
 
     truths = []
     fire = sim.SimRig.fire
@@ -193,6 +183,22 @@ def test_replicates_carry_the_derivative_error_the_data_have_near_contact_and_st
         truths.append(self.motion)
 
     monkeypatch.setattr(sim.SimRig, "fire", keep)
+    return truths
+
+
+def test_replicates_carry_the_derivative_error_the_data_have_near_contact_and_stop(tmp_path, monkeypatch):
+    """The acceleration error of a run measured by a fine encoder, against the sim rig's true acceleration,
+    is mostly near the ends of the penetration, where the encoder cannot resolve how the acceleration
+    changes.  Null replicates measured from the baseline's dynamics carry an error of that size there;
+    replicates from the spline alone (the old recipe) carried two thirds of it, and nulls false-alarmed."""
+    from dataclasses import replace
+
+    from pencli import api
+    from pencli.diagnose import engine
+    from pencli.diagnose.null import replicate_run
+    from tests.campaigns import make_campaign
+
+    truths = _keep_sim_truths(monkeypatch)
     db = make_campaign(tmp_path, "mpacs_c", seed=77, shots=[("1", 4), ("2", 2), ("1.5", 6), ("2", 4)],
                        rig_extra={"force_noise_n": 0.5}, encoder_mm=0.08, standoff_mm=[0.8, -0.6, 0.3, -1.0])
     api.tare_runs(db, ["all"])
@@ -245,19 +251,11 @@ def test_the_flight_fitted_in_closed_form_follows_the_true_acceleration(tmp_path
     replicates made from it do not); a record that does not follow the form keeps the spline."""
     from dataclasses import replace
 
-    import pencli.acquire.sim as sim
     from pencli import api
     from pencli.diagnose import engine
     from tests.campaigns import make_campaign
 
-    truths = []
-    fire = sim.SimRig.fire
-
-    def keep(self):
-        fire(self)
-        truths.append(self.motion)
-
-    monkeypatch.setattr(sim.SimRig, "fire", keep)
+    truths = _keep_sim_truths(monkeypatch)
     db = make_campaign(tmp_path, "grill_brick", seed=31, shots=[("1", 2), ("1.5", 4), ("2", 6)],
                        rig_extra={"force_noise_n": 1.0}, encoder_mm=0.32)
     api.tare_runs(db, ["all"])

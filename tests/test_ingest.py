@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from pencli import api
 from pencli.errors import StoreError
 from tests.conftest import SPEC, invoke
-from tests.helpers import COLUMNS, snapshot, synthetic_columns, write_folder
+from tests.helpers import COLUMNS, snapshot, synthetic_columns, write_folder, write_bam_workbook
 
 EXAMPLE = SPEC / "examples" / "run_grill_brick_1.5mm"
 
@@ -187,18 +187,9 @@ def test_rounded_time_stamps_are_uniform_enough(workspace):
 
 
 def test_bam_workbook_with_other_headers_and_units(workspace, runner):
-    from openpyxl import Workbook
-
     cols = synthetic_columns(n=800)
-    folder = workspace / "bam"
-    write_folder(folder, cols)
-    (folder / "data.csv").unlink()
-    wb = Workbook()
-    ws = wb.active
-    ws.append(["Time (ms)", "Pos (m)", "Fx", "Fy", "Fz", "Mx", "My", "Mz"])
-    for row in np.column_stack([cols[c] for c in COLUMNS]):
-        ws.append([row[0] * 1000, row[1] / 1000, *[v / 1000 for v in row[2:5]], *row[5:]])
-    wb.save(folder / "experiment_12.xlsx")
+    folder = write_bam_workbook(workspace / "bam", cols, ["Time (ms)", "Pos (m)", "Fx", "Fy", "Fz", "Mx", "My", "Mz"],
+                                lambda row: [row[0] * 1000, row[1] / 1000, *[v / 1000 for v in row[2:5]], *row[5:]])
     plain = invoke(runner, "ingest", folder)
     assert plain.exit_code == 1 and "--columns" in plain.stderr
     r = invoke(runner, "ingest", folder, "--json", "--columns",

@@ -15,11 +15,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from tests.conftest import REPO
-from tests.helpers import COLUMNS, synthetic_columns, write_folder
+from tests.helpers import synthetic_columns, write_bam_workbook
 
 SETUP = ("python -m pip", "python -m pytest")
 
@@ -55,18 +54,8 @@ def _prepare(root: Path) -> None:
     for run in ("mc-1.0-4", "mc-1.0-6", "mc-1.5-2", "mc-1.5-6", "mc-2.0-2", "mc-2.0-4", "gb-1.0-2"):
         subprocess.run([*pen, "export", run, "--to", str(lab / run), "--db", example], check=True, env=env,
                        capture_output=True)
-    from openpyxl import Workbook
-
-    cols = synthetic_columns(n=800)
-    folder = root / "old" / "experiment_12"
-    write_folder(folder, cols)
-    (folder / "data.csv").unlink()
-    wb = Workbook()
-    sheet = wb.active
-    sheet.append(["Time (ms)", "Pos", "Fx", "Fy", "Fz", "Mx", "My", "Mz"])
-    for row in np.column_stack([cols[c] for c in COLUMNS]):
-        sheet.append([row[0] * 1000, *row[1:]])
-    wb.save(folder / "experiment_12.xlsx")
+    write_bam_workbook(root / "old" / "experiment_12", synthetic_columns(n=800),
+                       ["Time (ms)", "Pos", "Fx", "Fy", "Fz", "Mx", "My", "Mz"], lambda row: [row[0] * 1000, *row[1:]])
     shown = subprocess.run([*pen, "params", "show", "al6061_1mm"], check=True, env=env, capture_output=True,
                            text=True).stdout
     (root / "my_blade.yaml").write_text(shown.replace("name: al6061_1mm", "name: my_blade"))
