@@ -243,32 +243,3 @@ def test_an_effect_the_dynamic_model_cannot_finish_is_a_note_not_a_crash(monkeyp
     monkeypatch.setattr(dyn, "MAX_EVALUATIONS", 50)
     change = engine._trajectory_change(effect, member, coefficients, runs, values)
     assert "did not finish" in change["note"] and "integration steps" in change["note"]
-
-
-def test_the_flight_fitted_in_closed_form_follows_the_true_acceleration(tmp_path, monkeypatch):
-    """The replicates' flight is the CONTRACT §2 closed form fitted to the encoder record: against the sim rig's
-    true acceleration it is closer than the spline through the record (whose smoothing bias the data carry and
-    replicates made from it do not); a record that does not follow the form keeps the spline."""
-    from dataclasses import replace
-
-    from pencli import api
-    from pencli.diagnose import engine
-    from tests.campaigns import make_campaign
-
-    truths = _keep_sim_truths(monkeypatch)
-    db = make_campaign(tmp_path, "grill_brick", seed=31, shots=[("1", 2), ("1.5", 4), ("2", 6)],
-                       rig_extra={"force_noise_n": 1.0}, encoder_mm=0.32)
-    api.tare_runs(db, ["all"])
-    api.subtract_inertia_runs(db, ["all"])
-    runs = sorted(api.load_diagnosis_runs(db, ["all"]), key=lambda r: r.run_id)
-    for run, truth in zip(runs, truths):
-        motion = engine._flight_fit(run, run.seen_contact_s)
-        assert motion is not None, run.run_id
-        t = run.time_s[run.flight]
-        a_true = np.interp(t, truth.time_s, truth.acceleration_m_s2)
-        fitted = float(np.sqrt(np.mean((motion(t)[2] - a_true) ** 2)))
-        spline = float(np.sqrt(np.mean((run.acceleration_m_s2[run.flight] - a_true) ** 2)))
-        assert fitted < 0.5 * spline, (run.run_id, fitted, spline)  # measured 0.1–1.3 against 0.6–4.6 m/s²
-        wobble = run.depth_m + np.where(run.time_s > run.motion_start_s,
-                                        4 * run.encoder_step_m * np.sin(2 * np.pi * 150.0 * run.time_s), 0.0)
-        assert engine._flight_fit(replace(run, depth_m=wobble), run.seen_contact_s) is None

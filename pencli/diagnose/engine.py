@@ -443,92 +443,22 @@ def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted: np.ndarray, values:
                    run.derivative_method, contact, _model_motion(run, ts, contact, values))
 
 
-def _flight_fit(run: DiagnosisRun, contact_s: float):
-    """The record's flight as the CONTRACT §2 closed form fitted to it, or None when that form does not hold.
-
-    Returns a function t [s] → (depth [m], velocity [m/s], acceleration [m/s²]) valid from the release to
-    ``contact_s``.  The springs push harmonically, u = U·(1 − cos ω(t − t0)), until they reach free length
-    (u = stroke, fixed by the design's geometry), then the blade coasts at a constant acceleration g_c; t0,
-    ω, U, g_c and the encoder's zero are fitted to the position record (the design gives the start values;
-    a launcher whose springs or losses differ from the file moves them).  The fit is kept only when its
-    residual is at the level the encoder's quantum explains (2 × step/√12 RMS): otherwise the launcher
-    does not follow this form and the replicates keep the spline through the record.
-    """
-    from scipy.optimize import least_squares
-
-    design = run.design
-    flight = flight_of(design)
-    stroke, s0 = flight.stroke_m, design.surface_offset_m
-    t = run.time_s
-    sel = (t >= run.motion_start_s - 2e-3) & (t < contact_s)
-    if sel.sum() < 32 or not stroke > 0.0:
-        return None
-    ts, u_meas = t[sel], run.depth_m[sel] + s0
-    step = run.encoder_step_m
-
-    def state(p, tt):
-        t0, w, U, g_c, c = p
-        tau = np.maximum(tt - t0, 0.0)
-        ratio = stroke / U
-        if not 0.0 < ratio <= 2.0:
-            tau_rel = np.inf
-        else:
-            tau_rel = math.acos(max(1.0 - ratio, -1.0)) / w
-        ta = np.minimum(tau, tau_rel)
-        u = U * (1.0 - np.cos(w * ta))
-        v = U * w * np.sin(w * ta)
-        a = np.where(tt >= t0, U * w * w * np.cos(w * ta), 0.0)
-        if np.isfinite(tau_rel):
-            after = tau > tau_rel
-            dt = tau - tau_rel
-            v_rel = U * w * math.sin(w * tau_rel)
-            u = np.where(after, stroke + v_rel * dt + 0.5 * g_c * dt * dt, u)
-            v = np.where(after, v_rel + g_c * dt, v)
-            a = np.where(after, g_c, a)
-        return u + c, v, a
-
-    w0, U0 = flight.omega_rad_s, flight.amplitude_m
-    t0 = run.motion_start_s - math.sqrt(2.0 * step / max(U0 * w0 * w0, 1e-9))
-    p0 = np.array([t0, w0, U0, design.gravity_m_s2, 0.0])
-    scale = np.array([1e-4, 0.1 * w0, 0.1 * U0, 1.0, step])
-    try:
-        fit = least_squares(lambda p: state(p, ts)[0] - u_meas, p0, x_scale=scale, method="lm", max_nfev=400)
-    except (ValueError, FloatingPointError):
-        return None
-    rms = float(np.sqrt(np.mean(fit.fun ** 2)))
-    if not fit.success or not rms <= 2.0 * step / math.sqrt(12.0):
-        return None
-    p = fit.x
-
-    def motion(tt):
-        u, v, a = state(p, np.asarray(tt, dtype=float))
-        return u - s0, v, a
-
-    return motion
-
-
 def _model_motion(run: DiagnosisRun, ts: np.ndarray, contact_s: float, values: Mapping[str, float]):
-    """The baseline's own motion, as (depth [m], velocity [m/s], acceleration [m/s²], stop [s]) on ``ts`` from the release
-    (or from ``contact_s`` when the flight does not follow the closed form) on, NaN before; or None when
-    the model does not move the blade.
+    """The baseline's own motion in the material, as (depth [m], acceleration [m/s²], stop [s]) on ``ts``
+    from ``contact_s`` on (NaN before), or None when the model does not move the blade.
 
     The encoder cannot resolve how the acceleration changes within a millisecond of contact or of the stop
-    (at 0.1 mm steps a change of 20 m/s² over 0.5 ms moves the tip 2.5 µm), nor where the springs reach
-    free length; the smoothing spline through the record has its own shape there, and its own bias on the
-    harmonic push, which the data's true motion does not share.  Replicates made from the spline alone
-    therefore miss part of the derivative error the data have.  The flight fitted in closed form
-    (:func:`_flight_fit`) and then the reference model's dynamics, started where and as fast as that flight
-    (or the record) met the material, give a motion with the jumps the physics puts there; the replicates
-    are measured from it.
+    (at 0.1 mm steps a change of 20 m/s² over 0.5 ms moves the tip 2.5 µm); the smoothing spline through the
+    record has its own shape there, which the data's true motion does not share.  Replicates made from the
+    spline alone therefore miss the derivative error the data have near the ends of the penetration.  The
+    reference model's dynamics, started where and as fast as the run met the material, give a motion with
+    the jumps the physics puts there; the replicates are measured from it.
     """
     i = int(np.searchsorted(run.time_s, contact_s))
     if not 0 < i < run.time_s.size:
         return None
-    flight = _flight_fit(run, contact_s)
-    if flight is not None:
-        depth_c, speed, _ = (float(q) for q in flight(contact_s))
-    else:
-        depth_c, speed = float(run.depth_m[i]), float(run.velocity_m_s[i])
+    depth_c = float(run.depth_m[i])
+    speed = float(run.velocity_m_s[i])
     if not speed > 0.0:
         return None
     design = replace(with_coefficients(run.design, values),
@@ -543,14 +473,11 @@ def _model_motion(run: DiagnosisRun, ts: np.ndarray, contact_s: float, values: M
     tau = ts - contact_s
     inside = tau >= 0.0
     end = float(traj.time_s[-1])
-    depth, velocity, accel = (np.full(ts.size, np.nan) for _ in range(3))
+    depth = np.full(ts.size, np.nan)
+    accel = np.full(ts.size, np.nan)
     depth[inside] = depth_c + np.interp(tau[inside], traj.time_s, traj.depth_m)
-    velocity[inside] = np.where(tau[inside] <= end, np.interp(tau[inside], traj.time_s, traj.velocity_m_s), 0.0)
     accel[inside] = np.where(tau[inside] <= end, np.interp(tau[inside], traj.time_s, traj.acceleration_m_s2), 0.0)
-    if flight is not None:
-        flying = ~inside & (ts >= run.motion_start_s)
-        depth[flying], velocity[flying], accel[flying] = flight(ts[flying])
-    return depth, velocity, accel, contact_s + end
+    return depth, accel, contact_s + end
 
 
 def _standardise(values: np.ndarray) -> tuple[float, float, float]:

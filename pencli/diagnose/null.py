@@ -3,12 +3,10 @@ r"""What the data would look like if the reference model were right: parametric 
 Each replicate re-measures every run through the campaign's *own* sensor
 chain, as read from its data:
 
-- the true motion is, in flight, the CONTRACT §2 closed form (harmonic push,
-  then a coast) fitted to the run's encoder record, or the spline through
-  the record where that form does not fit it; from the contact on, the
-  baseline's own dynamics (whose acceleration jumps at contact and stop as
-  the data's do, which the encoder cannot resolve and the spline does not
-  reproduce);
+- the true motion is the run's smoothed trajectory (the spline through its
+  encoder record) in flight and, from the contact on, the baseline's own
+  dynamics (whose acceleration jumps at contact and stop as the data's do,
+  which the encoder cannot resolve and the spline does not reproduce);
 - the encoder quantises it to the record's own step (a random phase per
   replicate), and the same derivative method re-derives velocity and
   acceleration from it, so derivative errors are the pipeline's own;
@@ -102,8 +100,8 @@ class RunNull:
     kinematic_contact_s: float
     """Where the derivatives break the motion at contact (:func:`pencli.filter.inertia.kinematic_events`). [s]"""
     model: tuple | None = None
-    """The baseline's motion: (depth [m], velocity [m/s], acceleration [m/s²], NaN where the spline through the
-    record stands in; its stop [s]), or None to make the replicates from the spline alone."""
+    """The baseline's motion in the material: (depth [m], acceleration [m/s²], NaN before contact; its stop [s]),
+    or None to make the replicates from the spline through the record alone."""
 
 
 @dataclass(frozen=True)
@@ -135,14 +133,13 @@ def replicate_run(null: RunNull, count: int, seed: int) -> Replicates:
     step = null.encoder_step_m
     smooth, velocity, _ = smooth_motion(null.depth_m, rate, motion_breaks(t, motion), step)
     smooth = np.where(null.at_rest & (t < null.events.contact_s), null.depth_m, smooth)
+    true_contact = float(np.interp(null.events.contact_s, t, velocity))
     inside = np.zeros(t.size, dtype=bool)
     if null.model is not None:
-        model_depth, model_velocity, model_accel, model_stop = null.model
+        model_depth, model_accel, model_stop = null.model
         inside = np.isfinite(model_depth)
         smooth = np.where(inside, model_depth, smooth)
-        velocity = np.where(inside, model_velocity, velocity)
         motion = replace(motion, stop_s=min(model_stop, float(t[-1])))
-    true_contact = float(np.interp(null.events.contact_s, t, velocity))
     breaks, joins = motion_breaks(t, motion), motion_joins(t, motion)
     _, reference = derivatives(smooth, rate, breaks, null.method, count_m=step, joins=joins)
     if null.model is not None:
@@ -172,13 +169,7 @@ def _replicate_job(args) -> Replicates:
 
 
 def replicate_campaign(nulls: list[RunNull], count: int, seed: int, *, workers: int = 2) -> list[Replicates]:
-    """Replicates of every run, runs spread over ``workers`` processes (one process when 1).
-
-    Each run's replicates draw their own encoder phases.  (Runs of one launcher that fly the same path
-    through an encoder zeroed at the same place within a count share their quantisation error, which
-    independent phases do not reproduce; one phase shared by the runs of a replicate removed one such
-    development false alarm but made another campaign's probe gap a false alarm, so it is not used.)
-    """
+    """Replicates of every run, runs spread over ``workers`` processes (one process when 1)."""
     jobs = [(null, count, seed * 1000 + i) for i, null in enumerate(nulls)]
     if workers <= 1 or len(jobs) < 2:
         return [replicate_run(*job) for job in jobs]
