@@ -796,6 +796,14 @@ def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: s
         n, take = columns.size, columns.take
     chunks = (take(s, min(s + CHUNK, n)) for s in range(0, n, CHUNK))
     done = 0
+
+    def emit(chunk: dict, result: dict) -> tuple[dict, dict]:
+        nonlocal done
+        done += len(next(iter(chunk.values())))
+        if progress:
+            progress(done, n)
+        return chunk, result
+
     if engine == "dask":
         try:
             from dask.distributed import Client, LocalCluster
@@ -808,11 +816,7 @@ def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: s
             chunks = list(chunks)
             futures = client.map(_run_chunk, [base] * len(chunks), chunks, pure=False)
             for chunk, future in zip(chunks, futures):
-                result = future.result()
-                done += len(next(iter(chunk.values())))
-                if progress:
-                    progress(done, n)
-                yield chunk, result
+                yield emit(chunk, future.result())
         finally:
             client.close()
             if cluster is not None:
@@ -822,32 +826,21 @@ def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: s
         raise ParameterError(f"--engine {engine!r}: expected local or dask")
     if n <= CHUNK or workers <= 1:
         for chunk in chunks:
-            result = _run_chunk(base, chunk)
-            done += len(next(iter(chunk.values())))
-            if progress:
-                progress(done, n)
-            yield chunk, result
+            yield emit(chunk, _run_chunk(base, chunk))
         return
     from collections import deque
     from concurrent.futures import ProcessPoolExecutor
 
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        flight: deque = deque()
+        pending: deque = deque()  # at most 2 × workers chunks in flight
         for chunk in chunks:
-            flight.append((chunk, pool.submit(_run_chunk, base, chunk)))
-            if len(flight) < 2 * workers:
-                continue
-            chunk, future = flight.popleft()
-            done += len(next(iter(chunk.values())))
-            if progress:
-                progress(done, n)
-            yield chunk, future.result()
-        while flight:
-            chunk, future = flight.popleft()
-            done += len(next(iter(chunk.values())))
-            if progress:
-                progress(done, n)
-            yield chunk, future.result()
+            pending.append((chunk, pool.submit(_run_chunk, base, chunk)))
+            if len(pending) >= 2 * workers:
+                chunk, future = pending.popleft()
+                yield emit(chunk, future.result())
+        while pending:
+            chunk, future = pending.popleft()
+            yield emit(chunk, future.result())
 
 
 def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str] = (), resolution: int = 20,
