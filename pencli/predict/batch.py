@@ -173,7 +173,11 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
         # a maximum of R inside the step (R rises at its start and falls at its end): located on the Hermite
         # interpolant, not read at a step end, so its depth is as accurate as the steps
         rise0 = P["a1"] * vs + (P["b"] + 2.0 * P["dd"] * np.maximum(vs, 0.0)) * a_s
-        rise1 = _resistance_slope(xs, vs, a_s, xn, vn, an, h, s, P)
+        rise1 = P["a1"] * vn + (P["b"] + 2.0 * P["dd"] * np.maximum(vn, 0.0)) * an  # at a full step's end
+        if stopping.any():  # a step cut short ends inside: the slope there, on the interpolant
+            j = np.flatnonzero(stopping)
+            rise1[j] = _resistance_slope(xs[j], vs[j], a_s[j], xn[j], vn[j], an[j], h[j], s[j],
+                                         {key: val[j] for key, val in P.items()})
         inner = np.flatnonzero(live & (rise0 > 0.0) & (rise1 < 0.0))
         if inner.size:
             q = {key: val[inner] for key, val in P.items()}

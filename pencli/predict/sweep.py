@@ -99,12 +99,6 @@ class Grid:
         return out
 
 
-def grid(variables: Sequence[Variable]) -> dict[str, np.ndarray]:
-    """Every combination of the variables' values (first variable slowest), whole (small grids only)."""
-    g = Grid(variables)
-    return g.take(0, g.size)
-
-
 def sample(domains: Mapping[str, tuple[float, float] | np.ndarray], n: int, method: str, seed: int = 0
            ) -> dict[str, np.ndarray]:
     """``n`` designs by Latin hypercube (``lhs``) or uniform random sampling.
