@@ -358,6 +358,12 @@ def query(db: str | Path, sql: str) -> tuple[list[str], list[tuple]]:
     return workspace(db).query(sql)
 
 
+def check_workspace(db: str | Path, *, repair: bool = False) -> list[str]:
+    """Every problem of a workspace (missing or tampered stage files, files the catalog does not know), one line
+    each; ``repair`` first adopts, quarantines or removes what an interrupted pen left."""
+    return workspace(db).check(repair=repair)
+
+
 def export_run(db: str | Path, ref: str, to: str | Path, *, data_format: str = "csv", overwrite: bool = False
                ) -> Path:
     """Write a run's raw stage as a CONTRACT §3 folder."""

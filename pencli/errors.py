@@ -15,6 +15,13 @@ class PenError(Exception):
     """Base class of every error pen reports to a user as one line."""
 
 
+class PenNotice(UserWarning):
+    """Something pen did on its own that a user should hear about (e.g. a workspace repaired after a crash).
+
+    Issued with :func:`warnings.warn`; the CLI prints each as one ``note:`` line on stderr.
+    """
+
+
 class ParameterError(PenError, ValueError):
     """A parameter file, preset name or ``--set`` override is invalid."""
 

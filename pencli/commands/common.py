@@ -7,6 +7,7 @@ import json
 import math
 import os
 import sys
+import warnings
 from pathlib import Path
 from typing import Any, Callable
 
@@ -14,7 +15,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from pencli.errors import PenError
+from pencli.errors import PenError, PenNotice
 
 console = Console()
 err_console = Console(stderr=True)
@@ -65,13 +66,27 @@ def fail(message: str, code: int = 1) -> typer.Exit:
     return typer.Exit(code)
 
 
+_python_showwarning = warnings.showwarning
+
+
+def _show_notice(message, category, filename, lineno, file=None, line=None) -> None:
+    """A :class:`PenNotice` is one yellow ``note:`` line on stderr; other warnings as Python shows them."""
+    if issubclass(category, PenNotice):
+        err_console.print(f"[yellow]note:[/yellow] {escape(str(message))}", highlight=False, soft_wrap=True)
+    else:
+        _python_showwarning(message, category, filename, lineno, file, line)
+
+
 def pen_errors(fn: Callable) -> Callable:
     """The one place a :class:`PenError` becomes one red line and exit code 1."""
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         try:
-            return fn(*args, **kwargs)
+            with warnings.catch_warnings():
+                warnings.simplefilter("always", PenNotice)
+                warnings.showwarning = _show_notice
+                return fn(*args, **kwargs)
         except PenError as exc:
             raise fail(str(exc)) from None
         except KeyboardInterrupt:

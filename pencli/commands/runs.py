@@ -217,6 +217,32 @@ def query(
     console.print(table)
 
 
+@runs_app.command("check")
+def check(
+    ctx: typer.Context,
+    repair: bool = typer.Option(False, "--repair", help="First adopt, quarantine or remove what an interrupted pen "
+                                                        "left (every writing command does this too)."),
+    json_out: bool = typer.Option(False, "--json", help="Print the problems as a JSON list."),
+    db: Optional[Path] = DbOption,
+) -> None:
+    """Verify the workspace: read every stage and compare its content hash with the catalog's.
+
+    Reports stage files that are missing or changed since they were written, missing fit and sweep
+    files, and files the catalog does not account for. Exit 1 when anything is wrong.
+    Example: pen runs check --repair
+    """
+    problems = api.check_workspace(_db_from(ctx, db), repair=repair)
+    if json_out:
+        print_json(problems)
+    elif problems:
+        for problem in problems:
+            err_console.print(f"[red]problem:[/red] {escape(problem)}", highlight=False, soft_wrap=True)
+    else:
+        console.print("workspace consistent: every stage file present and matching its catalog hash", highlight=False)
+    if problems:
+        raise typer.Exit(1)
+
+
 @app.command("export")
 def export(
     run: str = typer.Argument(..., help="Run id or run folder."),

@@ -26,7 +26,10 @@ import datetime as dt
 import json
 import os
 import re
+import shutil
+import signal
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
@@ -36,13 +39,35 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from pencli import __version__
-from pencli.errors import StoreError
+from pencli.errors import PenError, PenNotice, StoreError
+from pencli.params.validate import validate_mapping
 from pencli.store.migrations import LATEST, MIGRATIONS
 from pencli.store.rundata import RAW_COLUMNS, RunData, content_hash, table_hash
 
 DEFAULT_LOCK_TIMEOUT_S = 30.0
 RAW_STAGE = "raw"
 _ID_SAFE = re.compile(r"[^A-Za-z0-9._-]+")
+_TEMPORARY = re.compile(r"^\.(?:.+\.(?P<pid>\d+)\.tmp|pending-(?P<pid2>\d+)-\d+\.parquet|.+\.compact-(?P<pid3>\d+)(?:\.wal)?)$")
+_STAGE_FILE = re.compile(r"^(\d{2})-([A-Za-z0-9_-]+)\.parquet$")
+QUARANTINE = "quarantine"
+
+
+def crash_point(name: str) -> None:
+    """Die here, as kill -9 would, when ``PEN_TEST_CRASH_AT`` names this point (for the crash tests only)."""
+    if os.environ.get("PEN_TEST_CRASH_AT") == name:
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 @dataclass(frozen=True)
@@ -90,10 +115,13 @@ def _atomically(con: duckdb.DuckDBPyConnection, tmp: Path | None, final: Path | 
     con.execute("BEGIN TRANSACTION")
     try:
         yield
+        crash_point("before-rename")
         if tmp is not None and final is not None:
             os.replace(tmp, final)
+        crash_point("before-commit")
         con.execute("COMMIT")
         committed = True
+        crash_point("after-commit")
     finally:
         if not committed:
             with contextlib.suppress(Exception):
@@ -121,6 +149,7 @@ class Workspace:
             lock_timeout_s = float(os.environ.get("PEN_LOCK_TIMEOUT_S", DEFAULT_LOCK_TIMEOUT_S))
         self.lock_timeout_s = lock_timeout_s
         self._batch: dict | None = None
+        self._recovered = False
 
     # ------------------------------------------------------------------ connection
     def exists(self) -> bool:
@@ -192,6 +221,9 @@ class Workspace:
         try:
             if write:
                 self._migrate(con)
+                if not self._recovered:
+                    self._recover(con)
+                    self._recovered = True
             else:
                 self._check_version(con)
         except BaseException:
@@ -227,6 +259,162 @@ class Workspace:
             raise StoreError(f"{self.db_path}: catalog schema version {version} is not one this pen reads "
                              f"(up to {LATEST})")
         # an older catalog is read as it is (migrations only add); writing commands upgrade it
+
+    # ------------------------------------------------------------------ crash recovery
+    def _recover(self, con: duckdb.DuckDBPyConnection) -> None:
+        """Repair what a crash (kill -9, power loss) between a file's rename and its catalog commit leaves.
+
+        Runs once per :class:`Workspace` when the catalog is first opened for writing, i.e. while this process
+        holds the write lock, so no other pen is half-way through a write.  Temporary files of processes that
+        are gone are removed; a stage, fit or sweep file the catalog does not know is adopted when its own
+        metadata and content hash say exactly what it is, else moved to ``quarantine/<time>/`` (never
+        deleted).  Each action is one :class:`PenNotice`.
+        """
+        root = self.db_path.parent
+        strays = list(self._strays(con))
+        removed = [path for kind, path in strays if kind == "temporary"]
+        for path in removed:
+            with contextlib.suppress(FileNotFoundError):
+                path.unlink()
+        if removed:
+            warnings.warn(PenNotice(f"{self.db_path}: removed {len(removed)} temporary file(s) left by an "
+                                    f"interrupted pen ({', '.join(str(p.relative_to(root)) for p in removed)})"),
+                          stacklevel=2)
+        adopters = {"stage": lambda path: self._adopt_stage(con, path), "fit": lambda path: self._adopt_fit(con, path),
+                    "sweep": lambda path: None}
+        for kind, path in strays:
+            if kind != "temporary":
+                self._settle(path, kind, lambda: adopters[kind](path))
+        for folder in (p for p in self.runs_dir.iterdir() if p.is_dir()) if self.runs_dir.is_dir() else ():
+            if not any(folder.iterdir()) and con.execute(
+                    "SELECT 1 FROM runs WHERE run_id = ?", [folder.name]).fetchone() is None:
+                folder.rmdir()
+
+    def _strays(self, con) -> Iterator[tuple[str, Path]]:
+        """Files in the workspace's folders that the catalog does not account for, as (kind, path): kind is
+        ``temporary`` (of a pen process that is gone), ``stage``, ``fit`` or ``sweep``; stages in stage order."""
+        root = self.db_path.parent
+        run_folders = sorted(p for p in self.runs_dir.iterdir() if p.is_dir()) if self.runs_dir.is_dir() else []
+        for folder in [root, root / "fits", root / "sweeps", *run_folders]:
+            for path in sorted(folder.iterdir()) if folder.is_dir() else ():
+                match = _TEMPORARY.match(path.name)
+                if match is None or (folder == root and not path.name.startswith(f".{self.db_path.name}.")):
+                    continue
+                if not _pid_alive(int(match.group("pid") or match.group("pid2") or match.group("pid3"))):
+                    yield "temporary", path
+        catalogued = {r[0] for sql in ("SELECT path FROM stages", "SELECT model_data_path FROM materials",
+                                       "SELECT path FROM sweeps") for r in con.execute(sql).fetchall()}
+        listed = [("stage", p) for folder in run_folders for p in sorted(folder.iterdir()) if _STAGE_FILE.match(p.name)]
+        listed += [(kind, p) for kind, folder in (("fit", root / "fits"), ("sweep", root / "sweeps"))
+                   for p in (sorted(folder.glob("[!.]*.parquet")) if folder.is_dir() else ())]
+        for kind, path in listed:
+            if str(path.relative_to(root)) not in catalogued:
+                yield kind, path
+
+    def check(self, *, repair: bool = False) -> list[str]:
+        """Every problem of the workspace, one line each (empty: all is well).
+
+        Each catalogued stage is read and its content hash compared with the catalog's (a tampered or
+        truncated file is found); fit and sweep files must exist; files the catalog does not account for are
+        listed.  ``repair`` first runs the crash recovery (adopt, quarantine, remove stale temporaries).
+        """
+        if repair:
+            with self.connect(write=True):
+                pass
+        root = self.db_path.parent
+        problems = []
+        with self.connect() as con:
+            for run_id in [r[0] for r in con.execute("SELECT run_id FROM runs ORDER BY run_id").fetchall()]:
+                for record in self._stages(con, run_id):
+                    try:
+                        self._read_record(record)
+                    except StoreError as exc:
+                        problems.append(str(exc))
+            for what, sql in (("fitted material's model-vs-data table", "SELECT model_data_path FROM materials"),
+                              ("sweep", "SELECT path FROM sweeps")):
+                for (relative,) in con.execute(sql).fetchall():
+                    if relative is not None and not (root / relative).is_file():
+                        problems.append(f"{root / relative}: the {what} is missing from the workspace")
+            for kind, path in self._strays(con):
+                what = ("temporary file of an interrupted pen" if kind == "temporary"
+                        else f"{kind} file not in the catalog")
+                problems.append(f"{path}: {what} (pen runs check --repair adopts, quarantines or removes it)")
+        return problems
+
+    def _settle(self, path: Path, kind: str, adopt) -> None:
+        """Adopt one file the catalog does not know (``adopt()`` returns what it became), or quarantine it."""
+        root = self.db_path.parent
+        relative = path.relative_to(root)
+        try:
+            what = adopt()
+        except (OSError, ValueError, KeyError, TypeError, pa.ArrowException, duckdb.Error, PenError):
+            what = None
+        if what is not None:
+            warnings.warn(PenNotice(f"{path}: {kind} file left uncatalogued by an interrupted pen was checked "
+                                    f"(content hash) and adopted as {what}"), stacklevel=3)
+            return
+        target = root / QUARANTINE / _now().strftime("%Y%m%dT%H%M%S") / relative
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(path), str(target))
+        warnings.warn(PenNotice(f"{path}: {kind} file not in the catalog (left by an interrupted pen or put there "
+                                f"by hand) moved to {target.relative_to(root)}; nothing was deleted"), stacklevel=3)
+
+    def _adopt_stage(self, con, path: Path) -> str | None:
+        run_id, stage_no = path.parent.name, int(path.name[:2])
+        meta = {k.decode(): v.decode() for k, v in (pq.read_schema(path).metadata or {}).items()}
+        if meta.get("pen:run_id") != run_id or meta.get("pen:stage_no") != str(stage_no):
+            return None
+        if not path.name.endswith(f"-{meta['pen:stage']}.parquet"):
+            return None
+        table = pq.read_table(path)
+        digest = meta["pen:content_sha256"]
+        if _stage_digest(table, stage_no) != digest:
+            return None
+        parent = json.loads(meta["pen:parent_no"])
+        taken = con.execute("SELECT 1 FROM stages WHERE run_id = ? AND stage_no = ?", [run_id, stage_no]).fetchone()
+        if taken is not None:
+            return None
+        created = dt.datetime.fromisoformat(meta["pen:created_at"])
+        parameters = json.loads(meta["pen:parameters"])
+        con.execute("BEGIN TRANSACTION")
+        try:
+            if stage_no == 0:
+                if con.execute("SELECT 1 FROM runs WHERE run_id = ? OR content_sha256 = ?",
+                               [run_id, digest]).fetchone() is not None:
+                    con.execute("ROLLBACK")
+                    return None
+                sets = json.loads(meta["pen:run_parameters"])
+                run = RunData(raw_columns_of(table), *(validate_mapping(sets[kind], f"{path} ({kind})",
+                                                                        expected_kind=kind, allow_out_of_range=True)
+                                                       for kind in ("penetrator", "material", "energizing")),
+                              info=json.loads(meta["pen:run_info"]), source=str(parameters.get("source", path)),
+                              source_format=str(parameters.get("format", "")))
+                self._insert_run(con, run_id, run, digest, created)
+            elif parent is None or con.execute("SELECT 1 FROM stages WHERE run_id = ? AND stage_no = ?",
+                                               [run_id, parent]).fetchone() is None:
+                con.execute("ROLLBACK")
+                return None
+            _insert_stage_row(con, run_id, stage_no, meta["pen:stage"], parent,
+                              str(path.relative_to(self.db_path.parent)), digest, meta["pen:command"],
+                              meta["pen:parameters"], meta["pen:version"], created)
+            con.execute("COMMIT")
+        except BaseException:
+            con.execute("ROLLBACK")
+            raise
+        return f"stage {stage_no} ({meta['pen:stage']}) of run '{run_id}'"
+
+    def _adopt_fit(self, con, path: Path) -> str | None:
+        meta = {k.decode(): v.decode() for k, v in (pq.read_schema(path).metadata or {}).items()}
+        material, version = meta["pen:material"], int(meta["pen:version"])
+        if path.name != f"{_ID_SAFE.sub('-', material)}-v{version}.parquet":
+            return None
+        if con.execute("SELECT 1 FROM materials WHERE material = ? AND version = ?",
+                       [material, version]).fetchone() is not None:
+            return None
+        _insert_material_row(con, material, version, json.loads(meta["pen:fit"]),
+                             json.loads(meta["pen:source_runs"]), json.loads(meta["pen:material_file"]),
+                             str(path.relative_to(self.db_path.parent)), meta["pen:command"])
+        return f"version {version} of fitted material '{material}'"
 
     # ------------------------------------------------------------------ runs
     def add_run(self, run: RunData, *, command: str) -> AddedRun:
@@ -296,9 +484,9 @@ class Workspace:
             write_parquet(table, tmp)
             if run_rows is not None:
                 self._insert_run(con, run_id, *run_rows, now)
-            con.execute("INSERT INTO stages VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
-                run_id, stage_no, record["stage"], record.get("parent"), str(final.relative_to(self.runs_dir.parent)),
-                digest, record["command"], json.dumps(record["parameters"], default=str), __version__, now])
+            _insert_stage_row(con, run_id, stage_no, record["stage"], record.get("parent"),
+                              str(final.relative_to(self.runs_dir.parent)), digest, record["command"],
+                              json.dumps(record["parameters"], default=str), __version__, now)
         return StageRecord(run_id, stage_no, record["stage"], record.get("parent"), final, digest,
                            record["command"], record["parameters"], __version__, now)
 
@@ -372,6 +560,11 @@ class Workspace:
                 raise StoreError(f"run '{run_id}' has no stage {stage!r}; it has: "
                                  f"{', '.join(f'{r.stage_no}:{r.stage}' for r in records)}")
             chosen = matches[-1]
+        return self._read_record(chosen), chosen
+
+    def _read_record(self, chosen: StageRecord) -> pa.Table:
+        """A stage's table, its content checked against the catalog's hash (else one line naming the file)."""
+        run_id = chosen.run_id
         try:
             table = pq.read_table(chosen.path)
         except FileNotFoundError:
@@ -379,11 +572,15 @@ class Workspace:
                              f"restore the file, or re-ingest the run") from None
         except (OSError, pa.ArrowException) as exc:
             raise StoreError(f"{chosen.path}: cannot read stage '{chosen.stage}' of run '{run_id}': {exc}") from None
-        if _stage_digest(table, chosen.stage_no) != chosen.content_sha256:
+        try:
+            digest = _stage_digest(table, chosen.stage_no)
+        except KeyError:
+            digest = None  # a column is gone
+        if digest != chosen.content_sha256:
             raise StoreError(f"{chosen.path}: stage '{chosen.stage}' of run '{run_id}' has changed since it was "
                              f"written (its content no longer matches the catalog's hash); restore it, or re-ingest "
                              f"the run")
-        return table, chosen
+        return table
 
     def read_table(self, relative: str, what: str, *, filters=None, columns=None) -> pa.Table:
         """A table pen wrote beside the catalog (fits/, sweeps/), or one line naming the file and what it is
@@ -493,12 +690,12 @@ class Workspace:
             with _atomically(con, tmp, final):
                 if model_data is not None:
                     meta = {b"pen:material": material.encode(), b"pen:version": str(version).encode(),
-                            b"pen:fit": json.dumps(fit, default=str).encode(), b"pen:command": command.encode()}
+                            b"pen:fit": json.dumps(fit, default=str).encode(), b"pen:command": command.encode(),
+                            b"pen:source_runs": json.dumps(list(source_runs)).encode(),
+                            b"pen:material_file": json.dumps(material_file, default=str).encode()}
                     write_parquet(model_data.replace_schema_metadata(meta), tmp)
-                con.execute("INSERT INTO materials VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
-                    material, version, _now(), fit["mode"], list(fit["terms"]), json.dumps(fit["coefficients"]),
-                    json.dumps(fit["stderr"]), json.dumps(fit, default=str), list(source_runs),
-                    json.dumps(fit["ranges"]), json.dumps(material_file), rel, command, __version__])
+                _insert_material_row(con, material, version, json.loads(json.dumps(fit, default=str)),
+                                     list(source_runs), material_file, rel, command)
         return version
 
     def material_versions(self, material: str | None = None) -> list[dict]:
@@ -572,6 +769,20 @@ class Workspace:
         """Every run id, sorted."""
         with self.connect() as con:
             return [r[0] for r in con.execute("SELECT run_id FROM runs ORDER BY run_id").fetchall()]
+
+
+def _insert_stage_row(con, run_id: str, stage_no: int, stage: str, parent_no: int | None, relative: str,
+                      digest: str, command: str, parameters_json: str, pen_version: str, created: dt.datetime) -> None:
+    con.execute("INSERT INTO stages VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+        run_id, stage_no, stage, parent_no, relative, digest, command, parameters_json, pen_version, created])
+
+
+def _insert_material_row(con, material: str, version: int, fit: Mapping[str, Any], source_runs: list,
+                         material_file: Mapping[str, Any], relative: str | None, command: str) -> None:
+    con.execute("INSERT INTO materials VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+        material, version, _now(), fit["mode"], list(fit["terms"]), json.dumps(fit["coefficients"]),
+        json.dumps(fit["stderr"]), json.dumps(fit, default=str), list(source_runs), json.dumps(fit["ranges"]),
+        json.dumps(material_file, default=str), relative, command, __version__])
 
 
 def write_parquet(table: pa.Table, path: Path) -> None:
