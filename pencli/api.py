@@ -468,11 +468,19 @@ class StageOutcome:
     warnings: tuple[str, ...] = ()
 
 
-def _each_run(db: str | Path, refs: Sequence[str], work: Callable[[Any, str], StageOutcome]) -> list[StageOutcome]:
+Progress3 = Callable[[str, int, int], None]
+"""A progress callback: (what is being done, done, total)."""
+
+
+def _each_run(db: str | Path, refs: Sequence[str], work: Callable[[Any, str], StageOutcome],
+              progress: Progress3 | None = None) -> list[StageOutcome]:
     """Apply ``work(workspace, run_id)`` to every run; a failure rejects that run only."""
     ws = workspace(db)
     outcomes = []
-    for ref in expand_run_refs(ws, refs):
+    refs = expand_run_refs(ws, refs)
+    for k, ref in enumerate(refs):
+        if progress is not None:
+            progress(str(ref), k, len(refs))
         try:
             run_id = ws.resolve(ref)
             outcomes.append(work(ws, run_id))
@@ -500,8 +508,8 @@ def expand_run_refs(ws, refs: Sequence[str]) -> list[str]:
     return out
 
 
-def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, float] | None = None
-              ) -> list[StageOutcome]:
+def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, float] | None = None,
+              progress: Progress3 | None = None) -> list[StageOutcome]:
     """``pen tare``: offsets from the pre-trigger span, depth from the stand-off, events; a new stage."""
     import pyarrow as pa
 
@@ -520,11 +528,11 @@ def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, fl
                                           "window_ms": list(window_ms) if window_ms else None})
         return StageOutcome(run_id, "done", run_id, record.stage_no, details=tared.events.to_dict())
 
-    return _each_run(db, refs, work)
+    return _each_run(db, refs, work, progress)
 
 
 def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | None = None,
-                          use_flight_mass: bool = False) -> list[StageOutcome]:
+                          use_flight_mass: bool = False, progress: Progress3 | None = None) -> list[StageOutcome]:
     """``pen subtract-inertia``: v and a from the encoder, R = F − m_lc·a; a new stage."""
     import pyarrow as pa
 
@@ -564,7 +572,7 @@ def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | 
         return StageOutcome(run_id, "done", run_id, record.stage_no, details={"mass_estimate": estimate},
                             warnings=tuple(warnings))
 
-    return _each_run(db, refs, work)
+    return _each_run(db, refs, work, progress)
 
 
 # ---------------------------------------------------------------------------- fitting
@@ -586,13 +594,17 @@ class _Conditioned:
     sets: tuple
 
 
-def _conditioned_runs(db: str | Path, refs: Sequence[str], names: Sequence[str]) -> list[_Conditioned]:
+def _conditioned_runs(db: str | Path, refs: Sequence[str], names: Sequence[str],
+                      progress: Progress3 | None = None) -> list[_Conditioned]:
     """Each run's latest stage, which must be an inertia stage, with its events and parameter sets."""
     from pencli.filter.tare import Events
 
     ws = workspace(db)
     out = []
-    for ref in expand_run_refs(ws, refs):
+    refs = expand_run_refs(ws, refs)
+    for k, ref in enumerate(refs):
+        if progress is not None:
+            progress(f"reading {ref}", k, len(refs))
         run_id = ws.resolve(ref)
         table, stage = ws.read_stage(run_id)
         if "resistance_n" not in table.column_names:
@@ -604,12 +616,12 @@ def _conditioned_runs(db: str | Path, refs: Sequence[str], names: Sequence[str])
     return out
 
 
-def load_series(db: str | Path, refs: Sequence[str]) -> list:
+def load_series(db: str | Path, refs: Sequence[str], progress: Progress3 | None = None) -> list:
     """Each run's latest stage as a :class:`~pencli.fit.resistance.RunSeries` (needs an inertia stage)."""
     from pencli.fit.resistance import RunSeries
 
     out = []
-    for c in _conditioned_runs(db, refs, ("time_s", "depth_m", "velocity_m_s", "resistance_n")):
+    for c in _conditioned_runs(db, refs, ("time_s", "depth_m", "velocity_m_s", "resistance_n"), progress):
         events, record = c.events, c.columns
         t = record["time_s"]
         window = (t >= events.window_start_s) & (t <= events.window_end_s)
@@ -683,7 +695,7 @@ def material_file_from_fit(name: str, series: Sequence, result) -> dict:
 def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resistance",
         terms: str | Sequence[str] | None = None, fix: Sequence[str] = (), all_subsets: bool = False,
         bootstrap: int = 200, out: str | Path | None = None, record: bool = True,
-        command: str = "pen fit") -> FitOutcome:
+        command: str = "pen fit", progress: Progress3 | None = None) -> FitOutcome:
     """``pen fit``: Eq. 9 coefficients over runs, recorded as a new material version."""
     import pyarrow as pa
     import yaml
@@ -696,7 +708,8 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
 
     if mode not in ("resistance", "dynamic"):
         raise ParameterError(f"--mode {mode!r}: expected resistance or dynamic")
-    series = load_series(db, refs)
+    step = progress or (lambda description, done, total: None)
+    series = load_series(db, refs, progress)
     fixed = parse_fix(fix)
     notes = []
     if len(series) == 1 and "damping_kpa_s_m" not in fixed:
@@ -705,10 +718,16 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
     names = sorted({s.material for s in series})
     if len(names) > 1:
         notes.append(f"runs of several materials fitted together: {', '.join(names)}")
-    result = fit_resistance(series, material, terms=terms, fixed=fixed, bootstrap=bootstrap)
+    step("fitting", 0, bootstrap + 1)
+    result = fit_resistance(series, material, terms=terms, fixed=fixed, bootstrap=bootstrap,
+                            progress=lambda done, total: step("fitting, bootstrap over runs", done, total))
     if mode == "dynamic":
+        step("fitting the dynamics of each run", 0, 1)
         result = fit_dynamic(series, material, result.values(), terms=terms, fixed=fixed)
+    if all_subsets:
+        step("fitting every subset of the terms", 0, 1)
     subsets = tuple(fit_all_subsets(series, material, terms=terms, fixed=fixed)) if all_subsets else ()
+    step("recording", 1, 1)
     mapping = material_file_from_fit(material, series, result)
     version = None
     if record:
@@ -1185,12 +1204,13 @@ def report_sweep(db: str | Path, sweep_id: int) -> list:
     return [section]
 
 
-def report_diagnosis(db: str | Path, refs: Sequence[str]) -> tuple[list, Any]:
+def report_diagnosis(db: str | Path, refs: Sequence[str], progress: Callable[[str, float], None] | None = None
+                     ) -> tuple[list, Any]:
     """Sections for a diagnosis (and the diagnosis itself, for checks)."""
     from pencli.report.build import Section
     from pencli.report.diagnosis import diagnosis_figure
 
-    result = diagnose(db, refs)
+    result = diagnose(db, refs, progress=progress)
     report = result.to_dict()
     section = Section(f"diagnosis: verdict {result.verdict}", text=" ".join(result.notes),
                       provenance={"baseline": report["baseline"], "decision": report["decision"]})

@@ -100,3 +100,27 @@ def test_malformed_options_are_usage_errors(workspace, runner, args):
     assert r.exit_code == 2, r.output
     assert "Invalid value" in r.output or "Invalid value" in r.stderr
     assert not (workspace / "runs.duckdb").exists()
+
+
+def test_long_commands_report_progress(tmp_path):
+    """Issue 13: tare, subtract-inertia, fit and a single report ran in silence (a diagnosis 146 s)."""
+    import shutil
+
+    from pencli import api
+    from tests.conftest import REPO
+
+    work = tmp_path / "ws"
+    shutil.copytree(REPO / "examples" / "workspace", work)
+    db = work / "runs.duckdb"
+    calls: list[tuple[str, int, int]] = []
+    record = lambda what, done, total: calls.append((what, done, total))  # noqa: E731
+    api.tare_runs(db, ["mc-*"], progress=record)
+    assert [c[1:] for c in calls] == [(k, 6) for k in range(6)]
+    calls.clear()
+    api.subtract_inertia_runs(db, ["mc-1.0-4", "mc-1.0-6"], progress=record)
+    assert [c[0] for c in calls] == ["mc-1.0-4", "mc-1.0-6"]
+    calls.clear()
+    api.fit(db, "mpacs_c", ["mc-*"], bootstrap=40, record=False, progress=record)
+    boot = [c for c in calls if "bootstrap" in c[0]]
+    assert [c[1] for c in boot] == [10, 20, 30, 40] and all(c[2] == 40 for c in boot)
+    assert sum("reading" in c[0] for c in calls) == 6

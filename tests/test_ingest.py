@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from pencli import api
 from pencli.errors import StoreError
-from tests.conftest import SPEC, invoke
+from tests.conftest import REPO, SPEC, invoke
 from tests.helpers import COLUMNS, snapshot, synthetic_columns, write_folder, write_bam_workbook
 
 EXAMPLE = SPEC / "examples" / "run_grill_brick_1.5mm"
@@ -486,6 +486,25 @@ def test_conditioning_again_with_the_same_options_gives_the_same_stage(workspace
     assert [s.stage for s in stages] == ["raw", "tare", "inertia"]
     assert invoke(runner, "tare", "all", "--window", "1,20").exit_code == 0  # other options: a new stage
     assert [s.stage for s in api.run_detail(workspace / "runs.duckdb", "example-001").stages][-1] == "tare"
+
+
+def test_stage_parameters_that_differ_by_round_off_are_the_same_stage(tmp_path):
+    """The bundled example, made by another numpy, stacked a tare stage: its stored contact speed differed from
+    today's in the 16th digit.  Derived numbers equal to round-off are the same stage; options that differ are not."""
+    from pencli.store.workspace import Workspace
+
+    work = tmp_path / "ws"
+    shutil.copytree(REPO / "examples" / "workspace", work)
+    ws = Workspace(work / "runs.duckdb")
+    run = "gb-2.0-4"
+    table, tare_stage = ws.read_stage(run, "tare")
+    nudged = json.loads(json.dumps(tare_stage.parameters))
+    nudged["events"]["contact_speed_m_s"] = float(np.nextafter(nudged["events"]["contact_speed_m_s"], 99.0))
+    again = ws.add_stage(run, "tare", table, parent_no=0, command="pen tare", parameters=nudged)
+    assert again.stage_no == tare_stage.stage_no
+    nudged["window_ms"] = [1.0, 20.0]
+    other = ws.add_stage(run, "tare", table, parent_no=0, command="pen tare", parameters=nudged)
+    assert other.stage_no == 3
 
 
 def test_ingest_accepts_out_of_range_parameters_when_asked(workspace, runner, tmp_path):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
@@ -9,7 +10,7 @@ import os
 import sys
 import warnings
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import typer
 from rich.console import Console
@@ -129,3 +130,18 @@ def _finite(value: Any) -> Any:
 def print_json(data: Any) -> None:
     """Write ``data`` as JSON on stdout (plain, no colour, no wrapping)."""
     sys.stdout.write(json.dumps(_finite(data), indent=2, default=_json_default, allow_nan=False) + "\n")
+
+
+@contextlib.contextmanager
+def progress_bar(label: str, *, disable: bool = False) -> Iterator[Callable[[str, int, int], None]]:
+    """A transient bar on stderr (nothing when ``disable``, e.g. with ``--json``, or when stderr is not a terminal).
+
+    Yields ``update(description, done, total)``, the progress callback every long ``api`` call takes.
+    """
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=err_console, transient=True, disable=disable) as bar:
+        task = bar.add_task(label, total=None)
+        yield lambda description, done, total: bar.update(task, description=description, completed=done,
+                                                          total=total)

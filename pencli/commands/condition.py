@@ -9,7 +9,8 @@ import typer
 from rich.markup import escape
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, number_pair, print_json
+from pencli.commands.common import (DbOption, PenTyper, console, db_path, err_console, number_pair, print_json,
+                                    progress_bar)
 from pencli.filter.derivatives import DEFAULT_METHOD, METHODS
 
 app = PenTyper()
@@ -49,7 +50,9 @@ def tare(
     and the analysis window.
     Example: pen tare runs/* --json
     """
-    outcomes = api.tare_runs(db_path(db), runs, window_ms=number_pair(window, ",", "START_MS,END_MS", "--window"))
+    span = number_pair(window, ",", "START_MS,END_MS", "--window")
+    with progress_bar("taring", disable=json_out) as progress:
+        outcomes = api.tare_runs(db_path(db), runs, window_ms=span, progress=progress)
     _report(outcomes, json_out, lambda o: (f"contact {o.details['contact_s'] * 1e3:.3f} ms at "
                                            f"{o.details['contact_speed_m_s']:.3f} m/s, {o.details['end'].replace('_', ' ')}"
                                            f" at {o.details['stop_s'] * 1e3:.3f} ms, depth "
@@ -76,7 +79,9 @@ def subtract_inertia(
         raise typer.BadParameter(f"'{method}' is not one of {', '.join(METHODS)}", param_hint="--method")
     if mass_from not in ("file", "flight"):
         raise typer.BadParameter(f"'{mass_from}' is not file or flight", param_hint="--mass-from")
-    outcomes = api.subtract_inertia_runs(db_path(db), runs, method=method, use_flight_mass=mass_from == "flight")
+    with progress_bar("subtracting inertia", disable=json_out) as progress:
+        outcomes = api.subtract_inertia_runs(db_path(db), runs, method=method, use_flight_mass=mass_from == "flight",
+                                             progress=progress)
 
     def describe(o):
         est = o.details.get("mass_estimate")

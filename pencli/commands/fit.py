@@ -10,7 +10,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, print_json, usage_check
+from pencli.commands.common import (DbOption, PenTyper, console, db_path, err_console, print_json, progress_bar,
+                                    usage_check)
 from pencli.model.resistance import TERMS, parse_terms
 
 app = PenTyper()
@@ -51,8 +52,9 @@ def fit(
     """
     if out is not None and out.suffix.lower() not in (".yaml", ".yml"):
         raise typer.BadParameter(f"'{out}' must end in .yaml", param_hint="--out")
-    outcome = api.fit(db_path(db), material, runs, mode=mode, terms=terms, fix=fix or (), all_subsets=all_subsets,
-                      bootstrap=bootstrap, out=out)
+    with progress_bar("fitting", disable=json_out) as progress:
+        outcome = api.fit(db_path(db), material, runs, mode=mode, terms=terms, fix=fix or (),
+                          all_subsets=all_subsets, bootstrap=bootstrap, out=out, progress=progress)
     result = outcome.result
     if json_out:
         record = result.to_dict()

@@ -7,10 +7,9 @@ from typing import List, Optional
 
 import typer
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json, progress_bar
 
 app = PenTyper()
 
@@ -47,27 +46,33 @@ def report(
     written: list[Path] = []
     diagnosis = None
     if all_:
-        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                      console=err_console, transient=True, disable=json_out) as bar:
-            task = bar.add_task("reports", total=None)
-            written += api.report_all(catalog, out, pdf=pdf, progress=lambda title, done, total: bar.update(
-                task, description=title, completed=done, total=total))
+        with progress_bar("reports", disable=json_out) as progress:
+            written += api.report_all(catalog, out, pdf=pdf, progress=progress)
     else:
         if out.suffix.lower() != ".html":
             raise typer.BadParameter(f"'{out}' must end in .html (or use --all with a folder)", param_hint="--out")
-        sections = []
-        if material:
-            sections += api.report_material(catalog, material, version)
-        if sweep is not None:
-            sections += api.report_sweep(catalog, sweep)
-        if runs and diagnose:
-            diag_sections, diagnosis = api.report_diagnosis(catalog, runs)
-            sections += diag_sections
-        elif runs:
-            sections += api.report_runs(catalog, runs)
-        if not sections:
+        if not (material or sweep is not None or runs):
             raise typer.BadParameter("name RUNs, --material, --sweep, RUNs with --diagnose, or --all")
-        written += write_report("pen report", sections, out, pdf=pdf)
+        parts = [p for p, wanted in (("material", material), ("sweep", sweep is not None),
+                                     ("diagnosis" if diagnose else "runs", runs)) if wanted]
+        sections = []
+        with progress_bar("report", disable=json_out) as progress:
+            total = len(parts) + 1
+            for k, part in enumerate(parts):
+                progress(part, k, total)
+                if part == "material":
+                    sections += api.report_material(catalog, material, version)
+                elif part == "sweep":
+                    sections += api.report_sweep(catalog, sweep)
+                elif part == "diagnosis":
+                    diag_sections, diagnosis = api.report_diagnosis(
+                        catalog, runs, progress=lambda stage, done, k=k: progress(f"diagnosis: {stage}", k + done,
+                                                                                  total))
+                    sections += diag_sections
+                else:
+                    sections += api.report_runs(catalog, runs)
+            progress("writing HTML" + (" and PDF" if pdf else ""), len(parts), total)
+            written += write_report("pen report", sections, out, pdf=pdf)
     failures = api.run_checks(catalog, checks, diagnosis) if checks else []
     if json_out:
         print_json({"written": [str(p) for p in written], "failures": [f.__dict__ for f in failures]})

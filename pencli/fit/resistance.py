@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, replace
-from typing import Iterable, Mapping, Sequence
+from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import lsq_linear
@@ -153,7 +153,8 @@ def ranges_of(series: Sequence[RunSeries]) -> dict:
 
 def fit_resistance(series: Sequence[RunSeries], material: str, *, terms: Iterable[str] | str | None = None,
                    fixed: Mapping[str, float] | None = None, bootstrap: int = 200, seed: int = 0,
-                   leave_one_out: bool = True, n_effective: float | None = None) -> FitResult:
+                   leave_one_out: bool = True, n_effective: float | None = None,
+                   progress: Callable[[int, int], None] | None = None) -> FitResult:
     """Fit Cs, P, C, K simultaneously over ``series`` (resistance mode).
 
     Parameters
@@ -164,6 +165,7 @@ def fit_resistance(series: Sequence[RunSeries], material: str, *, terms: Iterabl
     fixed : coefficients held at a value (file units), e.g. ``{"damping_kpa_s_m": 0}``.
     bootstrap : refits on runs resampled with replacement (0: none).
     n_effective : sample count for AIC/BIC; models compared must share one (default: from these residuals).
+    progress : called with (bootstrap refits done, bootstrap) as they finish.
     """
     if not series:
         raise FitError("no runs to fit")
@@ -204,10 +206,12 @@ def fit_resistance(series: Sequence[RunSeries], material: str, *, terms: Iterabl
     if bootstrap and len(series) >= 3:
         rng = np.random.default_rng(seed)
         draws = []
-        for _ in range(bootstrap):
+        for k in range(bootstrap):
             pick = rng.integers(0, len(series), len(series))
             sub = _problem([series[i] for i in pick], varying, held)
             draws.append(_fit_values(sub))
+            if progress is not None and (k % 10 == 9 or k == bootstrap - 1):
+                progress(k + 1, bootstrap)
         boot = np.percentile(np.array(draws), [2.5, 97.5], axis=0)
 
     coefficients: dict[str, Coefficient] = {}
