@@ -408,7 +408,8 @@ def measured_only(material: ParameterSet) -> ParameterSet:
 
 
 def acquire(*, springs: int | None, penetrator: str, material: str, energizing: str | None = None,
-            rig: str | Path | None = None, driver: str | None = None, rate_hz: float | None = None,
+            rig: str | Path | Mapping[str, Any] | None = None, driver: str | None = None,
+            rate_hz: float | None = None,
             duration_s: float = 2.0, pre_trigger_s: float = 0.2, post_motion_s: float = 0.2,
             position_cal: str | Path | None = None, force_cal: str | Path | None = None,
             info: Mapping[str, Any] | None = None, confirm: Callable[[], bool] = lambda: True,

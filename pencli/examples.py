@@ -42,26 +42,24 @@ CAMPAIGN = (
 
 def build(db: Path) -> list[str]:
     """Rebuild the example workspace at ``db``; returns the run ids."""
-    runs_dir = db.parent / "runs"
     for path in (db, db.with_name(db.name + ".wal")):
         if path.exists():
             path.unlink()
+    for folder in ("runs", "fits", "sweeps", "quarantine"):  # whatever a stale catalog indexed goes with it
+        if (db.parent / folder).exists():
+            shutil.rmtree(db.parent / folder)
     ids = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed, (run_id, material, blade, springs, block_kpa) in enumerate(CAMPAIGN):
-            if (runs_dir / run_id).exists():
-                shutil.rmtree(runs_dir / run_id)
             mapping = load_preset(material, "material").to_mapping()
             mapping.pop("notes", None)
             if block_kpa is not None:
                 mapping["microstructure_strength_kpa"] = block_kpa
             material_file = Path(tmp) / f"{run_id}-material.yaml"
             material_file.write_text(yaml.safe_dump(mapping))
-            rig_file = Path(tmp) / f"{run_id}-rig.yaml"
-            rig_file.write_text(yaml.safe_dump({"kind": "rig", "name": "sim_example", "seed": 1000 + seed,
-                                                "true_material": str(material_file)}))
+            rig = {"kind": "rig", "name": "sim_example", "seed": 1000 + seed, "true_material": str(material_file)}
             shot = api.acquire(springs=springs, penetrator=f"al6061_{blade}mm", material=str(material_file),
-                               rig=rig_file, duration_s=1.0,
+                               rig=rig, duration_s=1.0,
                                info={"id": run_id, "date": f"2026-11-{10 + seed:02d}", "operator": "sim",
                                      "notes": "example campaign (simulated rig, no hidden effect)",
                                      "tags": ["example", material]})

@@ -220,3 +220,26 @@ def test_a_workspace_in_a_missing_folder_is_refused_before_firing(workspace, run
     r = invoke(runner, "acquire", "--springs", "2", "--yes", "--save", "--db", workspace / "nowhere" / "runs.duckdb")
     assert r.exit_code == 1 and "does not exist" in r.output and "before firing" in r.output
     assert fired == [] and not (workspace / "nowhere").exists()
+
+
+def test_the_bundled_example_catalog_holds_no_machine_paths():
+    """Issue 13: the example catalog stored absolute build paths (a temporary rig file, the install's data
+    folder).  Bundled files are named bundled:<name>, an in-memory rig is 'inline'."""
+    import json as _json
+    import re
+
+    import duckdb
+
+    from tests.conftest import REPO
+
+    con = duckdb.connect(str(REPO / "examples" / "workspace" / "runs.duckdb"), read_only=True)
+    try:
+        texts = [str(v) for table in ("runs", "run_parameters", "stages", "materials", "sweeps")
+                 for row in con.execute(f"SELECT * FROM {table}").fetchall() for v in row]
+        info = [_json.loads(r[0]) for r in con.execute("SELECT info FROM runs").fetchall()]
+    finally:
+        con.close()
+    absolute = [t for t in texts if re.search(r"(^|[\"' ])/(tmp|home|root|work|usr|opt)/", t)]
+    assert absolute == []
+    assert {i["position_calibration"] for i in info} == {"bundled:encoder_default.yaml"}
+    assert {i["force_calibration"] for i in info} == {"bundled:ft_default.cal"}

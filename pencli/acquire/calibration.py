@@ -47,6 +47,12 @@ def _default(name: str) -> Path:
     return Path(str(resources.files("pencli.acquire.data").joinpath(name)))
 
 
+def provenance(path: Path) -> str:
+    """How a file is named in a run's record: ``bundled:<name>`` for pen's own data files (the same on every
+    machine; no install path in a catalog), else the path as given."""
+    return f"bundled:{path.name}" if path == _default(path.name) else str(path)
+
+
 def load_position_calibration(path: str | Path | None = None) -> PositionCalibration:
     """Read a position calibration (YAML with ``counts_per_mm``); default: the bundled encoder."""
     path = Path(path) if path is not None else _default("encoder_default.yaml")
@@ -56,7 +62,7 @@ def load_position_calibration(path: str | Path | None = None) -> PositionCalibra
     value = data["counts_per_mm"]
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
         raise ParameterError(f"{path}: key 'counts_per_mm': got {value!r}; expected a number > 0")
-    return PositionCalibration(float(value), str(path))
+    return PositionCalibration(float(value), provenance(path))
 
 
 def load_force_calibration(path: str | Path | None = None) -> ForceCalibration:
@@ -88,4 +94,4 @@ def load_force_calibration(path: str | Path | None = None) -> ForceCalibration:
         raise ParameterError(f"{path}: calibration matrix is {matrix.shape}; expected 6 rows of 6 values")
     if not np.all(np.isfinite(matrix)) or abs(np.linalg.det(matrix)) < 1e-12:
         raise ParameterError(f"{path}: calibration matrix is singular or not finite")
-    return ForceCalibration(matrix, str(path))
+    return ForceCalibration(matrix, provenance(path))

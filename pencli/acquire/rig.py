@@ -104,14 +104,17 @@ def validate_rig(data: Any, where: str) -> RigConfig:
     return RigConfig(name, values, where)
 
 
-def load_rig(ref: str | Path | None) -> RigConfig:
-    """A rig file path, or ``None`` for the bundled default simulated rig."""
+def load_rig(ref: str | Path | Mapping[str, Any] | None) -> RigConfig:
+    """A rig file path, a rig mapping (recorded as ``inline``), or ``None`` for the bundled default simulated rig
+    (recorded as ``bundled:sim_default.yaml``)."""
+    if isinstance(ref, Mapping):
+        return rig_from_mapping(ref, "inline")
     if ref is None:
         path = Path(str(resources.files("pencli.acquire.data").joinpath("sim_default.yaml")))
-    else:
-        path = Path(ref)
-        if not path.is_file():
-            raise ParameterError(f"{path}: no such rig file")
+        return validate_rig(read_yaml(path), f"bundled:{path.name}")
+    path = Path(ref)
+    if not path.is_file():
+        raise ParameterError(f"{path}: no such rig file")
     return validate_rig(read_yaml(path), str(path))
 
 
