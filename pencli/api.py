@@ -184,6 +184,7 @@ class IngestOutcome:
     status: str
     id: str | None = None
     message: str = ""
+    warnings: tuple[str, ...] = ()
 
 
 def expand_sources(paths: Iterable[str | Path]) -> list[tuple[str, Path | None, str]]:
@@ -229,7 +230,7 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
            progress: Callable[[IngestOutcome], None] | None = None,
            allow_out_of_range: bool = False) -> list[IngestOutcome]:
     """Ingest run folders into the workspace; each source is accepted or rejected on its own."""
-    from pencli.io.runfolder import ReadOptions, parse_column_map, read_run_folder, unit_factor
+    from pencli.io.runfolder import ReadOptions, ignored_columns_warning, parse_column_map, read_run_folder, unit_factor
 
     options = ReadOptions(parse_column_map(columns), time_unit, position_unit, force_unit, torque_unit,
                           allow_out_of_range=allow_out_of_range)
@@ -279,7 +280,9 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
                 except (OSError, MemoryError, ValueError) as exc:  # a full disk, no memory: this run, not the batch
                     outcome = IngestOutcome(str(folder), "rejected", message=f"{folder}: not stored: {_one_line(exc)}")
                 else:
-                    outcome = IngestOutcome(str(folder), "added" if added.created else "existing", added.run_id)
+                    note = ignored_columns_warning(run) if added.created else None
+                    outcome = IngestOutcome(str(folder), "added" if added.created else "existing", added.run_id,
+                                            warnings=(note,) if note else ())
             outcomes.append(outcome)
             if progress is not None:
                 progress(outcome)

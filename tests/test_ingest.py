@@ -537,3 +537,23 @@ def test_written_files_and_folders_honour_the_umask(workspace, runner, tmp_path)
         assert stat.S_IMODE((tmp_path / "exported" / "data.csv").stat().st_mode) == 0o644
     finally:
         os.umask(old)
+
+
+def test_an_extra_column_is_named_not_dropped_in_silence(workspace, runner, tmp_path):
+    """Issue 13: an extra column was dropped silently, so export looked lossless and was not."""
+    columns = synthetic_columns()
+    columns_with_extra = {**columns, "temp_c": np.full(len(columns["time_s"]), 21.5)}
+    header = [*COLUMNS[:3], "temp_c", *COLUMNS[3:]]
+    lines = [",".join(header)] + [",".join(repr(float(columns_with_extra[c][i])) for c in header)
+                                  for i in range(len(columns["time_s"]))]
+    folder = write_folder(tmp_path / "thermo", text="\n".join(lines) + "\n")
+    r = invoke(runner, "ingest", folder, "--json")
+    assert r.exit_code == 0, r.output
+    (entry,) = json.loads(r.stdout)
+    assert entry["status"] == "added" and "'temp_c'" in entry["warnings"][0]
+    raw = api.run_detail(workspace / "runs.duckdb", entry["id"]).stages[0]
+    assert raw.parameters["ignored_columns"] == ["temp_c"]
+    plain = invoke(runner, "ingest", write_folder(tmp_path / "thermo2", text="\n".join(
+        lines[:1] + [line.replace(",21.5,", ",22.5,") for line in lines[1:]]) + "\n"))
+    # the same contract data again: the existing run, and nothing more to say
+    assert plain.exit_code == 0 and "existing" in plain.stdout and "temp_c" not in plain.stderr

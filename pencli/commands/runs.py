@@ -71,8 +71,8 @@ def ingest(
                                   progress=lambda _o: bar.advance(task))
     rejected = [o for o in outcomes if o.status == "rejected"]
     if json_out:
-        print_json([{"id": o.id, "source": o.source, "status": o.status, **({"error": o.message} if o.message else {})}
-                    for o in outcomes])
+        print_json([{"id": o.id, "source": o.source, "status": o.status, **({"error": o.message} if o.message else {}),
+                     **({"warnings": list(o.warnings)} if o.warnings else {})} for o in outcomes])
     else:
         for o in outcomes:
             if o.status == "rejected":
@@ -80,6 +80,8 @@ def ingest(
             else:
                 console.print(f"{'[green]added[/green]   ' if o.status == 'added' else '[dim]existing[/dim]'} "
                               f"{escape(o.id or '')}  [dim]{escape(o.source)}[/dim]", highlight=False)
+            for warning in o.warnings:
+                err_console.print(f"[yellow]warning:[/yellow] {escape(warning)}", highlight=False, soft_wrap=True)
         added = sum(o.status == "added" for o in outcomes)
         console.print(f"{added} added, {sum(o.status == 'existing' for o in outcomes)} already present, "
                       f"{len(rejected)} rejected → {catalog}")

@@ -266,8 +266,22 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
     columns = map_columns(header, raw, data_path, options)
     check_run_columns(columns, str(data_path), surface_offset_mm=float(sets["energizing"].get("surface_offset_mm")),
                       sensor=options.sensor)
+    used = {options.columns.get(name, name) for name in RAW_COLUMNS}
+    ignored = [name for name in header if name and name not in used]
+    record = options.as_record()
+    if ignored:
+        record["ignored_columns"] = ignored  # kept in the raw stage's provenance; the data are not stored
     return RunData(columns, sets["penetrator"], sets["material"], sets["energizing"], info,
-                   str(folder.resolve()), data_path.suffix.lower().lstrip("."), options.as_record())
+                   str(folder.resolve()), data_path.suffix.lower().lstrip("."), record)
+
+
+def ignored_columns_warning(run: RunData) -> str | None:
+    """One line saying which columns of the data file pen did not store (None: none)."""
+    ignored = run.reader_options.get("ignored_columns")
+    if not ignored:
+        return None
+    return (f"{run.source}: column(s) {', '.join(repr(c) for c in ignored)} are not CONTRACT §3 columns and were "
+            f"not stored (pen export writes the eight contract columns; keep the original file for the rest)")
 
 
 def write_run_folder(target: str | Path, columns: Mapping[str, np.ndarray], parameters: Mapping[str, dict],
