@@ -22,6 +22,7 @@ app = PenTyper(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # plain help, and a usage error's message on one line (not wrapped in a box)
 )
 app.add_typer(params_cmd.app, name="params")
 app.add_typer(runs_cmd.runs_app, name="runs")

@@ -10,11 +10,10 @@ from typing import List, Optional
 import numpy as np
 import typer
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from pencli import api
 from pencli.errors import PenError
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json, progress_bar
 
 app = PenTyper()
 
@@ -68,13 +67,7 @@ def acquire(
         save = True  # nobody to ask: a recorded shot is kept, never dropped at a prompt that cannot be answered
     if save:
         api.check_can_save(db_path(db), run_id)  # before firing: a shot that cannot be saved is not fired
-    with Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), console=err_console,
-                  transient=True, disable=json_out) as bar:
-        task = bar.add_task("arming", total=None)
-
-        def progress(stage: str, done: int, total: int) -> None:
-            bar.update(task, description=stage, completed=done, total=total)
-
+    with progress_bar("arming", disable=json_out) as progress:
         shot = api.acquire(springs=springs, penetrator=penetrator, material=material, energizing=energizing, rig=rig,
                            driver=driver, rate_hz=rate, duration_s=duration, position_cal=position_cal,
                            force_cal=force_cal, info=info, confirm=confirm, progress=progress)

@@ -7,6 +7,7 @@ import functools
 import json
 import math
 import os
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -101,7 +102,14 @@ class PenTyper(typer.Typer):
 
     def command(self, *args, **kwargs):
         register = super().command(*args, **kwargs)
-        return lambda fn: register(pen_errors(fn))
+
+        def wrap(fn):
+            wrapped = pen_errors(fn)
+            if wrapped.__doc__:  # plain help re-flows paragraphs: an example line gets a paragraph of its own
+                wrapped.__doc__ = re.sub(r"\n([ \t]*)(Examples?:)", r"\n\n\1\2", wrapped.__doc__)
+            return register(wrapped)
+
+        return wrap
 
     def callback(self, *args, **kwargs):
         register = super().callback(*args, **kwargs)
@@ -134,14 +142,15 @@ def print_json(data: Any) -> None:
 
 @contextlib.contextmanager
 def progress_bar(label: str, *, disable: bool = False) -> Iterator[Callable[[str, int, int], None]]:
-    """A transient bar on stderr (nothing when ``disable``, e.g. with ``--json``, or when stderr is not a terminal).
+    """A transient bar on stderr (nothing when ``disable``, e.g. with ``--json``, or when stderr is not a terminal:
+    a log or a pipe gets the result lines only).
 
     Yields ``update(description, done, total)``, the progress callback every long ``api`` call takes.
     """
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=err_console, transient=True, disable=disable) as bar:
+                  console=err_console, transient=True, disable=disable or not err_console.is_terminal) as bar:
         task = bar.add_task(label, total=None)
         yield lambda description, done, total: bar.update(task, description=description, completed=done,
                                                           total=total)

@@ -8,11 +8,10 @@ from typing import List, Optional
 
 import typer
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, progress_bar
 from pencli.diagnose.effects import EFFECTS
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM
 
@@ -55,12 +54,9 @@ def diagnose(
     if plot is not None and plot.suffix.lower() not in (".png", ".pdf"):
         raise typer.BadParameter(f"'{plot}' must end in .png or .pdf", param_hint="--plot")
     chosen = [e.strip() for e in effects.split(",")] if effects else None
-    with Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), console=err_console,
-                  transient=True) as bar:
-        task = bar.add_task("diagnosing", total=1.0)
+    with progress_bar("diagnosing") as progress:
         result = api.diagnose(db_path(db), runs, effects=chosen, false_alarm=false_alarm, bootstrap=bootstrap,
-                              seed=seed, progress=lambda stage, done: bar.update(task, description=stage,
-                                                                                  completed=done))
+                              seed=seed, progress=lambda stage, done: progress(stage, done, 1))
     if plot is not None:
         from pencli.report.diagnosis import plot_diagnosis
 

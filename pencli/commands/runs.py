@@ -8,12 +8,12 @@ from pathlib import Path
 from typing import List, Optional
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.markup import escape
 from rich.table import Table
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json, usage_check
+from pencli.commands.common import (DbOption, PenTyper, console, db_path, err_console, fail, print_json, progress_bar,
+                                    usage_check)
 
 app = PenTyper()
 runs_app = PenTyper(help="List, show and query the runs of a workspace.", invoke_without_command=True)
@@ -63,12 +63,11 @@ def ingest(
         outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range, columns=columns, time_unit=time_unit, position_unit=position_unit,
                               force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs)
     else:
-        with Progress(TextColumn("ingesting"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                      console=err_console, transient=True) as bar:
-            task = bar.add_task("ingest", total=None)
+        with progress_bar("ingesting") as progress:
+            count = iter(range(1, 1 << 62))
             outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range, columns=columns, time_unit=time_unit, position_unit=position_unit,
                                   force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs,
-                                  progress=lambda _o: bar.advance(task))
+                                  progress=lambda _o: progress("ingesting", next(count), None))
     rejected = [o for o in outcomes if o.status == "rejected"]
     if json_out:
         print_json([{"id": o.id, "source": o.source, "status": o.status, **({"error": o.message} if o.message else {}),

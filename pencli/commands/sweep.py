@@ -7,11 +7,10 @@ from typing import List, Optional
 
 import typer
 from rich.markup import escape
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from pencli import api
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, number_pair, print_json
+from pencli.commands.common import DbOption, PenTyper, console, db_path, number_pair, print_json, progress_bar
 
 app = PenTyper()
 
@@ -89,13 +88,11 @@ def sweep(
             console.print(f"{answer.want} {answer.key} with {answer.condition}: {answer.value:.5g} {answer.unit} "
                           f"(± {answer.resolution / 2:.2g})")
         return
-    with Progress(TextColumn("sweeping"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=err_console, transient=True, disable=json_out) as bar:
-        task = bar.add_task("sweep", total=None)
+    with progress_bar("sweeping", disable=json_out) as progress:
         outcome = api.sweep(penetrator, material, energizing, vary=vary or (), resolution=resolution, sample=sample,
                             n=n, seed=seed, overrides=set_ or (), out=out, db=None if out else db_path(db),
                             engine=engine, scheduler=scheduler, workers=workers, speed_at_contact_m_s=speed_at_contact,
-                            progress=lambda done, total: bar.update(task, completed=done, total=total))
+                            progress=lambda done, total: progress("sweeping", done, total))
     record = {"n_designs": outcome.n_designs, "variables": outcome.variables, "summary": outcome.summary,
               "path": str(outcome.path) if outcome.path else None, "sweep_id": outcome.sweep_id,
               "seconds": outcome.seconds}

@@ -47,7 +47,9 @@ from pencli.store.rundata import RAW_COLUMNS, RunData, content_hash, table_hash
 DEFAULT_LOCK_TIMEOUT_S = 30.0
 RAW_STAGE = "raw"
 _ID_SAFE = re.compile(r"[^A-Za-z0-9._-]+")
-_TEMPORARY = re.compile(r"^\.(?:.+\.(?P<pid>\d+)\.tmp|pending-(?P<pid2>\d+)-\d+\.parquet|.+\.compact-(?P<pid3>\d+)(?:\.wal)?)$")
+_TEMPORARY = re.compile(r"^\.(?:.+\.(?P<pid>\d+)\.tmp"                       # a stage or fit being written
+                        r"|pending-(?P<pid2>\d+)-\d+\.parquet"                # a sweep being written
+                        r"|.+\.compact-(?P<pid3>\d+)(?:\.wal)?)$")             # a catalog being compacted
 _STAGE_FILE = re.compile(r"^(\d{2})-([A-Za-z0-9_-]+)\.parquet$")
 QUARANTINE = "quarantine"
 
