@@ -780,7 +780,8 @@ def _same_parameters(a: Any, b: Any, rtol: float = 1e-9) -> bool:
         return a.keys() == b.keys() and all(_same_parameters(a[k], b[k], rtol) for k in a)
     if isinstance(a, list) and isinstance(b, list):
         return len(a) == len(b) and all(_same_parameters(x, y, rtol) for x, y in zip(a, b))
-    if isinstance(a, float) and isinstance(b, (int, float)) and not isinstance(b, bool):
+    numbers = all(isinstance(q, (int, float)) and not isinstance(q, bool) for q in (a, b))
+    if numbers and (isinstance(a, float) or isinstance(b, float)):
         return abs(a - b) <= rtol * max(abs(a), abs(b)) or a == b
     return a == b
 
