@@ -168,6 +168,10 @@ def validate_files(paths: Iterable[str | Path], *, allow_out_of_range: bool = Fa
     return out
 
 
+Progress = Callable[[str, int, int], None]
+"""The progress callback every long call takes: (what is being done, done, total)."""
+
+
 # ---------------------------------------------------------------------------- workspace: ingest, runs, export
 def workspace(db: str | Path):
     """The workspace whose catalog is ``db``."""
@@ -227,7 +231,7 @@ def expand_sources(paths: Iterable[str | Path]) -> list[tuple[str, Path | None, 
 def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None = None, time_unit: str = "s",
            position_unit: str = "mm", force_unit: str = "N", torque_unit: str = "Nm",
            parameter_refs: Mapping[str, str] | None = None, command: str = "pen ingest",
-           progress: Callable[[IngestOutcome], None] | None = None,
+           progress: Progress | None = None,
            allow_out_of_range: bool = False) -> list[IngestOutcome]:
     """Ingest run folders into the workspace; each source is accepted or rejected on its own."""
     from pencli.io.runfolder import ReadOptions, ignored_columns_warning, parse_column_map, read_run_folder, unit_factor
@@ -285,7 +289,7 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
                                             warnings=(note,) if note else ())
             outcomes.append(outcome)
             if progress is not None:
-                progress(outcome)
+                progress(outcome.source, len(outcomes), len(sources))
     return outcomes
 
 
@@ -416,7 +420,7 @@ def acquire(*, springs: int | None, penetrator: str, material: str, energizing: 
             duration_s: float = 2.0, pre_trigger_s: float = 0.2, post_motion_s: float = 0.2,
             position_cal: str | Path | None = None, force_cal: str | Path | None = None,
             info: Mapping[str, Any] | None = None, confirm: Callable[[], bool] = lambda: True,
-            progress: Callable[[str, int, int], None] | None = None) -> Acquisition:
+            progress: Progress | None = None) -> Acquisition:
     """Fire one shot on the rig (simulated by default) and return it, unsaved."""
     import datetime as _dt
 
@@ -472,12 +476,8 @@ class StageOutcome:
     warnings: tuple[str, ...] = ()
 
 
-Progress3 = Callable[[str, int, int], None]
-"""A progress callback: (what is being done, done, total)."""
-
-
 def _each_run(db: str | Path, refs: Sequence[str], work: Callable[[Any, str], StageOutcome],
-              progress: Progress3 | None = None) -> list[StageOutcome]:
+              progress: Progress | None = None) -> list[StageOutcome]:
     """Apply ``work(workspace, run_id)`` to every run; a failure rejects that run only."""
     ws = workspace(db)
     outcomes = []
@@ -513,7 +513,7 @@ def expand_run_refs(ws, refs: Sequence[str]) -> list[str]:
 
 
 def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, float] | None = None,
-              progress: Progress3 | None = None) -> list[StageOutcome]:
+              progress: Progress | None = None) -> list[StageOutcome]:
     """``pen tare``: offsets from the pre-trigger span, depth from the stand-off, events; a new stage."""
     import pyarrow as pa
 
@@ -536,7 +536,7 @@ def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, fl
 
 
 def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | None = None,
-                          use_flight_mass: bool = False, progress: Progress3 | None = None) -> list[StageOutcome]:
+                          use_flight_mass: bool = False, progress: Progress | None = None) -> list[StageOutcome]:
     """``pen subtract-inertia``: v and a from the encoder, R = F − m_lc·a; a new stage."""
     import pyarrow as pa
 
@@ -599,7 +599,7 @@ class _Conditioned:
 
 
 def _conditioned_runs(db: str | Path, refs: Sequence[str], names: Sequence[str],
-                      progress: Progress3 | None = None) -> list[_Conditioned]:
+                      progress: Progress | None = None) -> list[_Conditioned]:
     """Each run's latest stage, which must be an inertia stage, with its events and parameter sets."""
     from pencli.filter.tare import Events
 
@@ -620,7 +620,7 @@ def _conditioned_runs(db: str | Path, refs: Sequence[str], names: Sequence[str],
     return out
 
 
-def load_series(db: str | Path, refs: Sequence[str], progress: Progress3 | None = None) -> list:
+def load_series(db: str | Path, refs: Sequence[str], progress: Progress | None = None) -> list:
     """Each run's latest stage as a :class:`~pencli.fit.resistance.RunSeries` (needs an inertia stage)."""
     from pencli.fit.resistance import RunSeries
 
@@ -699,7 +699,7 @@ def material_file_from_fit(name: str, series: Sequence, result) -> dict:
 def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resistance",
         terms: str | Sequence[str] | None = None, fix: Sequence[str] = (), all_subsets: bool = False,
         bootstrap: int = 200, out: str | Path | None = None, record: bool = True,
-        command: str = "pen fit", progress: Progress3 | None = None) -> FitOutcome:
+        command: str = "pen fit", progress: Progress | None = None) -> FitOutcome:
     """``pen fit``: Eq. 9 coefficients over runs, recorded as a new material version."""
     import pyarrow as pa
     import yaml
@@ -722,7 +722,7 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
     names = sorted({s.material for s in series})
     if len(names) > 1:
         notes.append(f"runs of several materials fitted together: {', '.join(names)}")
-    step("fitting", 0, bootstrap + 1)
+    step("fitting", 0, 1)
     result = fit_resistance(series, material, terms=terms, fixed=fixed, bootstrap=bootstrap,
                             progress=lambda done, total: step("fitting, bootstrap over runs", done, total))
     if mode == "dynamic":
@@ -1233,7 +1233,7 @@ def report_diagnosis(db: str | Path, refs: Sequence[str], progress: Callable[[st
 
 
 def report_all(db: str | Path, out: str | Path, *, pdf: bool = True,
-               progress: Callable[[str, int, int], None] | None = None) -> list[Path]:
+               progress: Progress | None = None) -> list[Path]:
     """``pen report --all``: one report per run, fitted material version and sweep under ``out``."""
     from pencli.report.build import write_report
 

@@ -64,10 +64,9 @@ def ingest(
                               force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs)
     else:
         with progress_bar("ingesting") as progress:
-            count = iter(range(1, 1 << 62))
             outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range, columns=columns, time_unit=time_unit, position_unit=position_unit,
                                   force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs,
-                                  progress=lambda _o: progress("ingesting", next(count), None))
+                                  progress=progress)
     rejected = [o for o in outcomes if o.status == "rejected"]
     if json_out:
         print_json([{"id": o.id, "source": o.source, "status": o.status, **({"error": o.message} if o.message else {}),
