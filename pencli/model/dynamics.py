@@ -325,24 +325,29 @@ def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: fl
     atol = np.array([1e-13, 1e-12, 1e-11, 1e-11, 1e-11][:y.size])
     ev_full = _event(lambda _t, s: s[0] - depth, 1.0)
     ev_arrest = _event(lambda _t, s: s[1], -1.0)
-    stops = [ev_full, ev_arrest]
+    stops = {"full": ev_full, "arrest": ev_arrest}
+    creep = None if extra is not None else creep_target(design, law)
+    if creep is not None:
+        stops["creep"] = _event(lambda _t, s: s[0] - creep[0], 1.0)
     if release_depth > 0.0 and release_depth < depth:
-        stops.append(_event(lambda _t, s: s[0] - release_depth, 1.0))
+        stops["release"] = _event(lambda _t, s: s[0] - release_depth, 1.0)
+    method = "Radau" if _stiff(design, law) else "DOP853"
     while True:
-        sol = solve_ivp(rhs, (t, t0 + _T_MAX_S), y, method="DOP853", rtol=rtol, atol=atol,
-                        events=stops, dense_output=True)
-        hit = [i for i, times in enumerate(sol.t_events) if len(times)]
+        sol = solve_ivp(rhs, (t, t0 + _T_MAX_S), y, method=method, rtol=rtol, atol=atol,
+                        events=list(stops.values()), dense_output=True)
+        hit = [name for name, times in zip(stops, sol.t_events) if len(times)]
         if not hit:
             segments.append((sol.t[0], sol.t[-1], sol.sol, sol.t))
             return segments, "stalled", sol.t[-1], sol.y[:, -1]
-        i = hit[0]
+        name = hit[0]
+        i = list(stops).index(name)
         t_hit = float(sol.t_events[i][0])
         y_hit = np.array(sol.y_events[i][0], dtype=float)
         segments.append((sol.t[0], t_hit, sol.sol, sol.t))
-        if i == 0:
+        if name == "full":
             y_hit[0] = depth
             return segments, "full_depth", t_hit, y_hit
-        if i == 1:
+        if name == "arrest":
             if y_hit[0] > depth:
                 # the tip passed the stops and would have come back within the same step, so the depth
                 # event saw no sign change at the step ends: the stops were reached first, where x = depth
@@ -353,9 +358,69 @@ def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: fl
                 return segments, "full_depth", t_full, y_full
             y_hit[1] = 0.0
             return segments, "arrest", t_hit, y_hit
-        y_hit[0] = release_depth  # springs at free length: restart without that event
-        stops = stops[:2]
+        del stops[name]  # a creep distance or the springs' free length, passed: restart without it
+        if name == "creep":
+            if y_hit[1] <= creep[1]:  # slow: on the slow mode, it creeps towards x* and never gets there
+                rest = creep[2]
+                y_hit[2] += _work(design, law, y_hit[0], rest) + 0.5 * mass * y_hit[1] ** 2  # booked at x*
+                y_hit[0], y_hit[1] = rest, 0.0
+                return segments, "creep", t_hit, y_hit
+            t, y = t_hit, y_hit  # fast: it will pass x* and arrest beyond it
+            continue
+        y_hit[0] = release_depth  # springs at free length
         t, y = t_hit, y_hit
+
+
+CREEP_DISTANCE_M = 1e-6
+"""δ: a creeping run ends when its tip comes this close to the rest depth (see :func:`creep_target`). [m]"""
+
+
+def creep_target(design: Design, law: ResistanceLaw):
+    """(x* − δ [m], speed limit ω0·δ [m/s], x* [m]) of a design that can creep, else ``None``.
+
+    The rest depth x* is where drive and weight equal strength and friction,
+    η n k·max(x_k − x, 0) + m g = a0 + a1·x.  With damping heavy enough that the motion is overdamped
+    there (b² ≥ 4·m·k, k = the force's slope at x*), the tip approaches x* along the slow mode and never
+    reaches it: the penetration time is then *defined* as the moment the tip comes within
+    :data:`CREEP_DISTANCE_M` of x* at a speed at most ω0·δ (ω0 = √(k/m); a faster approach is on the fast
+    mode and overshoots x*, then arrests).  The final depth is x*.  The batch simulator uses the same rule.
+    """
+    m, kd, g = design.effective_mass_kg, design.drive_stiffness_n_m, design.gravity_m_s2
+    xk = design.stroke_m - design.surface_offset_m
+    a0, a1, b = law.strength_n, law.friction_n_m, law.damping_n_s_m
+    if b <= 0.0:
+        return None
+    if xk > 0.0 and m * g - a0 - a1 * xk <= 0.0:
+        k = kd + a1
+        rest = (kd * xk + m * g - a0) / k
+    elif a1 > 0.0:
+        k = a1
+        rest = (m * g - a0) / a1
+    else:
+        return None
+    if not (CREEP_DISTANCE_M < rest < design.penetration_depth_m) or b * b < 4.0 * m * k:
+        return None
+    return rest - CREEP_DISTANCE_M, math.sqrt(k / m) * CREEP_DISTANCE_M * (1.0 + 1e-9), rest
+
+
+def _work(design: Design, law: ResistanceLaw, x0: float, x1: float) -> float:
+    """∫ (drive + weight − strength − friction) dx from x0 to x1. [J]"""
+    xk = design.stroke_m - design.surface_offset_m
+    spring = 0.5 * design.drive_stiffness_n_m * (max(xk - x0, 0.0) ** 2 - max(xk - x1, 0.0) ** 2)
+    return (spring + (design.effective_mass_kg * design.gravity_m_s2 - law.strength_n) * (x1 - x0)
+            - 0.5 * law.friction_n_m * (x1 * x1 - x0 * x0))
+
+
+STIFF_RATIO = 100.0
+"""Above this (damping time scale / motion time scale)⁻¹, i.e. b²/(m·k) with k = the largest force slope,
+the penetration is integrated with Radau (implicit) instead of DOP853, whose steps the damping would
+hold to m/b. [–]"""
+
+
+def _stiff(design: Design, law: ResistanceLaw) -> bool:
+    b = law.damping_n_s_m
+    k = design.drive_stiffness_n_m + law.friction_n_m
+    return b > 0.0 and b * b > STIFF_RATIO * design.effective_mass_kg * max(k, 1e-300)
 
 
 def _peak(law: ResistanceLaw, segments, extra=None) -> tuple[float, float]:
