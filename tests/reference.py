@@ -63,21 +63,62 @@ def reference_run(p: dict, m: dict, e: dict, speed_at_contact: float | None = No
     full.terminal, full.direction = True, 1
     arrest = lambda t, y: y[1]  # noqa: E731
     arrest.terminal, arrest.direction = True, -1
-    pen = solve_ivp(lambda t, y: [y[1], accel(y[0], y[1], True)], (t_c, t_c + 10), [0.0, v_c], method="Radau",
-                    rtol=rtol, atol=1e-14, events=[full, arrest], dense_output=True)
-    if len(pen.t_events[0]):
-        t_end, x_end, reached = float(pen.t_events[0][0]), depth, True
-    else:
-        t_end, x_end, reached = float(pen.t_events[1][0]), float(pen.y_events[1][0][0]), False
-    tt = np.linspace(t_c, t_end, 400_001)
-    xs, vs = pen.sol(tt)
-    vp = np.maximum(vs, 0.0)
-    rs = w * T * (Cs * S * (math.sin(theta) + mu * math.cos(theta)) + mu * P * 2 * xs / T + C * vp + K * rho * vp ** 2)
-    i = int(np.argmax(rs))
+    events = [full, arrest]
+    creep = _creep(lambda x: accel(x, 0.0, True), depth, w * T * C, mass) if C > 0 else None
+    if creep is not None:  # README "Creep": within 1 µm of the rest depth, on the slow mode
+        near = lambda t, y: y[0] - (creep[0] - 1e-6)  # noqa: E731
+        near.terminal, near.direction = True, 1
+        events.append(near)
+    rhs = lambda t, y: [y[1], accel(y[0], y[1], True)]  # noqa: E731
+    t0, y0, pieces = t_c, [0.0, v_c], []
+    while True:
+        pen = solve_ivp(rhs, (t0, t_c + 100), y0, method="Radau", rtol=rtol, atol=1e-14, events=events,
+                        dense_output=True)
+        pieces.append(pen)
+        if len(pen.t_events[0]):
+            t_end, x_end, reached, end = float(pen.t_events[0][0]), depth, True, "full_depth"
+        elif len(pen.t_events[1]):
+            t_end, x_end, reached, end = float(pen.t_events[1][0]), float(pen.y_events[1][0][0]), False, "arrest"
+        else:
+            t0, y0 = float(pen.t_events[2][0]), list(pen.y_events[2][0])
+            events = events[:2]
+            if y0[1] <= creep[1]:
+                t_end, x_end, reached, end = t0, creep[0], False, "creep"
+            else:
+                continue
+        break
+    best_r, best_x = -math.inf, 0.0
+    for piece in pieces:
+        tt = np.linspace(piece.t[0], min(piece.t[-1], t_end), 400_001)
+        xs, vs = piece.sol(tt)
+        vp = np.maximum(vs, 0.0)
+        rs = w * T * (Cs * S * (math.sin(theta) + mu * math.cos(theta)) + mu * P * 2 * xs / T + C * vp
+                      + K * rho * vp ** 2)
+        i = int(np.argmax(rs))
+        if rs[i] > best_r:
+            best_r, best_x = float(rs[i]), float(xs[i])
+    v_end = float(pieces[-1].sol(t_end)[1]) if reached else 0.0
     return {
         "contact_speed_m_s": v_c,
         "penetration_time_s": t_end - t_c,
         "final_depth_mm": x_end * 1000,
         "full_penetration": reached,
-        "peak_resistance_n": float(rs[i]),
+        "peak_resistance_n": best_r,
+        "peak_resistance_depth_mm": best_x * 1000,
+        "residual_ke_j": 0.5 * mass * v_end ** 2,
+        "end": end,
     }
+
+
+def _creep(force_at_rest, depth: float, b: float, mass: float):
+    """(rest depth, speed limit) when the motion is overdamped where the net force at rest vanishes, else None."""
+    from scipy.optimize import brentq
+
+    if not (force_at_rest(1e-12) > 0 > force_at_rest(depth)):
+        return None
+    rest = brentq(force_at_rest, 1e-12, depth, xtol=1e-15, rtol=1e-15)
+    h = 1e-7
+    k = -mass * (force_at_rest(rest + h) - force_at_rest(rest - h)) / (2 * h)  # slope of the net force there
+    if k <= 0 or b * b < 4 * mass * k:
+        return None
+    return rest, math.sqrt(k / mass) * 1e-6 * (1 + 1e-9)

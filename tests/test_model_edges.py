@@ -109,3 +109,62 @@ def test_an_energy_balance_beyond_tolerance_is_a_warning(monkeypatch):
     monkeypatch.setattr(dyn, "ENERGY_TOLERANCE", 1e-30)
     loud = api.predict("appendix_c", "grill_brick", "appendix_c")
     assert any("energy balance" in w for w in loud.to_dict()["warnings"])
+
+
+def _sweep(runner, tmp_path, name, *args):
+    import pyarrow.parquet as pq
+
+    out = tmp_path / f"{name}.parquet"
+    result = invoke(runner, "sweep", *args, "--out", out, "--json")
+    assert result.exit_code == 0, result.output
+    return pq.read_table(out).to_pydict()
+
+
+@pytest.mark.parametrize("offset", [0.0, None])  # 0: starts at the surface and creeps; None: 11.6 m/s, arrests
+def test_large_damping_in_the_batch_matches_the_oracle(runner, tmp_path, offset):
+    """Issue 12 defects 2 and 4: at C = 3,000–100,000 kPa·s/m the batch's RK4 left its stability region (final
+    depth off by 0.16 % to 96 %), and a creeping run had no defined time (0.896 s, 3.20 s, 0.948 s by
+    round-off).  Both simulators now agree with the oracle, which implements the README's creep rule itself."""
+    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c")
+    sets = [] if offset is None else ["--set", f"surface_offset_mm={offset}"]
+    if offset is not None:
+        e["surface_offset_mm"] = offset
+    table = _sweep(runner, tmp_path, "damping", "-p", "appendix_c", "-m", "grill_brick", "-e", "appendix_c", *sets,
+                   "--vary", "coefficients.damping_kpa_s_m=3000,10000,100000")
+    for row, damping in enumerate(table["coefficients.damping_kpa_s_m"]):
+        want = reference_run(p, {**m, "coefficients": {**m["coefficients"], "damping_kpa_s_m": damping}}, e)
+        assert table["end"][row] == want["end"], damping
+        for key in ("penetration_time_s", "final_depth_mm", "peak_resistance_n"):
+            assert table[key][row] == pytest.approx(want[key], rel=1e-4), (damping, key)
+        if want["end"] == "creep":
+            got = json.loads(invoke(runner, "predict", "-p", "appendix_c", "-m", "grill_brick", "-e", "appendix_c",
+                                    *sets, "--set", f"coefficients.damping_kpa_s_m={damping}", "--json").stdout)
+            assert got["end"] == "creep" and got["full_penetration"] is False
+            assert got["penetration_time_s"] == pytest.approx(want["penetration_time_s"], rel=1e-4)
+            assert got["final_depth_mm"] == pytest.approx(want["final_depth_mm"], rel=1e-6)
+
+
+@pytest.mark.parametrize("damping", [0.0, 300.0])  # the closed form, and the damped path
+def test_batch_near_the_full_depth_boundary_matches_the_oracle(damping):
+    """Issue 12 defect 3: with the limit within 0.1 % of the arrest depth the batch's time was off by up to 3e-3
+    and its residual energy by 0.2–100 %, and 9 of 30 such designs were called arrests."""
+    from pencli.model.design import design_from_sets
+    from pencli.params.load import resolve
+    from pencli.predict.batch import design_arrays, simulate_batch
+
+    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", spring_stiffness_kn_m=5)
+    m["coefficients"] = {**m["coefficients"], "damping_kpa_s_m": damping}
+    free = reference_run({**p, "penetration_depth_mm": 1000.0}, m, e)
+    assert free["end"] == "arrest"
+    for gap in (1e-5, 1e-4, 1e-3):
+        limit = free["final_depth_mm"] * (1 - gap)
+        want = reference_run({**p, "penetration_depth_mm": limit}, m, e)
+        assert want["full_penetration"] and want["residual_ke_j"] > 0
+        design = design_from_sets(resolve("appendix_c", "penetrator").with_values({"penetration_depth_mm": limit}),
+                                  resolve("grill_brick", "material").with_values(
+                                      {"coefficients.damping_kpa_s_m": damping}),
+                                  resolve("appendix_c", "energizing").with_values({"spring_stiffness_kn_m": 5}))
+        got = simulate_batch(design_arrays(design))
+        assert got.end[0] == "full_depth", gap
+        for key in ("penetration_time_s", "residual_ke_j", "peak_resistance_n"):
+            assert got.figures[key][0] == pytest.approx(want[key], rel=1e-4), (gap, key)

@@ -145,48 +145,49 @@ class Damped:
             if not live.any():
                 break
             h = np.minimum(h_plan, STIFF_STEP * P["m"] / (P["b"] + 2.0 * P["d"] * np.maximum(vs, 0.0)))
-            a_s = self.accel(xs, vs, P)
-            k2x, k2v = vs + 0.5 * h * a_s, self.accel(xs + 0.5 * h * vs, vs + 0.5 * h * a_s, P)
-            k3x, k3v = vs + 0.5 * h * k2v, self.accel(xs + 0.5 * h * k2x, vs + 0.5 * h * k2v, P)
-            k4x, k4v = vs + h * k3v, self.accel(xs + h * k3x, vs + h * k3v, P)
-            xn = xs + h * (vs + 2 * k2x + 2 * k3x + k4x) / 6
-            vn = vs + h * (a_s + 2 * k2v + 2 * k3v + k4v) / 6
-            v1, v2, v3, v4 = (np.maximum(q, 0.0) for q in (vs, k2x, k3x, k4x))
-            ed = h * P["b"] * (v1 * v1 + 2 * v2 * v2 + 2 * v3 * v3 + v4 * v4) / 6
-            ei = h * P["d"] * (v1 ** 3 + 2 * v2 ** 3 + 2 * v3 ** 3 + v4 ** 3) / 6
-            an = self.accel(xn, vn, P)
-            # where the step ends: arrest (v = 0) or full depth, on the cubic Hermite interpolant
-            s = np.ones(W.size)
+            xn, vn, ed, ei, a_s, an = self._step(xs, vs, h, P)
+            # where the step ends: arrest (v = 0) on the cubic Hermite interpolant; full depth, or the springs'
+            # free length (the force's slope jumps there), by a step redone to end there
             stop_v = live & (vn <= 0.0)
-            s_v = np.ones(W.size)
+            s = np.ones(W.size)
             if stop_v.any():
                 j = np.flatnonzero(stop_v)
                 args = (xs[j], vs[j], a_s[j], xn[j], vn[j], an[j], h[j])
-                s_v[j] = _bisect(lambda q: _hermite_xv(*args, q)[1], np.ones(j.size))
-            x_reach = np.where(stop_v, _hermite_xv(xs, vs, a_s, xn, vn, an, h, s_v)[0], xn)
-            stop_x = live & (x_reach >= P["depth"])  # the stops may be passed before v = 0 in the same step
-            if stop_x.any():
-                j = np.flatnonzero(stop_x)
+                s[j] = _bisect(lambda q: _hermite_xv(*args, q)[1], np.ones(j.size))
+            x_reach = np.where(stop_v, _hermite_xv(xs, vs, a_s, xn, vn, an, h, s)[0], xn)
+            kink = live & (xs < P["xk"]) & (P["xk"] < P["depth"]) & (x_reach >= P["xk"])
+            stop_x = live & ~kink & (x_reach >= P["depth"])  # maybe passed before v = 0 in the same step
+            cut = kink | stop_x
+            target = np.where(kink, P["xk"], P["depth"])
+            if cut.any():
+                j = np.flatnonzero(cut)
                 args = (xs[j], vs[j], a_s[j], xn[j], vn[j], an[j], h[j])
-                dep = P["depth"][j]
-                s_v[j] = _bisect(lambda q: dep - _hermite_xv(*args, q)[0], s_v[j])
+                tj = target[j]
+                s[j] = _bisect(lambda q: tj - _hermite_xv(*args, q)[0], s[j])
+                Pj = {key: val[j] for key, val in P.items()}
+                x_cut, v_cut, ed[j], ei[j], _, a_cut = self._step(xs[j], vs[j], s[j] * h[j], Pj)
+                # land exactly on the target: move the remaining round-off of x with the energy it costs
+                xn[j] = tj
+                vn[j] = np.sqrt(np.maximum(v_cut * v_cut + 2.0 * a_cut * (tj - x_cut), 0.0))
+                an[j] = self.accel(xn[j], vn[j], Pj)
+            stop_v &= ~cut
             stopping = stop_v | stop_x
-            s = np.where(stopping, s_v, 1.0)
-            x_end, v_end = _hermite_xv(xs, vs, a_s, xn, vn, an, h, s)
-            x_end = np.where(stop_x, P["depth"], x_end)
-            v_end = np.where(stop_x, np.maximum(v_end, 0.0), np.where(stop_v, 0.0, v_end))
-            self._peak_rk4(live, xs, vs, a_s, xn, vn, an, h, s, x_end, v_end, pk, pkx, P)
-            if stopping.any():  # a partial step's energies: Gauss on the interpolant (v³ is degree 9: exact)
-                j = np.flatnonzero(stopping)
+            if stop_v.any():  # an arrest's energies: Gauss on the interpolant (v³ is degree 9: exact)
+                j = np.flatnonzero(stop_v)
                 args = (xs[j], vs[j], a_s[j], xn[j], vn[j], an[j], h[j])
                 ed[j], ei[j] = 0.0, 0.0
                 for node, weight in zip(*_GAUSS5):
                     vq = np.maximum(_hermite_xv(*args, s[j] * node)[1], 0.0)
                     ed[j] += weight * s[j] * h[j] * P["b"][j] * vq * vq
                     ei[j] += weight * s[j] * h[j] * P["d"][j] * vq ** 3
+            x_end, v_end = _hermite_xv(xs, vs, a_s, xn, vn, an, h, np.where(stop_v, s, 1.0))
+            x_end = np.where(cut, xn, x_end)
+            v_end = np.where(cut, vn, np.where(stop_v, 0.0, v_end))
+            h_used, s_used = np.where(cut, s * h, h), np.where(cut, 1.0, s)  # a cut step was redone to its end
+            self._peak_rk4(live, xs, vs, a_s, xn, vn, an, h_used, s_used, x_end, v_end, pk, pkx, P)
             ts = np.where(live, ts + s * h, ts)
-            eds = np.where(live, eds + np.where(stopping, 1.0, s) * ed, eds)
-            eis = np.where(live, eis + np.where(stopping, 1.0, s) * ei, eis)
+            eds = np.where(live, eds + ed, eds)
+            eis = np.where(live, eis + ei, eis)
             xs = np.where(live, x_end, xs)
             vs = np.where(live, v_end, vs)
             if stopping.any():
@@ -203,6 +204,19 @@ class Damped:
         self.x[W], self.v[W], self.t[W] = xs, vs, ts
         self.e_damp[W], self.e_inert[W], self.peak[W], self.peak_x[W] = eds, eis, pk, pkx
         self.h[W] = h
+
+    def _step(self, xs, vs, h, P):
+        """One classical RK4 step of length h: (x, v, damping energy, inertia energy, a at start, a at end)."""
+        a_s = self.accel(xs, vs, P)
+        k2x, k2v = vs + 0.5 * h * a_s, self.accel(xs + 0.5 * h * vs, vs + 0.5 * h * a_s, P)
+        k3x, k3v = vs + 0.5 * h * k2v, self.accel(xs + 0.5 * h * k2x, vs + 0.5 * h * k2v, P)
+        k4x, k4v = vs + h * k3v, self.accel(xs + h * k3x, vs + h * k3v, P)
+        xn = xs + h * (vs + 2 * k2x + 2 * k3x + k4x) / 6
+        vn = vs + h * (a_s + 2 * k2v + 2 * k3v + k4v) / 6
+        v1, v2, v3, v4 = (np.maximum(q, 0.0) for q in (vs, k2x, k3x, k4x))
+        ed = h * P["b"] * (v1 * v1 + 2 * v2 * v2 + 2 * v3 * v3 + v4 * v4) / 6  # ∫ b v² dt
+        ei = h * P["d"] * (v1 ** 3 + 2 * v2 ** 3 + 2 * v3 ** 3 + v4 ** 3) / 6  # ∫ d v³ dt
+        return xn, vn, ed, ei, a_s, self.accel(xn, vn, P)
 
     def _peak_rk4(self, live, xs, vs, a_s, xn, vn, an, h, s, x_end, v_end, pk, pkx, P):
         vpos = np.maximum(v_end, 0.0)
