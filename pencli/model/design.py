@@ -96,6 +96,10 @@ class Design:
         return 0.5 * self.drive_stiffness_n_m * self.stroke_m ** 2
 
 
+CREEP_DISTANCE_M = 1e-6
+"""δ: a run that creeps towards its rest depth (overdamped there) ends when its tip comes this close, on
+the slow mode; both simulators use this rule (README, "Creep"). [m]"""
+
 DESIGN_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Design))
 
 

@@ -18,10 +18,12 @@ form: harmonic motion about the shifted equilibrium while the springs push,
 then a parabola under gravity once they reach free length.  Contact and
 spring release are found from those formulas exactly.
 
-*Penetration* is integrated with scipy's DOP853 (8th order) at rtol 1e-10,
-split where the springs reach free length (the force's slope jumps there),
-and ended at arrest (v = 0 with x > 0) or full depth; each of these events
-is root-found on the dense output, never located to a time step.  The
+*Penetration* is integrated with scipy's DOP853 (8th order) at rtol 1e-10
+(Radau when the damping makes the problem stiff, b²/(m·k) > 100), split
+where the springs reach free length (the force's slope jumps there), and
+ended at arrest (v = 0 with x > 0), full depth or creep (:func:`creep_target`);
+each of these events is root-found on the dense output, never located to a
+time step.  The
 energies of the rate terms are integrated as extra states; the strength and
 friction energies have closed forms.
 
@@ -39,7 +41,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
 from pencli.errors import ModelError
-from pencli.model.design import Design
+from pencli.model.design import CREEP_DISTANCE_M, Design
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, resistance_law, term_keys
 
 MODEL_NAME = "contract-2/eq9-1dof"
@@ -118,7 +120,8 @@ class Summary:
     contact_time_s: float
     """Time from release to contact (0 when the speed at contact is given). [s]"""
     end: str
-    """How penetration ended: ``arrest``, ``full_depth``, ``no_contact`` or ``stalled``."""
+    """How penetration ended: ``arrest``, ``full_depth``, ``creep`` (see :func:`creep_target`), ``no_contact``
+    or ``stalled``."""
     gravity_work_j: float
     """Work of gravity over the simulated span. [J]"""
     initial_ke_j: float
@@ -371,10 +374,6 @@ def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: fl
         t, y = t_hit, y_hit
 
 
-CREEP_DISTANCE_M = 1e-6
-"""δ: a creeping run ends when its tip comes this close to the rest depth (see :func:`creep_target`). [m]"""
-
-
 def creep_target(design: Design, law: ResistanceLaw):
     """(x* − δ [m], speed limit ω0·δ [m/s], x* [m]) of a design that can creep, else ``None``.
 
@@ -615,5 +614,5 @@ def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_
     return Trajectory(t, x, v, a, strength, friction, damping, inertia, resistance, spring, load_cell, phase)
 
 
-__all__ = ["MODEL_NAME", "PHASES", "TERMS", "Flight", "SimulationResult", "Summary", "Trajectory",
-           "flight_of", "simulate"]
+__all__ = ["CREEP_DISTANCE_M", "MODEL_NAME", "PHASES", "TERMS", "Flight", "SimulationResult", "Summary", "Trajectory",
+           "creep_target", "flight_of", "simulate"]

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pencli.model.design import CREEP_DISTANCE_M
 from pencli.predict.closed_form import phi1
 
 STEPS = 160
@@ -37,8 +38,6 @@ LINEAR_TOL = 1e-5
 LINEARISE_TOL = 1e-9
 """Linear-flow steps are limited so that the linearised v² term errs by at most this fraction of the
 damping force: d·Δv² ≤ LINEARISE_TOL·b·v. [–]"""
-CREEP_DISTANCE_M = 1e-6
-"""δ: a creeping run ends this close to its rest depth. [m]"""
 MAX_STEPS = 40 * STEPS
 """RK4 steps per design at most; a design still moving after them (and after the linear flow's own
 limit) ends as ``stalled``."""
