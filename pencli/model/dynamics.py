@@ -42,7 +42,7 @@ from scipy.optimize import minimize_scalar
 
 from pencli.errors import ModelError
 from pencli.model.design import CREEP_DISTANCE_M, Design
-from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, resistance_law, term_keys
+from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, resistance_law, term_keys
 
 MODEL_NAME = "contract-2/eq9-1dof"
 """Identifier of the reference dynamic model, recorded with every result."""
@@ -288,7 +288,7 @@ def _make_rhs(law: ResistanceLaw, mass: float, stiffness: float, stroke: float, 
         vp = v if v > 0.0 else 0.0
         compression = stroke - x - offset
         spring = stiffness * compression if compression > 0.0 else 0.0
-        resist = a0 + a1 * x + (b + d * vp) * vp  # Eq. 9 in contact
+        resist = reduced(x, vp, a0, a1, b, d)
         if extra is None:
             return [v, (spring + weight - resist) / mass, b * vp * vp, d * vp * vp * vp]
         more = extra(x, vp)
@@ -428,7 +428,7 @@ def _peak(law: ResistanceLaw, segments, extra=None) -> tuple[float, float]:
 
     def resistance(state):
         x, v = state[0], np.maximum(state[1], 0.0)
-        r = law.strength_n + law.friction_n_m * x + (law.damping_n_s_m + law.inertia_n_s2_m2 * v) * v
+        r = reduced(x, v, law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2)
         return r if extra_v is None else r + extra_v(x, v)
 
     best_r, best_x = -math.inf, 0.0

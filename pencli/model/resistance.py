@@ -143,6 +143,13 @@ TERM_FUNCTIONS = {"strength": strength_term, "friction": friction_term, "damping
 """Each Eq. 9 term's function; its arguments are named after the :class:`~pencli.model.design.Design` fields."""
 
 
+def reduced(x, vp, a0, a1, b, d):
+    """Eq. 9 in contact from its four coefficients (:func:`eq9_coefficients`): a0 + a1·x + (b + d·v)·v, with
+    ``vp`` the speed already clipped at 0 (the rate terms act for v > 0 only).  Plain arithmetic, so it
+    serves floats in the scalar integrator's right-hand side and arrays in the batch alike. [N]"""
+    return a0 + a1 * x + (b + d * vp) * vp
+
+
 def term_keys(term: str) -> tuple[str, ...]:
     """The parameter-file keys an Eq. 9 term depends on, read from its function's arguments."""
     import inspect

@@ -23,7 +23,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from pencli.model.design import Design
-from pencli.model.resistance import eq9_coefficients
+from pencli.model.resistance import eq9_coefficients, reduced
 from pencli.predict import closed_form, damped
 
 FIGURES = ("contact_speed_m_s", "penetration_time_s", "final_depth_mm", "full_penetration", "peak_resistance_n",
@@ -100,7 +100,7 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
 
     x, v, t = np.zeros(n), np.zeros(n), np.zeros(n)
     e_damp, e_inert = np.zeros(n), np.zeros(n)
-    peak, peak_x = np.where(no_contact, 0.0, a0 + (b + dd * v0) * v0), np.zeros(n)
+    peak, peak_x = np.where(no_contact, 0.0, reduced(0.0, v0, a0, a1, b, dd)), np.zeros(n)
     xk = stroke - s0  # depth at which the springs reach free length
     mg = m * g
     # C = 0 (every Table 1 material): closed form over depth

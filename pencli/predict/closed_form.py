@@ -34,6 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pencli.model.resistance import reduced
+
 GAUSS_NODES = 12
 """Gauss–Legendre nodes on each half of a segment (the integrands are smooth after the substitution):
 12 give 1.3e-8 in penetration time on 40 random designs, 16 give 1.3e-9, 8 give 1.3e-7."""
@@ -158,8 +160,8 @@ def travel_time(seg: Segment, xs, xe, qe, at_root):
 
 def peak_on(seg: Segment, xs, xe, qe, a0, a1, d):
     """Largest R = a0 + a1·x + d·q on [xs, xe] and its depth. [N, m]"""
-    r_s = a0 + a1 * xs + d * seg.qs
-    r_e = a0 + a1 * xe + d * qe
+    r_s = reduced(xs, np.sqrt(seg.qs), a0, a1, 0.0, d)
+    r_e = reduced(xe, np.sqrt(qe), a0, a1, 0.0, d)
     best = np.where(r_e > r_s, r_e, r_s)
     where = np.where(r_e > r_s, xe, xs)
     rise_s = a1 + d * seg.slope(xs, seg.qs)
@@ -176,7 +178,7 @@ def peak_on(seg: Segment, xs, xe, qe, a0, a1, d):
             return di * (sub.beta - sub.lam * sub.slope(x))
 
         x_top = bracketed_root(rise, bend, xs[inner], xe[inner])
-        r_top = a0[inner] + a1i * x_top + di * sub.q(x_top)
+        r_top = reduced(x_top, np.sqrt(np.maximum(sub.q(x_top), 0.0)), a0[inner], a1i, 0.0, di)
         top = r_top > best[inner]
         best[inner] = np.where(top, r_top, best[inner])
         where[inner] = np.where(top, x_top, where[inner])

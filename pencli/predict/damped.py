@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from pencli.model.design import CREEP_DISTANCE_M
+from pencli.model.resistance import reduced
 from pencli.predict.closed_form import phi1
 
 STEPS = 160
@@ -109,7 +110,7 @@ class Damped:
     def accel(self, x, v, P):
         vp = np.maximum(v, 0.0)
         spring = np.where(x < P["xk"], P["kd"] * (P["xk"] - x), 0.0)
-        return (spring + P["mg"] - P["a0"] - P["a1"] * x - (P["b"] + P["d"] * vp) * vp) / P["m"]
+        return (spring + P["mg"] - _resistance(x, vp, P)) / P["m"]
 
     def _linear_ready(self, idx):
         P = {k: v[idx] for k, v in self.p.items()}
@@ -219,7 +220,7 @@ class Damped:
 
     def _peak_rk4(self, live, xs, vs, a_s, xn, vn, an, h, s, x_end, v_end, pk, pkx, P):
         vpos = np.maximum(v_end, 0.0)
-        r_end = P["a0"] + P["a1"] * x_end + (P["b"] + P["d"] * vpos) * vpos
+        r_end = _resistance(x_end, vpos, P)
         better = live & (r_end > pk)
         pk[better], pkx[better] = r_end[better], x_end[better]
         rise0 = P["a1"] * vs + (P["b"] + 2.0 * P["d"] * np.maximum(vs, 0.0)) * a_s
@@ -231,7 +232,7 @@ class Damped:
             s_top = _bisect(lambda u: _resistance_slope(*args, u, q), s[inner])
             xm, vm = _hermite_xv(*args, s_top)
             vm = np.maximum(vm, 0.0)
-            rm = q["a0"] + q["a1"] * xm + (q["b"] + q["d"] * vm) * vm
+            rm = _resistance(xm, vm, q)
             top = rm > pk[inner]
             pk[inner[top]], pkx[inner[top]] = rm[top], xm[top]
 
@@ -337,10 +338,7 @@ class Damped:
         self.end[W] = np.where(end == "", "stalled", end)
 
     def _peak_linear(self, live, state, s_end, x0, v0, x1, v1, F_lin, k, b_lin, pk, pkx, P):
-        def r_of(x, v):
-            return P["a0"] + P["a1"] * x + (P["b"] + P["d"] * v) * v
-
-        r1 = r_of(x1, v1)
+        r1 = _resistance(x1, v1, P)
         better = live & (r1 > pk)
         pk[better], pkx[better] = r1[better], x1[better]
 
@@ -359,9 +357,14 @@ class Damped:
             s_top = _bisect(rise_i, s_end[inner])
             xt, vt = state(s_top, inner)
             vt = np.maximum(vt, 0.0)
-            rt = Pi["a0"] + Pi["a1"] * xt + (Pi["b"] + Pi["d"] * vt) * vt
+            rt = _resistance(xt, vt, Pi)
             top = rt > pk[inner]
             pk[inner[top]], pkx[inner[top]] = rt[top], xt[top]
+
+
+def _resistance(x, vp, P):
+    """Eq. 9 in contact for the designs of P. [N]"""
+    return reduced(x, vp, P["a0"], P["a1"], P["b"], P["d"])
 
 
 def _work(x0, x1, xk, kd, mg, a0, a1):
