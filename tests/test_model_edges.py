@@ -168,3 +168,23 @@ def test_batch_near_the_full_depth_boundary_matches_the_oracle(damping):
         assert got.end[0] == "full_depth", gap
         for key in ("penetration_time_s", "residual_ke_j", "peak_resistance_n"):
             assert got.figures[key][0] == pytest.approx(want[key], rel=1e-4), (gap, key)
+
+
+@pytest.mark.parametrize("damping", [1000.0, 100000.0])
+def test_damped_design_without_inertia_term_runs_on_the_linear_flow_from_contact(damping):
+    """With K = 0 the damped motion is linear from contact; such designs were never handed to the linear flow
+    and ended 'stalled' at depth 0 (found by a random fuzz of the batch, not by the outside check)."""
+    from pencli.model.design import design_from_sets
+    from pencli.params.load import resolve
+    from pencli.predict.batch import design_arrays, simulate_batch
+
+    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c")
+    m["coefficients"] = {**m["coefficients"], "damping_kpa_s_m": damping, "inertia_coefficient": 0.0}
+    want = reference_run(p, m, e)
+    design = design_from_sets(resolve("appendix_c", "penetrator"), resolve("grill_brick", "material").with_values(
+        {"coefficients.damping_kpa_s_m": damping, "coefficients.inertia_coefficient": 0.0}),
+        resolve("appendix_c", "energizing"))
+    got = simulate_batch(design_arrays(design))
+    assert got.end[0] == want["end"]
+    for key in ("penetration_time_s", "final_depth_mm", "peak_resistance_n"):
+        assert got.figures[key][0] == pytest.approx(want[key], rel=1e-4), key

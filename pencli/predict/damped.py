@@ -127,6 +127,7 @@ class Damped:
         todo = np.flatnonzero(~blocked)
         linear = np.zeros(n, dtype=bool)
         linear[todo] = self._linear_ready(todo)
+        self.end[todo[linear[todo]]] = "linear"  # already in the linear regime at contact
         self._rk4(todo[~linear[todo]])
         handed = np.flatnonzero(self.end == "linear")
         self.end[handed] = ""
