@@ -100,10 +100,9 @@ class Damped:
         n = v0.size
         self.t, self.x, self.v = np.zeros(n), np.zeros(n), v0.astype(float).copy()
         self.e_damp, self.e_inert = np.zeros(n), np.zeros(n)
-        self.peak = a0 + (b + d * v0) * v0
+        self.peak = reduced(0.0, np.maximum(v0, 0.0), a0, a1, b, d)  # R just inside the surface
         self.peak_x = np.zeros(n)
         self.end = np.full(n, "", dtype=object)
-        self.final_x = np.full(n, np.nan)
         self.h = np.clip(t_est, 1e-9, 10.0) / STEPS
 
     # ------------------------------------------------------------------ RK4
@@ -308,7 +307,7 @@ class Damped:
                     kind[j] = name
                     x_far[j] = target[j]
             x_new, v_new = state(s_end)
-            x_new = np.where(kind == "", x_new, np.where(kind == "arrest", x_new, x_far))
+            x_new = np.where(np.isin(kind, ("full_depth", "kink", "creep")), x_far, x_new)  # on the target
             v_new = np.where(kind == "arrest", 0.0, np.maximum(v_new, 0.0))
             # peak of R = a0 + a1·x + b·v + d·v² inside the step (R' = a1·v + (b + 2dv)·a changes sign)
             self._peak_linear(live, state, s_end, x, v, x_new, v_new, F_lin, k, b_lin, pk, pkx, P)
