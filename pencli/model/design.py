@@ -100,6 +100,14 @@ CREEP_DISTANCE_M = 1e-6
 """δ: a run that creeps towards its rest depth (overdamped there) ends when its tip comes this close, on
 the slow mode; both simulators use this rule (README, "Creep"). [m]"""
 
+def static_work(x0, x1, xk, kd, mg, a0, a1):
+    """∫ F dx from depth x0 to x1 of the force that does not depend on speed, F = kd·max(xk − x, 0) + mg −
+    a0 − a1·x (drive while the springs push, weight, Eq. 9's strength and friction).  ``xk``: depth where
+    the springs reach free length.  Floats or arrays. [J]"""
+    spring = 0.5 * kd * (np.maximum(xk - x0, 0.0) ** 2 - np.maximum(xk - x1, 0.0) ** 2)
+    return spring + (mg - a0) * (x1 - x0) - 0.5 * a1 * (x1 * x1 - x0 * x0)
+
+
 DESIGN_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Design))
 
 

@@ -23,9 +23,8 @@ spring release are found from those formulas exactly.
 where the springs reach free length (the force's slope jumps there), and
 ended at arrest (v = 0 with x > 0), full depth or creep (:func:`creep_target`);
 each of these events is root-found on the dense output, never located to a
-time step.  The
-energies of the rate terms are integrated as extra states; the strength and
-friction energies have closed forms.
+time step.  The energies of the rate terms are integrated as extra states;
+the strength and friction energies have closed forms.
 
 Pure: numpy and scipy only, SI units.
 """
@@ -41,7 +40,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
 from pencli.errors import ModelError
-from pencli.model.design import CREEP_DISTANCE_M, Design
+from pencli.model.design import CREEP_DISTANCE_M, Design, static_work
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, resistance_law, term_keys
 
 MODEL_NAME = "contract-2/eq9-1dof"
@@ -404,10 +403,8 @@ def creep_target(design: Design, law: ResistanceLaw):
 
 def _work(design: Design, law: ResistanceLaw, x0: float, x1: float) -> float:
     """∫ (drive + weight − strength − friction) dx from x0 to x1. [J]"""
-    xk = design.stroke_m - design.surface_offset_m
-    spring = 0.5 * design.drive_stiffness_n_m * (max(xk - x0, 0.0) ** 2 - max(xk - x1, 0.0) ** 2)
-    return (spring + (design.effective_mass_kg * design.gravity_m_s2 - law.strength_n) * (x1 - x0)
-            - 0.5 * law.friction_n_m * (x1 * x1 - x0 * x0))
+    return float(static_work(x0, x1, design.stroke_m - design.surface_offset_m, design.drive_stiffness_n_m,
+                             design.effective_mass_kg * design.gravity_m_s2, law.strength_n, law.friction_n_m))
 
 
 STIFF_RATIO = 100.0

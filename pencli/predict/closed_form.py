@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pencli.model.design import static_work
 from pencli.model.resistance import reduced
 
 GAUSS_NODES = 12
@@ -248,8 +249,7 @@ def penetrate(v0, m, kd, xk, mg, a0, a1, d, depth):
         going[j] = ~ended & ~reached
         xs[j], qs[j] = x_stop, q_stop
     v_end = np.sqrt(np.maximum(q_end, 0.0))
-    spring_work = 0.5 * kd * (np.maximum(xk, 0.0) ** 2 - np.maximum(xk - x_end, 0.0) ** 2)
-    work = spring_work + (mg - a0) * x_end - 0.5 * a1 * x_end ** 2  # ∫F dx over the penetration
+    work = static_work(0.0, x_end, xk, kd, mg, a0, a1)  # ∫F dx over the penetration
     e_inertia = work - 0.5 * m * (q_end - v0 * v0)
     return t, x_end, v_end, full, peak, peak_x, e_inertia
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pencli.model.design import CREEP_DISTANCE_M
+from pencli.model.design import CREEP_DISTANCE_M, static_work
 from pencli.model.resistance import reduced
 from pencli.predict.closed_form import phi1
 
@@ -312,7 +312,7 @@ class Damped:
             # peak of R = a0 + a1·x + b·v + d·v² inside the step (R' = a1·v + (b + 2dv)·a changes sign)
             self._peak_linear(live, state, s_end, x, v, x_new, v_new, F_lin, k, b_lin, pk, pkx, P)
             # energies: the rate terms dissipate the work of F less the gain in kinetic energy
-            work = _work(x, x_new, xk, P["kd"], P["mg"], P["a0"], P["a1"])
+            work = static_work(x, x_new, xk, P["kd"], P["mg"], P["a0"], P["a1"])
             dissipated = work - 0.5 * m * (v_new * v_new - v * v)
             v_mid = 0.5 * (v + v_new)
             share = d * v_mid / np.where(b + d * v_mid > 0, b + d * v_mid, 1.0)
@@ -327,7 +327,7 @@ class Damped:
             if creep.any():  # the run is booked at its rest depth, where the motion tends
                 j = np.flatnonzero(creep)
                 xs_true = rest_depth(F0[j], k[j])
-                extra = _work(x[j], xs_true, xk[j], P["kd"][j], P["mg"][j], P["a0"][j], P["a1"][j]) \
+                extra = static_work(x[j], xs_true, xk[j], P["kd"][j], P["mg"][j], P["a0"][j], P["a1"][j]) \
                     + 0.5 * m[j] * v[j] ** 2
                 e_damp[j] += extra
                 final_x[j] = xs_true
@@ -367,12 +367,6 @@ def _resistance(x, vp, P):
     return reduced(x, vp, P["a0"], P["a1"], P["b"], P["d"])
 
 
-def _work(x0, x1, xk, kd, mg, a0, a1):
-    """∫ F dx from x0 to x1, F = kd·max(xk − x, 0) + mg − a0 − a1·x. [J]"""
-    spring = 0.5 * kd * (np.maximum(xk - x0, 0.0) ** 2 - np.maximum(xk - x1, 0.0) ** 2)
-    return spring + (mg - a0) * (x1 - x0) - 0.5 * a1 * (x1 * x1 - x0 * x0)
-
-
 def _hermite_xv(x0, v0, a0, x1, v1, a1, h, s):
     """Cubic Hermite x(s) (derivative v) and v(s) (derivative a) on a step of length h."""
     s2, s3 = s * s, s * s * s
@@ -396,4 +390,4 @@ def _resistance_slope(x0, v0, a0, x1, v1, a1, h, s, P):
     return P["a1"] * dx + (P["b"] + 2.0 * P["d"] * np.maximum(v, 0.0)) * dv
 
 
-__all__ = ["CREEP_DISTANCE_M", "Damped", "LINEAR_TOL", "STEPS", "rest_depth"]
+__all__ = ["Damped", "LINEAR_TOL", "STEPS", "rest_depth"]
