@@ -793,8 +793,13 @@ def _run_chunk(base: dict, columns: dict) -> dict:
     from pencli.predict.batch import simulate_batch
     from pencli.predict.sweep import si_designs
 
+    import pyarrow as pa
+
+    from pencli.predict.batch import ENDS
+
     designs, speed = si_designs(base, columns)
-    return simulate_batch(designs, speed_at_contact_m_s=speed).to_dict()
+    result = simulate_batch(designs, speed_at_contact_m_s=speed)
+    return {**result.figures, "end": pa.DictionaryArray.from_arrays(result.code, ENDS)}
 
 
 @dataclass(frozen=True)
@@ -858,9 +863,11 @@ def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: s
             yield emit(chunk, _run_chunk(base, chunk))
         return
     from collections import deque
-    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures import ThreadPoolExecutor
 
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    # threads, not processes: the simulator's loops are compiled and release the GIL, and nothing is
+    # copied between processes; the caller writes each finished chunk while the next ones run
+    with ThreadPoolExecutor(max_workers=workers) as pool:
         pending: deque = deque()  # at most 2 × workers chunks in flight
         for chunk in chunks:
             pending.append((chunk, pool.submit(_run_chunk, base, chunk)))
@@ -883,8 +890,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from pencli.predict.sweep import MAX_DESIGNS, SPEED, Grid, parse_vary
-    from pencli.predict.sweep import sample as draw
+    from pencli.predict.sweep import MAX_DESIGNS, SPEED, Grid, Sample, parse_vary
 
     if not vary:
         raise ParameterError("give at least one --vary KEY=... (e.g. --vary friction_coefficient=+40%,-30%)")
@@ -900,12 +906,9 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
         raise ParameterError(f"{'--n' if sample else '--resolution/--vary'}: {total:.3g} designs; pen sweeps at most "
                              f"{MAX_DESIGNS:.0e} (about 100 GB of Parquet): lower --resolution or --n, or "
                              f"sample the space (--sample lhs --n N)")
-    if sample:
-        columns = draw({v.key: v.domain() for v in variables}, n, sample, seed)
-        if speed_at_contact_m_s is not None and SPEED not in columns:
-            columns[SPEED] = np.full(total, float(speed_at_contact_m_s))
-    else:
-        columns = Grid(variables, {SPEED: float(speed_at_contact_m_s)} if speed_at_contact_m_s is not None else None)
+    fixed = {SPEED: float(speed_at_contact_m_s)} if speed_at_contact_m_s is not None else None
+    columns = (Sample({v.key: v.domain() for v in variables}, n, sample, seed, fixed) if sample else
+               Grid(variables, fixed))
     ws = workspace(db) if db is not None else None
     target = Path(out) if out is not None else (ws.sweep_path() if ws is not None else None)
     started = _time.perf_counter()
@@ -919,18 +922,19 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
             tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
         for chunk, result in evaluate_columns(base, columns, engine=engine, scheduler=scheduler, workers=workers,
                                               progress=progress):
-            table = pa.table({**{k: np.asarray(v, dtype=float) for k, v in chunk.items()},
-                              **{k: np.asarray(v) for k, v in result.items()}})
+            table = pa.table({**{k: np.asarray(v, dtype=float) for k, v in chunk.items()}, **result})
             if tmp is not None:
                 if writer is None:
                     meta = {b"pen:version": __import__("pencli").__version__.encode(),
                             b"pen:base": json.dumps(base).encode(),
                             b"pen:variables": json.dumps([v.key for v in variables]).encode()}
-                    writer = pq.ParquetWriter(tmp, table.schema.with_metadata(meta), compression="zstd")
+                    writer = pq.ParquetWriter(tmp, table.schema.with_metadata(meta), compression="lz4",
+                                              use_dictionary=["end"])  # floats unencoded: 3.5× faster; lz4 1.7× zstd
                 writer.write_table(table)
             stats["full_penetration"] += int(np.sum(result["full_penetration"]))
             for key in ("penetration_time_s", "peak_resistance_n", "final_depth_mm"):
-                stats[key] = [min(stats[key][0], float(np.min(result[key]))), max(stats[key][1], float(np.max(result[key])))]
+                stats[key] = [min(stats[key][0], float(np.min(result[key]))),
+                              max(stats[key][1], float(np.max(result[key])))]
         if writer is not None:
             writer.close()
             writer = None

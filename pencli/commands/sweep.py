@@ -45,10 +45,10 @@ def sweep(
                                                                                 "(file units)."),
     out: Optional[Path] = typer.Option(None, "--out", help="Write the table (one column per varied parameter and "
                                                            "per CONTRACT §5 figure) to this Parquet file."),
-    engine: str = typer.Option("local", "--engine", help="local (processes on this machine) or dask."),
+    engine: str = typer.Option("local", "--engine", help="local (threads on this machine) or dask."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="With --engine dask: the scheduler address "
                                                                       "(default: a LocalCluster)."),
-    workers: int = typer.Option(2, "--workers", min=1, help="Local processes (or LocalCluster workers)."),
+    workers: int = typer.Option(2, "--workers", min=1, help="Local threads (or LocalCluster workers)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary (or table, or answer) as JSON."),
     db: Optional[Path] = DbOption,
 ) -> None:

@@ -183,9 +183,7 @@ def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str,
 # ----------------------------------------------------------------------------- drive side
 def _predicted_contact_speed(run: DiagnosisRun, loss: float = 0.0) -> float:
     design = replace(run.design, efficiency=run.design.efficiency * (1.0 - loss))
-    flight = flight_of(design)
-    t = flight.time_to_reach(design.surface_offset_m)
-    return float(flight.state(t)[1]) if math.isfinite(t) else 0.0
+    return flight_of(design).reach(design.surface_offset_m)[1]
 
 
 def _fit_loss(runs: Sequence[DiagnosisRun], measured: Sequence[float]) -> float:

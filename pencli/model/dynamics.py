@@ -41,6 +41,7 @@ from scipy.optimize import minimize_scalar
 
 from pencli.errors import ModelError
 from pencli.model.design import CREEP_DISTANCE_M, Design, static_work
+from pencli.model.flight import reach
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, resistance_law, term_keys
 
 MODEL_NAME = "contract-2/eq9-1dof"
@@ -222,18 +223,11 @@ class Flight:
 
     def time_to_reach(self, u: float) -> float:
         """Time at which the body has moved ``u`` from release (``inf`` if never). [s]"""
-        if u <= 0.0:
-            return 0.0
-        U, w = self.amplitude_m, self.omega_rad_s
-        if u <= self.stroke_m:
-            return 2.0 * math.asin(math.sqrt(u / (2.0 * U))) / w  # 1 − cos θ = 2 sin²(θ/2), stable for small u
-        t_rel = self.release_time_s
-        v_rel = self.state(t_rel)[1]
-        d = u - self.stroke_m
-        disc = v_rel * v_rel + 2.0 * self.gravity_m_s2 * d
-        if v_rel + math.sqrt(disc) <= 0.0:
-            return math.inf
-        return t_rel + 2.0 * d / (v_rel + math.sqrt(disc))  # root of g τ²/2 + v τ − d = 0, cancellation-free
+        return self.reach(u)[0]
+
+    def reach(self, u: float) -> tuple[float, float]:
+        """(time [s], speed [m/s]) when the body has moved ``u`` from release; (inf, 0) if never."""
+        return reach(u, self.mass_kg, self.stiffness_n_m, self.stroke_m, self.gravity_m_s2)
 
     @property
     def release_time_s(self) -> float:
@@ -480,11 +474,9 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
     flight = flight_of(design)
 
     if speed_at_contact_m_s is None:
-        t_contact = flight.time_to_reach(design.surface_offset_m)
+        t_contact, v_contact = flight.reach(design.surface_offset_m)
         if not math.isfinite(t_contact):
             return _no_contact(design, chosen, flight)
-        _, v_contact, _ = flight.state(t_contact)
-        v_contact = float(v_contact)
         u_start, initial_ke = 0.0, 0.0
     else:
         t_contact, v_contact = 0.0, float(speed_at_contact_m_s)

@@ -102,17 +102,15 @@ class Param:
             f", optional (default {_fmt(self.default)})" if self.default is not None else ", optional")
         return f"{self.symbol}: {self.meaning} [{self.unit}]; range {self.range_text}{opt}"
 
-    def hard_violation(self, value: float) -> bool:
-        """True when ``value`` breaks a hard bound (or is not finite)."""
-        if not math.isfinite(value):
-            return True
+    def hard_violation(self, value):
+        """True where ``value`` breaks a hard bound or is not finite: a bool for a float, elementwise for a
+        numpy array (a sweep's column is checked in one pass)."""
+        bad = (value != value) | (abs(value) == math.inf)
         if self.hard_min is not None:
-            if value < self.hard_min or (self.hard_min_exclusive and value == self.hard_min):
-                return True
+            bad = bad | (value < self.hard_min) | ((value == self.hard_min) & self.hard_min_exclusive)
         if self.hard_max is not None:
-            if value > self.hard_max or (self.hard_max_exclusive and value == self.hard_max):
-                return True
-        return False
+            bad = bad | (value > self.hard_max) | ((value == self.hard_max) & self.hard_max_exclusive)
+        return bad
 
     def outside_range(self, value: float) -> bool:
         """True when ``value`` is outside the documented range."""

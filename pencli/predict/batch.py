@@ -3,8 +3,7 @@ r"""The CONTRACT §2 model over arrays of designs (the engine of ``pen sweep``).
 Same physics as :func:`pencli.model.dynamics.simulate`, organised for throughput instead of one
 trajectory, and exact at the edges (issue 12):
 
-- the flight is the same closed form (harmonic while the springs push, then a parabola), evaluated for
-  every design at once;
+- the flight is the same closed form (:func:`pencli.model.flight.reach`, compiled);
 - without damping (C = 0, every Table 1 material) the penetration has a closed form over depth
   (:mod:`pencli.predict.closed_form`): arrest depth, residual energy and peak exact to round-off, the time
   by Gauss–Legendre quadrature with the end singularities substituted away;
@@ -13,7 +12,8 @@ trajectory, and exact at the edges (issue 12):
   the rest depth ended by the definition both simulators share.
 
 Inputs are SI arrays named like the fields of :class:`pencli.model.design.Design` (broadcast against each
-other); outputs are the CONTRACT §5 figures per design.  Pure numpy.
+other); outputs are the CONTRACT §5 figures per design.  Pure (no I/O); the per-design loops are
+compiled by numba and release the GIL, so threads can share a sweep's chunks.
 """
 
 from __future__ import annotations
@@ -21,10 +21,15 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 import numpy as np
+from numba import njit
 
 from pencli.model.design import Design
+from pencli.model.flight import reach
 from pencli.model.resistance import eq9_coefficients, reduced
 from pencli.predict import closed_form, damped
+
+_JIT = dict(cache=True, nogil=True, error_model="numpy")
+_reach = njit(**_JIT)(reach)
 
 FIGURES = ("contact_speed_m_s", "penetration_time_s", "final_depth_mm", "full_penetration", "peak_resistance_n",
            "peak_resistance_depth_mm", "residual_ke_j", "spring_energy_j", "energy_strength_j", "energy_friction_j",
@@ -32,17 +37,27 @@ FIGURES = ("contact_speed_m_s", "penetration_time_s", "final_depth_mm", "full_pe
 """The CONTRACT §5 record, in order."""
 
 
+ENDS = ("arrest", "full_depth", "creep", "stalled", "no_contact", "invalid")
+"""How a design's run can end; :attr:`BatchResult.code` indexes this tuple."""
+_CODE = {name: np.int8(i) for i, name in enumerate(ENDS)}
+
+
 @dataclass(frozen=True)
 class BatchResult:
     """CONTRACT §5 figures per design (arrays of equal length), plus how each ended."""
 
     figures: dict[str, np.ndarray]
-    end: np.ndarray
-    """``arrest``, ``full_depth``, ``creep`` (see :mod:`pencli.predict.damped`), ``stalled``, ``no_contact``
-    or ``invalid`` (a CONTRACT §1 rule broken) per design."""
+    code: np.ndarray
+    """Index into :data:`ENDS` per design (int8)."""
+
+    @property
+    def end(self) -> np.ndarray:
+        """``arrest``, ``full_depth``, ``creep`` (see :mod:`pencli.predict.damped`), ``stalled``, ``no_contact``
+        or ``invalid`` (a CONTRACT §1 rule broken) per design."""
+        return np.asarray(ENDS)[self.code]
 
     def __len__(self) -> int:
-        return int(self.end.size)
+        return int(self.code.size)
 
     def to_dict(self) -> dict[str, np.ndarray]:
         return {**self.figures, "end": self.end}
@@ -68,35 +83,23 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
     a0, a1, b, dd = eq9_coefficients(design)  # R = a0 + a1·x + b·v + dd·v² in contact
     depth = design.penetration_depth_m
 
-    # ---- flight, closed form (as pencli.model.dynamics.Flight)
-    U = stroke + m * g / kd
-    omega = np.sqrt(kd / m)
+    # ---- flight, closed form
     if speed_at_contact_m_s is None:
-        t_rel = 2.0 * np.arcsin(np.sqrt(np.clip(stroke / (2.0 * U), 0.0, 1.0))) / omega
-        v_rel = U * omega * np.sin(omega * t_rel)
-        in_spring = s0 <= stroke
-        t_a = 2.0 * np.arcsin(np.sqrt(np.clip(s0 / (2.0 * U), 0.0, 1.0))) / omega
-        v_a = U * omega * np.sin(omega * t_a)
-        rest = np.maximum(s0 - stroke, 0.0)
-        disc = np.sqrt(v_rel * v_rel + 2.0 * g * rest)
-        reach = (v_rel + disc) > 0
-        tau = np.where(reach, 2.0 * rest / np.where(reach, v_rel + disc, 1.0), np.inf)
-        v_b = v_rel + g * tau
-        v0 = np.where(in_spring, v_a, v_b)
-        no_contact = ~in_spring & ~reach
+        v0 = _contact_speeds(np.ascontiguousarray(m), np.ascontiguousarray(kd), np.ascontiguousarray(stroke),
+                             np.ascontiguousarray(g), np.ascontiguousarray(s0))
+        no_contact = np.isnan(v0)
         u_start = np.zeros(n)
     else:
         v0 = np.broadcast_to(np.asarray(speed_at_contact_m_s, dtype=float), (n,)).copy()
         no_contact = np.zeros(n, dtype=bool)
         u_start = s0.copy()
-    v0 = np.where(no_contact, 0.0, v0)
 
-    end = np.where(no_contact, "no_contact", "").astype(object)
+    code = np.where(no_contact, _CODE["no_contact"], _CODE["arrest"]).astype(np.int8)
     # designs the parameter rules forbid (CONTRACT §1 cross-checks) are not simulated
     invalid = (T >= w) | (d["load_cell_mass_kg"] > d["sprung_mass_kg"])
-    end[invalid] = "invalid"
+    code[invalid] = _CODE["invalid"]
     no_contact = no_contact | invalid
-    v0 = np.where(invalid, 0.0, v0)
+    v0 = np.where(no_contact, 0.0, v0)
 
     x, v, t = np.zeros(n), np.zeros(n), np.zeros(n)
     e_damp, e_inert = np.zeros(n), np.zeros(n)
@@ -105,10 +108,13 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
     mg = m * g
     # C = 0 (every Table 1 material): closed form over depth
     j = np.flatnonzero(~no_contact & (b == 0.0))
-    if j.size:
+    if j.size == n:  # the common case: no copies
+        t, x, v, full, peak, peak_x, e_inert = closed_form.penetrate(v0, m, kd, xk, mg, a0, a1, dd, depth)
+        code[full] = _CODE["full_depth"]
+    elif j.size:
         t[j], x[j], v[j], full, peak[j], peak_x[j], e_inert[j] = closed_form.penetrate(
             v0[j], m[j], kd[j], xk[j], mg[j], a0[j], a1[j], dd[j], depth[j])
-        end[j] = np.where(full, "full_depth", "arrest")
+        code[j[full]] = _CODE["full_depth"]
     # C > 0: time steps, then the exact linear flow
     j = np.flatnonzero(~no_contact & (b > 0.0))
     if j.size:
@@ -117,17 +123,19 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
         run.run()
         t[j], x[j], v[j] = run.t, run.x, run.v
         e_damp[j], e_inert[j], peak[j], peak_x[j] = run.e_damp, run.e_inert, run.peak, run.peak_x
-        end[j] = run.end
+        for name in ("arrest", "full_depth", "creep", "stalled"):
+            code[j[run.end == name]] = _CODE[name]
 
     x_final = np.where(no_contact, 0.0, x)
-    v_final = np.where(end == "full_depth", v, 0.0)
+    full = code == _CODE["full_depth"]
+    v_final = np.where(full, v, 0.0)
     u_end = x_final + s0
     spring_j = 0.5 * kd * (np.maximum(stroke - u_start, 0.0) ** 2 - np.maximum(stroke - u_end, 0.0) ** 2)
     figures = {
         "contact_speed_m_s": v0,
         "penetration_time_s": np.where(no_contact, 0.0, t),
         "final_depth_mm": x_final * 1e3,
-        "full_penetration": end == "full_depth",
+        "full_penetration": full,
         "peak_resistance_n": np.where(no_contact, 0.0, peak),
         "peak_resistance_depth_mm": peak_x * 1e3,
         "residual_ke_j": 0.5 * m * v_final ** 2,
@@ -137,7 +145,18 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
         "energy_damping_j": e_damp,
         "energy_inertia_j": e_inert,
     }
-    return BatchResult(figures, end.astype(str))
+    return BatchResult(figures, code)
+
+
+@njit(**_JIT)
+def _contact_speeds(m, kd, stroke, g, s0):
+    """Speed at contact of each design's flight; nan where the blade never reaches the surface. [m/s]"""
+    v = np.empty(m.size)
+    for i in range(m.size):
+        t, v[i] = _reach(s0[i], m[i], kd[i], stroke[i], g[i])
+        if not t < np.inf:
+            v[i] = np.nan
+    return v
 
 
 def _time_estimate(v0, m, kd, xk, mg, a0, a1, b, dd, depth):
@@ -156,4 +175,4 @@ def design_arrays(design: Design, count: int = 1) -> dict[str, np.ndarray]:
     return designs_from({f.name: np.full(count, float(getattr(design, f.name))) for f in fields(Design)})
 
 
-__all__ = ["BatchResult", "FIGURES", "design_arrays", "designs_from", "simulate_batch"]
+__all__ = ["BatchResult", "ENDS", "FIGURES", "design_arrays", "designs_from", "simulate_batch"]

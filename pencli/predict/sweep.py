@@ -99,31 +99,53 @@ class Grid:
         return out
 
 
-def sample(domains: Mapping[str, tuple[float, float] | np.ndarray], n: int, method: str, seed: int = 0
-           ) -> dict[str, np.ndarray]:
-    """``n`` designs by Latin hypercube (``lhs``) or uniform random sampling.
+class Sample:
+    """``n`` designs by Latin hypercube (``lhs``) or uniform random sampling, made a slice at a time (the
+    sweep computes its first chunk while the rest are still undrawn, and never holds the whole table).
 
     Each key's domain is a (low, high) range, sampled continuously, or an array of values (a list given
     to ``--vary``, or a whole-number key), from which each design takes one value: the strata of the
-    hypercube map onto the values in equal shares.
+    hypercube map onto the values in equal shares.  The random numbers come in fixed blocks of
+    :data:`BLOCK` designs, each from its own stream of the seed, so a design does not depend on how the
+    sweep is chunked; the hypercube's strata are one permutation per key (4 bytes per design and key).
     """
-    rng = np.random.default_rng(seed)
-    keys = list(domains)
-    if method == "lhs":
-        u = (rng.permuted(np.tile(np.arange(n), (len(keys), 1)), axis=1).T + rng.random((n, len(keys)))) / n
-    elif method == "random":
-        u = rng.random((n, len(keys)))
-    else:
-        raise ParameterError(f"--sample {method!r}: expected lhs or random")
-    out = {}
-    for i, k in enumerate(keys):
-        domain = domains[k]
-        if isinstance(domain, tuple):
-            out[k] = domain[0] + u[:, i] * (domain[1] - domain[0])
-        else:
-            values = np.asarray(domain, dtype=float)
-            out[k] = values[np.minimum((u[:, i] * values.size).astype(int), values.size - 1)]
-    return out
+
+    BLOCK = 10_000
+
+    def __init__(self, domains: Mapping[str, tuple[float, float] | np.ndarray], n: int, method: str,
+                 seed: int = 0, fixed: Mapping[str, float] | None = None):
+        if method not in ("lhs", "random"):
+            raise ParameterError(f"--sample {method!r}: expected lhs or random")
+        self.domains = {k: (v if isinstance(v, tuple) else np.asarray(v, dtype=float)) for k, v in domains.items()}
+        self.size, self.method, self.seed = int(n), method, int(seed)
+        self.fixed = {k: float(v) for k, v in (fixed or {}).items() if k not in self.domains}
+        rng = np.random.default_rng([self.seed, 0])
+        dtype = np.int32 if n < 2 ** 31 else np.int64
+        self.strata = [rng.permutation(n).astype(dtype) for _ in self.domains] if method == "lhs" else None
+
+    def take(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """Designs ``start`` to ``stop`` (exclusive) of the sample, as columns."""
+        first, last = start // self.BLOCK, (stop - 1) // self.BLOCK + 1
+        k = len(self.domains)
+        u = np.concatenate([np.random.default_rng([self.seed, 1, b]).random((min(self.BLOCK, self.size - b * self.BLOCK), k))
+                            for b in range(first, last)])[start - first * self.BLOCK:stop - first * self.BLOCK]
+        out = {}
+        for i, (key, domain) in enumerate(self.domains.items()):
+            ui = u[:, i]
+            if self.strata is not None:
+                ui = (self.strata[i][start:stop] + ui) / self.size
+            if isinstance(domain, tuple):
+                out[key] = domain[0] + ui * (domain[1] - domain[0])
+            else:
+                out[key] = domain[np.minimum((ui * domain.size).astype(int), domain.size - 1)]
+        out.update({key: np.full(stop - start, value) for key, value in self.fixed.items()})
+        return out
+
+
+def sample(domains: Mapping[str, tuple[float, float] | np.ndarray], n: int, method: str, seed: int = 0
+           ) -> dict[str, np.ndarray]:
+    """All ``n`` designs of a :class:`Sample` at once, as columns."""
+    return Sample(domains, n, method, seed).take(0, n)
 
 
 def si_designs(base: Mapping[str, float], columns: Mapping[str, np.ndarray]) -> tuple[dict, np.ndarray | None]:
@@ -143,9 +165,11 @@ def si_designs(base: Mapping[str, float], columns: Mapping[str, np.ndarray]) -> 
 
 
 def _check(param, values: np.ndarray) -> None:
-    bad = [float(v) for v in np.atleast_1d(values) if param.hard_violation(float(v))]
-    if bad:
-        raise ParameterError(f"sweep: {param.key} takes {bad[0]:g} {param.unit}; it must be {param.hard_text}")
+    values = np.atleast_1d(np.asarray(values, dtype=float))
+    bad = param.hard_violation(values)
+    if bad.any():
+        raise ParameterError(f"sweep: {param.key} takes {values[np.argmax(bad)]:g} {param.unit}; it must be "
+                             f"{param.hard_text}")
 
 
 SENSITIVITY_KEYS = ("blade_width_mm", "blade_thickness_mm", "tip_angle_deg", "spring_mass_kg", "spring_stiffness_kn_m",
