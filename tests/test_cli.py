@@ -124,3 +124,20 @@ def test_long_commands_report_progress(tmp_path):
     boot = [c for c in calls if "bootstrap" in c[0]]
     assert [c[1] for c in boot] == [10, 20, 30, 40] and all(c[2] == 40 for c in boot)
     assert sum("reading" in c[0] for c in calls) == 6
+
+
+def test_help_loads_neither_numpy_nor_the_api():
+    """`pen --help` under 0.3 s (issue 12) rests on this: the heavy modules load when a command runs."""
+    import subprocess
+    import sys
+
+    probe = ("import importlib.util, sys\n"
+             "import pencli.cli\n"
+             "sys.argv = ['pen', '--help']\n"
+             "try:\n    pencli.cli.main()\nexcept SystemExit:\n    pass\n"
+             "heavy = ('numpy', 'scipy', 'pandas', 'pyarrow', 'duckdb', 'numba', 'matplotlib', 'pencli.api')\n"
+             "print('loaded:', [m for m in heavy if m in sys.modules\n"
+             "                  and not isinstance(sys.modules[m], importlib.util._LazyModule)])\n")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert "Usage: pen" in out.stdout
+    assert out.stdout.strip().splitlines()[-1] == "loaded: []"

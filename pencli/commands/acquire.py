@@ -7,13 +7,14 @@ import sys
 from pathlib import Path
 from typing import List, Optional
 
-import numpy as np
 import typer
 from rich.markup import escape
 
-from pencli import api
+from pencli.lazy import lazy
 from pencli.errors import PenError
 from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json, progress_bar
+
+api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
 
@@ -74,10 +75,10 @@ def acquire(
     for warning in shot.warnings:
         err_console.print(f"[yellow]warning:[/yellow] {escape(warning)}")
     columns = shot.run.columns
-    fz = columns["fz_n"]
+    fz, position = columns["fz_n"], columns["position_mm"]
     pre = columns["time_s"] < 0
     summary = (f"{shot.run.n_samples} samples at {shot.run.sampling_rate_hz:.0f} Hz; travel "
-               f"{np.ptp(columns['position_mm']):.2f} mm; fz peak {np.max(fz - fz[pre].mean()):.0f} N above the "
+               f"{position.max() - position.min():.2f} mm; fz peak {(fz - fz[pre].mean()).max():.0f} N above the "
                f"pre-trigger level")
     if not json_out:
         console.print(summary)

@@ -10,10 +10,12 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from pencli import api
+from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, progress_bar
 from pencli.diagnose.effects import EFFECTS
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM
+
+api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
 

@@ -9,10 +9,12 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from pencli import api
+from pencli.lazy import lazy
 from pencli.commands.common import (DbOption, PenTyper, console, db_path, err_console, print_json, progress_bar,
                                     usage_check)
 from pencli.model.resistance import TERMS, parse_terms
+
+api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
 

@@ -7,13 +7,14 @@ from pathlib import Path
 from typing import List, Optional
 
 import typer
-import yaml
 from rich.markup import escape
 from rich.table import Table
 
-from pencli import api
+from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, fail, print_json
 from pencli.params.definitions import KINDS, PARAMETERS
+
+api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper(help="Parameter files and bundled presets (CONTRACT §1).", no_args_is_help=True)
 
@@ -58,6 +59,8 @@ def show(
     if json_out:
         print_json([p.to_mapping() for p in found])
         return
+    import yaml  # here, not at start-up: `pen --help` stays fast
+
     for p in found:
         console.print(f"[bold]# {p.kind} preset {p.name}[/bold]  [dim]({escape(p.source)})[/dim]")
         typer.echo(yaml.safe_dump(p.to_mapping(), sort_keys=False, allow_unicode=True).rstrip())

@@ -9,10 +9,12 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from pencli import api
+from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, err_console, print_json, usage_check
 from pencli.model.resistance import TERMS, parse_terms
 from pencli.params.overrides import parse_overrides
+
+api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
 

@@ -8,8 +8,10 @@ from typing import List, Optional
 import typer
 from rich.markup import escape
 
-from pencli import api
+from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json, progress_bar
+
+api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
 

@@ -11,9 +11,11 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from pencli import api
+from pencli.lazy import lazy
 from pencli.commands.common import (DbOption, PenTyper, console, db_path, err_console, fail, print_json, progress_bar,
                                     usage_check)
+
+api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
 runs_app = PenTyper(help="List, show and query the runs of a workspace.", invoke_without_command=True)

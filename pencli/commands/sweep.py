@@ -9,8 +9,10 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from pencli import api
+from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, db_path, number_pair, print_json, progress_bar
+
+api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
 

@@ -25,12 +25,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property, partial
 from typing import Callable, Mapping, Sequence
 
-import numpy as np
+from pencli.lazy import lazy
 
 from pencli.model.design import Design
 from pencli.model.resistance import damping_term, friction_term, inertia_term, strength_term
+
+np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
 
 # ----------------------------------------------------------------------------- run data
 
@@ -167,7 +170,7 @@ class Columns:
     """Known force to subtract from the measured resistance (n,), or None. [N]"""
 
 
-Profile = Callable[[np.ndarray, np.ndarray], np.ndarray]
+Profile = Callable[["np.ndarray", "np.ndarray"], "np.ndarray"]
 """Dimensionless multiplier of an Eq. 9 term as a function of depth x [m] and speed v [m/s]."""
 
 
@@ -241,8 +244,14 @@ class Effect:
     axis: str
     """What the misfit organises along: depth, speed, time, acceleration, contact or flight."""
     doc: str
-    members: tuple[Member, ...]
+    family: tuple[Member, ...] | Callable[[], tuple[Member, ...]]
+    """The members, or a function that makes them (called once, on first use: not at import)."""
     describe: Callable[[Member, np.ndarray, Mapping[str, float]], dict]
+
+    @cached_property
+    def members(self) -> tuple[Member, ...]:
+        """The family's members (thousands for a layer: made when the diagnosis first needs them)."""
+        return self.family() if callable(self.family) else self.family
 
 
 def law(term: str, *profiles: Profile, **params) -> Member:
@@ -258,7 +267,7 @@ def _step(depth_m: float, edge_m: float) -> Profile:
 
 
 # depth grid of layer edges: every 5 mm (the truth's depth need not be on it: edge widths bridge the grid)
-_LAYER_DEPTHS_MM = tuple(float(d) for d in np.arange(5.0, 141.0, 5.0))
+_LAYER_DEPTHS_MM = tuple(float(d) for d in range(5, 141, 5))
 _LAYER_EDGES_MM = (1.0, 4.0, 12.0)
 
 
@@ -452,7 +461,7 @@ def _modes(modes: Sequence[tuple[float, float]], by: str) -> Callable[[Diagnosis
     return build
 
 
-_FREQS_HZ = tuple(float(f) for f in np.geomspace(150, 6000, 48))
+_FREQS_HZ = tuple(150.0 * 40.0 ** (i / 47) for i in range(48))  # 48 geometrically spaced, 150 Hz to 6 kHz
 """Mode frequencies 7.9 % apart: a mode that rings for n cycles drifts n × that in phase at worst (half-way)."""
 _ZETAS = (0.01, 0.02, 0.04, 0.08)
 
@@ -499,29 +508,29 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "Microstructural strength steps to another value at a depth: a step with a sharp or soft edge, or a "
            "plateau (a layer of finite thickness). Signature: a misfit that jumps at one depth in every run, "
            "whatever its speed.",
-           _layer_members(), _describe_layer),
+           _layer_members, _describe_layer),
     Effect("strength_gradient", "law", "depth",
            "Strength varies smoothly and monotonically with depth (power, quadratic, exponential or saturating "
            "profiles). "
            "Signature: a misfit growing smoothly with depth in proportion to the blade's frontal area.",
-           _gradient_members(), _describe_gradient),
+           _gradient_members, _describe_gradient),
     Effect("plug_growth", "law", "depth",
            "A crushed plug widens the effective frontal thickness with depth (exponential or hyperbolic "
            "saturation, or linear): every frontal term grows. Signature: grows with depth, early, and more so "
            "for thin blades relative to their thickness.",
-           _plug_members(), _describe_plug),
+           _plug_members, _describe_plug),
     Effect("sidewall_pressure_growth", "law", "depth",
            "Sidewall pressure rises with depth (power laws or saturating): friction grows faster than x. "
            "Signature: a misfit growing with depth, the same for every blade thickness.",
-           _pressure_members(), _describe_pressure),
+           _pressure_members, _describe_pressure),
     Effect("velocity_friction", "law", "speed",
            "Blade–material friction varies with sliding speed (power, saturating or logarithmic laws, either "
            "sign). Signature: a misfit in proportion to depth × a function of speed.",
-           _speed_laws("friction"), _describe_speed("p_kpa")),
+           partial(_speed_laws, "friction"), _describe_speed("p_kpa")),
     Effect("rate_strength", "law", "speed",
            "Strength varies with penetration rate (power, saturating or logarithmic laws). Signature: the "
            "strength misfit follows the speed, in proportion to frontal area.",
-           _speed_laws("strength"), _describe_speed("cs_mean")),
+           partial(_speed_laws, "strength"), _describe_speed("cs_mean")),
     Effect("load_cell_mass_error", "chain", "acceleration",
            "The inertia subtraction used the wrong mass below the load cell. Signature: the 'resistance' follows "
            "the acceleration: non-zero in free flight, jumping at contact.",
@@ -531,15 +540,15 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "The force channel lags the true force: a first- or second-order low-pass, or a pure delay. "
            "Signature: the measured rise at contact is late and rounded; the misfit follows the force's rate "
            "of change.",
-           _lag_members(), lambda m, c, ctx: dict(m.params)),
+           _lag_members, lambda m, c, ctx: dict(m.params)),
     Effect("rig_ringing", "chain", "time",
            "Structural resonances struck at contact: one or two decaying modes, amplitude in proportion to the "
            "contact speed or to the force step. Signature: a decaying oscillation after contact.",
-           _ringing_members(), _describe_ringing),
+           _ringing_members, _describe_ringing),
     Effect("force_drift", "chain", "time",
            "The force offset drifts during the run (linear, quadratic or exponential in time since the "
            "release). Signature: a misfit growing with time, in flight as much as in the material.",
-           _drift_members(), _describe_drift),
+           _drift_members, _describe_drift),
     Effect("propulsion_loss", "drive", "flight",
            "The launcher delivers less energy than modelled (efficiency × (1 − loss)). Signature: measured "
            "contact speeds below the predicted ones; resistance with measured kinematics fits, the fully "

@@ -18,9 +18,11 @@ from __future__ import annotations
 import warnings
 from typing import Callable, Sequence
 
-import numpy as np
+from pencli.lazy import lazy
 
 from pencli.errors import DataError
+
+np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
 
 
 def _segments(n: int, breaks: Sequence[int]) -> list[tuple[int, int]]:

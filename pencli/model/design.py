@@ -10,10 +10,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-import numpy as np
+from pencli.lazy import lazy
 
 from pencli.params.definitions import PARAMETERS
 from pencli.params.validate import ParameterSet
+
+np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
 
 
 @dataclass(frozen=True)

@@ -19,9 +19,11 @@ import math
 from dataclasses import dataclass
 from typing import Iterable
 
-import numpy as np
+from pencli.lazy import lazy
 
 from pencli.errors import ModelError
+
+np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
 
 TERMS: tuple[str, ...] = ("strength", "friction", "damping", "inertia")
 """The four Eq. 9 terms, in the paper's order."""
