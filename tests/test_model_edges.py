@@ -188,3 +188,26 @@ def test_damped_design_without_inertia_term_runs_on_the_linear_flow_from_contact
     assert got.end[0] == want["end"]
     for key in ("penetration_time_s", "final_depth_mm", "peak_resistance_n"):
         assert got.figures[key][0] == pytest.approx(want[key], rel=1e-4), key
+
+
+def test_unit_columns_times_file_coefficients_are_the_papers_eq9():
+    """The fit's and the diagnosis's columns (one file unit of each coefficient, from the parameter definitions)
+    times coefficients in file units give Eq. 9 written out here from the paper, kPa converted by hand."""
+    import numpy as np
+
+    from pencli.fit.resistance import with_coefficients
+    from pencli.model.design import design_from_sets
+    from pencli.model.resistance import eq9_coefficients, unit_terms
+
+    d = design_from_sets(load_preset("appendix_c", "penetrator"), load_preset("grill_brick", "material"),
+                         load_preset("appendix_c", "energizing"))
+    cs, p_kpa, c_kpa_s_m, k = 0.8, 3.5, 12.0, 21.0
+    x, v = np.array([0.01, 0.05, 0.12]), np.array([6.0, 3.0, 0.5])
+    w, t, th, mu = d.blade_width_m, d.blade_thickness_m, d.tip_angle_rad, d.friction_coefficient
+    paper = w * t * (cs * d.strength_pa * (math.sin(th) + mu * math.cos(th)) + mu * p_kpa * 1e3 * 2 * x / t
+                     + c_kpa_s_m * 1e3 * v + k * d.density_kg_m3 * v * v)
+    columns = np.column_stack(np.broadcast_arrays(*unit_terms(d, x, v)))
+    assert columns @ np.array([cs, p_kpa, c_kpa_s_m, k]) == pytest.approx(paper, rel=1e-12)
+    a0, a1, b, dd = eq9_coefficients(with_coefficients(d, {"strength_factor": cs, "sidewall_pressure_kpa": p_kpa,
+                                                           "damping_kpa_s_m": c_kpa_s_m, "inertia_coefficient": k}))
+    assert a0 + a1 * x + b * v + dd * v * v == pytest.approx(paper, rel=1e-12)

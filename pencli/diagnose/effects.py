@@ -31,7 +31,7 @@ from typing import Callable, Mapping, Sequence
 from pencli.lazy import lazy
 
 from pencli.model.design import Design
-from pencli.model.resistance import damping_term, friction_term, inertia_term, strength_term
+from pencli.model.resistance import unit_terms
 
 np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
 
@@ -131,19 +131,6 @@ class Basis:
 
     def matrix(self) -> np.ndarray:
         return np.column_stack([self.strength, self.friction, self.damping, self.inertia])
-
-
-def unit_terms(design: Design, x, v) -> tuple:
-    """The four Eq. 9 terms at unit coefficient in file units (Cs = 1, P = 1 kPa, C = 1 kPa·s/m, K = 1). [N]
-
-    ``x`` [m] and ``v`` [m/s] are arrays or floats; the caller zeroes them outside the material.
-    """
-    d = design
-    w, T = d.blade_width_m, d.blade_thickness_m
-    return (strength_term(x, w, T, d.tip_angle_rad, d.strength_pa, 1.0, d.friction_coefficient),
-            friction_term(x, w, d.friction_coefficient, 1e3),
-            damping_term(x, v, w, T, 1e3),
-            inertia_term(x, v, w, T, 1.0, d.density_kg_m3))
 
 
 def basis_of(run: DiagnosisRun) -> Basis:

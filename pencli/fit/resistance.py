@@ -27,18 +27,7 @@ from pencli.errors import FitError
 from pencli.filter.inertia import effective_samples
 from pencli.fit.result import COEFFICIENT_OF, COEFFICIENTS, TERM_OF, Coefficient, FitResult, RunFit
 from pencli.model.design import Design
-from pencli.model.resistance import (
-    TERMS,
-    damping_term,
-    friction_term,
-    inertia_term,
-    parse_terms,
-    strength_term,
-)
-
-UNIT_SCALE = {"strength_factor": 1.0, "sidewall_pressure_kpa": 1e3, "damping_kpa_s_m": 1e3,
-              "inertia_coefficient": 1.0}
-"""SI value of one file unit of each coefficient (kPa → Pa)."""
+from pencli.model.resistance import TERMS, coefficient_of, parse_terms, unit_terms
 
 TYPICAL = {"strength_factor": 1.0, "sidewall_pressure_kpa": 10.0, "damping_kpa_s_m": 10.0, "inertia_coefficient": 30.0}
 """Typical magnitudes (file units): scales for the optimiser and for judging an uncertainty near zero."""
@@ -90,13 +79,7 @@ def basis(series: RunSeries) -> np.ndarray:
     """Columns of Eq. 9 per file unit of each coefficient, shape (n, 4). [N per unit]"""
     d = series.design
     x, v = np.maximum(series.depth_m, 1e-12), series.velocity_m_s  # in the window the tip is in the material
-    w, T = d.blade_width_m, d.blade_thickness_m
-    return np.column_stack([
-        strength_term(x, w, T, d.tip_angle_rad, d.strength_pa, 1.0, d.friction_coefficient),
-        friction_term(x, w, d.friction_coefficient, UNIT_SCALE["sidewall_pressure_kpa"]),
-        damping_term(x, v, w, T, UNIT_SCALE["damping_kpa_s_m"]),
-        inertia_term(x, v, w, T, 1.0, d.density_kg_m3),
-    ])
+    return np.column_stack(np.broadcast_arrays(*unit_terms(d, x, v)))
 
 
 def _solve(X: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -301,7 +284,5 @@ def all_subsets(series: Sequence[RunSeries], material: str, *, terms: Iterable[s
 
 def with_coefficients(design: Design, values: Mapping[str, float]) -> Design:
     """``design`` with Eq. 9 coefficients (file units) set."""
-    return replace(design, strength_factor=values["strength_factor"],
-                   sidewall_pressure_pa=values["sidewall_pressure_kpa"] * 1e3,
-                   damping_pa_s_m=values["damping_kpa_s_m"] * 1e3,
-                   inertia_coefficient=values["inertia_coefficient"])
+    return replace(design, **{coefficient_of(t).si_name: values[COEFFICIENT_OF[t]] * coefficient_of(t).si_scale
+                              for t in TERMS})

@@ -7,12 +7,13 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-COEFFICIENTS: tuple[str, ...] = ("strength_factor", "sidewall_pressure_kpa", "damping_kpa_s_m", "inertia_coefficient")
-"""The four Eq. 9 coefficients, by their CONTRACT §1 names (under ``coefficients.``)."""
+from pencli.model.resistance import TERMS, coefficient_of
 
-TERM_OF: dict[str, str] = {"strength_factor": "strength", "sidewall_pressure_kpa": "friction",
-                           "damping_kpa_s_m": "damping", "inertia_coefficient": "inertia"}
-COEFFICIENT_OF: dict[str, str] = {term: coeff for coeff, term in TERM_OF.items()}
+COEFFICIENT_OF: dict[str, str] = {term: coefficient_of(term).key.removeprefix("coefficients.") for term in TERMS}
+"""Each Eq. 9 term's coefficient, by its CONTRACT §1 name under ``coefficients.`` (from the model core)."""
+COEFFICIENTS: tuple[str, ...] = tuple(COEFFICIENT_OF.values())
+"""The four Eq. 9 coefficients, in the terms' order."""
+TERM_OF: dict[str, str] = {coeff: term for term, coeff in COEFFICIENT_OF.items()}
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ arrays (broadcasting).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Iterable
@@ -22,6 +23,7 @@ from typing import Iterable
 from pencli.lazy import lazy
 
 from pencli.errors import ModelError
+from pencli.params.definitions import BY_KEY, PARAMETERS, TERM_COEFFICIENT
 
 np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
 
@@ -152,13 +154,44 @@ def reduced(x, vp, a0, a1, b, d):
     return a0 + a1 * x + (b + d * vp) * vp
 
 
-def term_keys(term: str) -> tuple[str, ...]:
-    """The parameter-file keys an Eq. 9 term depends on, read from its function's arguments."""
+@functools.cache
+def _arguments(term: str) -> tuple[str, ...]:
+    """The :class:`~pencli.model.design.Design` fields a term function reads (its arguments beyond x, v)."""
     import inspect
 
-    from pencli.params.definitions import PARAMETERS
+    return tuple(a for a in inspect.signature(TERM_FUNCTIONS[term]).parameters if a not in ("x", "v"))
 
-    arguments = inspect.signature(TERM_FUNCTIONS[term]).parameters
+
+def coefficient_of(term: str):
+    """The parameter definition of the coefficient an Eq. 9 term multiplies (its key, unit, SI scale)."""
+    return BY_KEY[TERM_COEFFICIENT[term]]
+
+
+def term_at(term: str, design, x, v, **values):
+    """One Eq. 9 term of ``design`` at depth ``x`` [m] and speed ``v`` [m/s], with any of the design's fields
+    replaced by ``values`` (SI). [N]"""
+    fields = {a: values[a] if a in values else getattr(design, a) for a in _arguments(term)}
+    function = TERM_FUNCTIONS[term]
+    return function(x, **fields) if term in _STATIC else function(x, v, **fields)
+
+
+_STATIC = ("strength", "friction")  # the terms that do not depend on speed
+
+
+def unit_terms(design, x, v) -> tuple:
+    """The four Eq. 9 terms of ``design``, each at one file unit of its coefficient (Cs = 1, P = 1 kPa,
+    C = 1 kPa·s/m, K = 1; from the parameter definitions): the columns that a linear fit of the coefficients,
+    in file units, multiplies.  ``x`` [m], ``v`` [m/s] arrays or floats. [N per file unit]"""
+    out = []
+    for term in TERMS:
+        unit = coefficient_of(term)
+        out.append(term_at(term, design, x, v, **{unit.si_name: unit.si_scale}))
+    return tuple(out)
+
+
+def term_keys(term: str) -> tuple[str, ...]:
+    """The parameter-file keys an Eq. 9 term depends on, read from its function's arguments."""
+    arguments = _arguments(term)
     return tuple(p.key for p in PARAMETERS if p.si_name and p.si_name in arguments)
 
 
@@ -171,15 +204,10 @@ def resistance_law(design, terms: Iterable[str] | None = None) -> ResistanceLaw:
         A switched-on term whose coefficient the material does not give.
     """
     chosen = parse_terms(terms)
-    needed = {
-        "strength": ("strength_factor", "coefficients.strength_factor"),
-        "friction": ("sidewall_pressure_pa", "coefficients.sidewall_pressure_kpa"),
-        "damping": ("damping_pa_s_m", "coefficients.damping_kpa_s_m"),
-        "inertia": ("inertia_coefficient", "coefficients.inertia_coefficient"),
-    }
     for term in chosen:
-        attr, key = needed[term]
-        if not math.isfinite(getattr(design, attr)):
+        coefficient = coefficient_of(term)
+        if not math.isfinite(getattr(design, coefficient.si_name)):
+            key = coefficient.key
             raise ModelError(
                 f"the material gives no {key}, needed by the {term} term; fit it (pen fit), "
                 f"set it (--set {key}=VALUE) or leave the term out (--terms)")
@@ -194,12 +222,5 @@ def eq9_coefficients(design, terms: Iterable[str] = TERMS) -> tuple:
     ``design`` is a :class:`~pencli.model.design.Design` whose fields may be numpy arrays (the batch
     simulator's designs): the coefficients are then arrays too.
     """
-    w, T = design.blade_width_m, design.blade_thickness_m
-    zero = np.zeros(np.shape(w))
-    return (strength_term(1.0, w, T, design.tip_angle_rad, design.strength_pa, design.strength_factor,
-                          design.friction_coefficient) if "strength" in terms else zero,
-            friction_term(1.0, w, design.friction_coefficient, design.sidewall_pressure_pa)
-            if "friction" in terms else zero,
-            damping_term(1.0, 1.0, w, T, design.damping_pa_s_m) if "damping" in terms else zero,
-            inertia_term(1.0, 1.0, w, T, design.inertia_coefficient, design.density_kg_m3)
-            if "inertia" in terms else zero)
+    zero = np.zeros(np.shape(design.blade_width_m))
+    return tuple(term_at(term, design, 1.0, 1.0) if term in terms else zero for term in TERMS)
