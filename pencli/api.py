@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 from pencli.params.definitions import Kind
 from pencli.params.load import all_presets, load_file, load_preset, preset_names, resolve
 from pencli.params.overrides import parse_overrides
-from pencli.params.validate import ParameterSet
+from pencli.params.validate import ParameterSet, sets_from_mappings
 
 
 def simulate(*args, **kwargs):
@@ -580,13 +580,6 @@ def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | 
 
 
 # ---------------------------------------------------------------------------- fitting
-def _sets_from_mappings(params: Mapping[str, dict], run_id: str) -> tuple[ParameterSet, ParameterSet, ParameterSet]:
-    from pencli.params.validate import validate_mapping
-
-    return tuple(validate_mapping(params[kind], f"run {run_id} ({kind})", expected_kind=kind,
-                                  allow_out_of_range=True) for kind in ("penetrator", "material", "energizing"))
-
-
 @dataclass(frozen=True)
 class _Conditioned:
     """A run's latest (inertia) stage with what every analysis needs from the catalogue."""
@@ -616,7 +609,7 @@ def _conditioned_runs(db: str | Path, refs: Sequence[str], names: Sequence[str],
                             f"`pen tare {run_id}` and `pen subtract-inertia {run_id}` first")
         columns = {name: table.column(name).to_numpy() for name in names}
         out.append(_Conditioned(run_id, columns, stage, Events(**stage.parameters["events"]),
-                                _sets_from_mappings(ws.run_parameters(run_id), run_id)))
+                                sets_from_mappings(ws.run_parameters(run_id), run_id)))
     return out
 
 
@@ -885,12 +878,11 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
           scheduler: str | None = None, workers: int = 2, progress: Callable[[int, int], None] | None = None,
           speed_at_contact_m_s: float | None = None, command: str = "pen sweep") -> SweepOutcome:
     """``pen sweep``: the CONTRACT §5 figures over a grid or a sample of designs, streamed to Parquet."""
+    import contextlib
     import time as _time
 
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
     from pencli.predict.sweep import MAX_DESIGNS, SPEED, Grid, Sample, parse_vary
+    from pencli.store.tables import StreamedTable
 
     if not vary:
         raise ParameterError("give at least one --vary KEY=... (e.g. --vary friction_coefficient=+40%,-30%)")
@@ -912,38 +904,19 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     ws = workspace(db) if db is not None else None
     target = Path(out) if out is not None else (ws.sweep_path() if ws is not None else None)
     started = _time.perf_counter()
-    writer = None
-    tmp = None
     stats = {"full_penetration": 0, "penetration_time_s": [np.inf, -np.inf], "peak_resistance_n": [np.inf, -np.inf],
              "final_depth_mm": [np.inf, -np.inf]}
-    try:
-        if target is not None:
-            target.parent.mkdir(parents=True, exist_ok=True)
-            tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    meta = {"pen:version": __import__("pencli").__version__, "pen:base": json.dumps(base),
+            "pen:variables": json.dumps([v.key for v in variables])}
+    with (StreamedTable(target, meta) if target is not None else contextlib.nullcontext()) as table:
         for chunk, result in evaluate_columns(base, columns, engine=engine, scheduler=scheduler, workers=workers,
                                               progress=progress):
-            table = pa.table({**{k: np.asarray(v, dtype=float) for k, v in chunk.items()}, **result})
-            if tmp is not None:
-                if writer is None:
-                    meta = {b"pen:version": __import__("pencli").__version__.encode(),
-                            b"pen:base": json.dumps(base).encode(),
-                            b"pen:variables": json.dumps([v.key for v in variables]).encode()}
-                    writer = pq.ParquetWriter(tmp, table.schema.with_metadata(meta), compression="lz4",
-                                              use_dictionary=["end"])  # floats unencoded: 3.5× faster; lz4 1.7× zstd
-                writer.write_table(table)
+            if table is not None:
+                table.write({**{k: np.asarray(v, dtype=float) for k, v in chunk.items()}, **result})
             stats["full_penetration"] += int(np.sum(result["full_penetration"]))
             for key in ("penetration_time_s", "peak_resistance_n", "final_depth_mm"):
                 stats[key] = [min(stats[key][0], float(np.min(result[key]))),
                               max(stats[key][1], float(np.max(result[key])))]
-        if writer is not None:
-            writer.close()
-            writer = None
-            os.replace(tmp, target)
-    finally:
-        if writer is not None:
-            writer.close()
-        if tmp is not None and tmp.exists():
-            tmp.unlink()
     seconds = _time.perf_counter() - started
     sweep_id = None
     path = Path(target) if target is not None else None
@@ -1051,94 +1024,19 @@ def solve(penetrator: str, material: str, energizing: str, *, target: str, until
 
 
 # ---------------------------------------------------------------------------- reports
-REFERENCE_ESTIMATES = {  # paper Table 1, "other mechanical properties for reference"
-    "grill_brick": ((0.5, 0.75), (1000.0, 1000.0)),
-    "mpacs_b": ((0.75, 2.0), (100.0, 125.0)),
-    "mpacs_c": ((5.0, 8.0), (200.0, 250.0)),
-    "mpacs_d": ((20.0, 25.0), (700.0, 850.0)),
-}
-"""Cone penetration resistance [MPa] and unconfined compressive strength [kPa] by material (Fig. 16)."""
-
-
-def _flat(mapping: Mapping[str, Any]) -> list[list[Any]]:
-    from pencli.params.definitions import BY_KEY
-
-    rows = []
-    for key, value in mapping.items():
-        if isinstance(value, dict) and key == "coefficients":
-            for sub, v in value.items():
-                rows.append([f"coefficients.{sub}", v, BY_KEY[f"coefficients.{sub}"].unit])
-        elif key in BY_KEY:
-            rows.append([key, value, BY_KEY[key].unit])
-    return rows
-
-
-def _latest_fit_with(versions: Sequence[dict], run_id: str) -> dict | None:
-    """The newest fitted material version (of ``versions``, oldest first) that used ``run_id``."""
-    used = [v for v in versions if run_id in (v["source_runs"] or [])]
-    return used[-1] if used else None
-
-
 def report_runs(db: str | Path, refs: Sequence[str]) -> list:
     """Sections for runs: raw channels (Fig. 11), measurements (Fig. 12), model against data (Fig. 13),
     energy per term (Fig. 14), parameters and provenance."""
-
-    from pencli.filter.tare import tare as tare_run
-    from pencli.fit.resistance import with_coefficients
-    from pencli.report import figures
-    from pencli.report.build import Section
-    from pencli.store.workspace import raw_columns_of
+    from pencli.report.sections import run_section
 
     ws = workspace(db)
     versions = ws.material_versions()
-    sections = []
-    for ref in expand_run_refs(ws, refs):
-        run_id = ws.resolve(ref)
-        params = ws.run_parameters(run_id)
-        stages = ws.stages(run_id)
-        raw_table, _ = ws.read_stage(run_id, "raw")
-        raw = raw_columns_of(raw_table)
-        tares = [s for s in stages if s.stage == "tare"]
-        events = tares[-1].parameters["events"] if tares else tare_run(
-            raw, params["energizing"]["surface_offset_mm"], params["penetrator"]["penetration_depth_mm"],
-            where=run_id).events.to_dict()
-        section = Section(f"run {run_id}", provenance={"run": {k: str(v) for k, v in ws.run_row(run_id).items()}})
-        section.tables.append(("parameters", ["key", "value", "unit"],
-                               [r for kind in ("penetrator", "material", "energizing") for r in _flat(params[kind])]))
-        section.tables.append(("stages", ["#", "stage", "command", "pen", "created (UTC)"],
-                               [[s.stage_no, s.stage, s.command, s.pen_version, str(s.created_at)] for s in stages]))
-        section.tables.append(("events (time since release)", ["event", "value", "unit"],
-                               [[k, v * 1e3 if k.endswith("_s") else v, "ms" if k.endswith("_s") else ""]
-                                for k, v in events.items() if isinstance(v, (int, float))]))
-        section.add_figure(figures.raw_channels(run_id, raw, events))
-        inertia = [s for s in stages if s.stage == "inertia"]
-        if inertia:
-            table, _ = ws.read_stage(run_id, inertia[-1].stage_no)
-            section.add_figure(figures.kinematics_panels(
-                run_id, {c: table.column(c).to_numpy() for c in table.column_names}, events))
-        fit = _latest_fit_with(versions, run_id)
-        if fit is not None and fit["model_data_path"]:
-            data = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
-                                 filters=[("run_id", "=", run_id)]).to_pydict()
-            section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v) for k, v in data.items()}))
-            p, m, e = _sets_from_mappings(params, run_id)
-            design = with_coefficients(design_from_sets(p, m, e), json.loads(fit["coefficients"]))
-            s = simulate(design, output_rate_hz=2000.0).summary
-            section.add_figure(figures.energy_per_term(
-                f"{run_id}: energy per term, {fit['material']} v{fit['version']} coefficients (predicted run)",
-                {"strength": s.energy_strength_j, "friction": s.energy_friction_j, "damping": s.energy_damping_j,
-                 "inertia": s.energy_inertia_j}, {"spring": s.spring_energy_j, "gravity": s.gravity_work_j,
-                                                  "residual KE": s.residual_ke_j}))
-        sections.append(section)
-    return sections
+    return [run_section(ws, ws.resolve(ref), versions) for ref in expand_run_refs(ws, refs)]
 
 
 def report_material(db: str | Path, material: str, version: int | None = None) -> list:
     """Sections for a fitted material version: coefficients, intervals, correlation, runs, Fig. 13, Fig. 16."""
-
-    from pencli.fit.resistance import with_coefficients
-    from pencli.report import figures
-    from pencli.report.build import Section
+    from pencli.report.sections import material_section
 
     ws = workspace(db)
     versions = ws.material_versions(material)
@@ -1148,92 +1046,27 @@ def report_material(db: str | Path, material: str, version: int | None = None) -
     if row is None:
         raise StoreError(f"material '{material}' has no version {version}; versions: "
                          f"{', '.join(str(v['version']) for v in versions)}")
-    fit = json.loads(row["fit"])
-    units = {"strength_factor": "–", "sidewall_pressure_kpa": "kPa", "damping_kpa_s_m": "kPa·s/m",
-             "inertia_coefficient": "–"}
-    section = Section(f"material {material} v{row['version']} ({fit['mode']} fit over {len(fit['runs'])} runs)",
-                      text=" ".join(fit.get("warnings", [])), provenance={"catalog": {k: str(v) for k, v in row.items()
-                                                                                    if k not in ("fit",)}})
-    section.tables.append(("coefficients", ["coefficient", "value", "std. error", "95 % low", "95 % high", "unit"],
-                           [[n, v, fit["stderr"][n], *(fit["ci95"][n] or [None, None]), units[n]]
-                            for n, v in fit["coefficients"].items()]))
-    section.tables.append(("runs", ["run", "samples", "RMS [N]", "NRMSE", "R²"],
-                           [[r["run_id"], r["n_samples"], r["rms_n"], r["nrmse"], r["r2"]] for r in fit["runs"]]))
-    section.add_figure(figures.fit_intervals(material, fit))
-    if row["model_data_path"]:
-        table = ws.read_table(row["model_data_path"], "fit's model-vs-data table").to_pydict()
-        ids = np.asarray(table["run_id"])
-        for run_id in list(dict.fromkeys(table["run_id"]))[:12]:
-            sel = ids == run_id
-            section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v)[sel] for k, v in table.items()}))
-    runs = row["source_runs"]
-    median_run = runs[len(runs) // 2]
-    p, m, e = _sets_from_mappings(ws.run_parameters(median_run), median_run)
-    design = with_coefficients(design_from_sets(p, m, e), fit["coefficients"])
-    result = simulate(design, output_rate_hz=20_000.0)
-    tr = result.trajectory
-    inside = tr.phase == 1
-    cone, ucs = REFERENCE_ESTIMATES.get(m.name, (None, None))
-    section.add_figure(figures.estimates_comparison(
-        f"{median_run}: model against simpler estimates (Fig. 16)", tr.depth_m[inside] * 1e3,
-        tr.resistance_n[inside], design.frontal_area_m2, cone, ucs))
-    return [section]
+    return [material_section(ws, row)]
 
 
 def report_sweep(db: str | Path, sweep_id: int) -> list:
     """Sections for a sweep: heat map with the full-penetration boundary (Fig. 14), 4-D scatter (Fig. 15)."""
-
-    from pencli.report import figures
-    from pencli.report.build import Section
+    from pencli.report.sections import sweep_section
 
     ws = workspace(db)
-    names, rows = ws.query(f"SELECT * FROM sweeps WHERE sweep_id = {int(sweep_id)}")
-    if not rows:
+    record = ws.sweep_row(sweep_id)
+    if record is None:
         raise StoreError(f"no sweep {sweep_id} in {db}")
-    record = dict(zip(names, rows[0]))
-    variables = json.loads(record["variables"])
-    keys = list(variables)
-    figs = ("penetration_time_s", "peak_resistance_n", "residual_ke_j", "final_depth_mm")
-    wanted = list(dict.fromkeys([*keys, *figs, "full_penetration"]))  # only what the figures need
-    arrow = ws.read_table(record["path"], f"sweep {sweep_id}'s table", columns=wanted)
-    table = {name: arrow.column(name).to_numpy(zero_copy_only=False) for name in wanted}
-    del arrow
-    section = Section(f"sweep {sweep_id}: {record['penetrator']} · {record['material']} · {record['energizing']}",
-                      provenance={k: str(v) for k, v in record.items()})
-    section.tables.append(("variables", ["key", "unit", "min", "max", "points"],
-                           [[k, v["unit"], v["min"], v["max"], v["points"]] for k, v in variables.items()]))
-    section.tables.append(("figures over the sweep", ["figure", "min", "max"],
-                           [[f, float(np.min(table[f])), float(np.max(table[f]))] for f in figs]))
-    if len(keys) >= 2:
-        for value in ("penetration_time_s", "peak_resistance_n"):
-            section.add_figure(figures.sweep_map(table, keys[0], keys[1], value))
-    section.add_figure(figures.sweep_scatter(table, keys))
-    section.add_figure(figures.sweep_partial(table, keys))
-    return [section]
+    return [sweep_section(ws, record)]
 
 
 def report_diagnosis(db: str | Path, refs: Sequence[str], progress: Callable[[str, float], None] | None = None
                      ) -> tuple[list, Any]:
     """Sections for a diagnosis (and the diagnosis itself, for checks)."""
-    from pencli.report.build import Section
-    from pencli.report.diagnosis import diagnosis_figure
+    from pencli.report.sections import diagnosis_section
 
     result = diagnose(db, refs, progress=progress)
-    report = result.to_dict()
-    section = Section(f"diagnosis: verdict {result.verdict}", text=" ".join(result.notes),
-                      provenance={"baseline": report["baseline"], "decision": report["decision"]})
-    section.tables.append(("effects, best first", ["effect", "held-out RMS [N]", "shrink [%]", "z", "significant",
-                                                   "detectable RMS [N]", "parameters"],
-                           [[e.name, e.heldout_rms_n, e.shrink_pct, e.z, e.significant, e.detectable_rms_n,
-                             ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
-                                       for k, v in e.params.items())] for e in result.effects]))
-    section.tables.append(("where the gap lies", ["phase", "depth [mm]", "time [ms]", "share of gap"],
-                           [[w["phase"], w.get("depth_mm"), w.get("time_ms"), w.get("share_of_gap")]
-                            for w in result.where]))
-    section.tables.append(("what the misfit follows (share of the baseline's held-out misfit explained by its "
-                           "mean along each axis, in the material)", list(result.axes), [list(result.axes.values())]))
-    section.add_figure(diagnosis_figure(result))
-    return [section], result
+    return [diagnosis_section(result)], result
 
 
 def report_all(db: str | Path, out: str | Path, *, pdf: bool = True,

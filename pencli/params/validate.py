@@ -234,3 +234,10 @@ def _fitted_ranges(value: Any, source: str) -> dict[str, tuple[float, float]]:
             raise ParameterError(f"{source}: key 'fitted_ranges.{key}': got {pair!r}; expected [min, max]")
         out[key] = (float(pair[0]), float(pair[1]))
     return out
+
+
+def sets_from_mappings(params: Mapping[str, dict], run_id: str) -> tuple[ParameterSet, ParameterSet, ParameterSet]:
+    """The (penetrator, material, energizing) sets a run's catalogue row stores, validated as files are but
+    allowed outside the documented ranges (the run happened)."""
+    return tuple(validate_mapping(params[kind], f"run {run_id} ({kind})", expected_kind=kind,
+                                  allow_out_of_range=True) for kind in ("penetrator", "material", "energizing"))

@@ -735,6 +735,13 @@ class Workspace:
                     str(final.relative_to(self.db_path.parent)), command, __version__])
         return sweep_id, final
 
+    def sweep_row(self, sweep_id: int) -> dict | None:
+        """The catalogue row of one sweep (None if there is no such sweep)."""
+        with self.connect() as con:
+            cursor = con.execute("SELECT * FROM sweeps WHERE sweep_id = ?", [int(sweep_id)])
+            row = cursor.fetchone()
+            return None if row is None else dict(zip([c[0] for c in cursor.description], row))
+
     def sweep_ids(self) -> list[int]:
         """Ids of the indexed sweeps (none on a catalog from before migration 3)."""
         with self.connect() as con:

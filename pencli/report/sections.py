@@ -1,0 +1,188 @@
+"""What each report shows: the sections for a run, a fitted material version, a sweep and a diagnosis.
+
+The API finds the workspace rows and runs the analyses; these functions turn them into
+:class:`~pencli.report.build.Section` objects (tables, figures, provenance).  Reading only: nothing here
+writes to the workspace.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from pencli.report.build import Section
+
+REFERENCE_ESTIMATES = {  # paper Table 1, "other mechanical properties for reference"
+    "grill_brick": ((0.5, 0.75), (1000.0, 1000.0)),
+    "mpacs_b": ((0.75, 2.0), (100.0, 125.0)),
+    "mpacs_c": ((5.0, 8.0), (200.0, 250.0)),
+    "mpacs_d": ((20.0, 25.0), (700.0, 850.0)),
+}
+"""Cone index [MPa] and unconfined compressive strength [kPa] ranges per material (Fig. 16's estimates)."""
+
+SWEEP_FIGURES = ("penetration_time_s", "peak_resistance_n", "residual_ke_j", "final_depth_mm")
+"""The CONTRACT §5 figures a sweep report summarises and maps."""
+
+
+def parameter_rows(mapping: Mapping[str, Any]) -> list[list[Any]]:
+    """(key, value, unit) rows of one parameter mapping, units from the parameter definitions."""
+    from pencli.params.definitions import BY_KEY
+
+    rows = []
+    for key, value in mapping.items():
+        if isinstance(value, dict) and key == "coefficients":
+            for sub, v in value.items():
+                rows.append([f"coefficients.{sub}", v, BY_KEY[f"coefficients.{sub}"].unit])
+        elif key in BY_KEY:
+            rows.append([key, value, BY_KEY[key].unit])
+    return rows
+
+
+def latest_fit_with(versions: Sequence[dict], run_id: str) -> dict | None:
+    """The newest fitted material version (of ``versions``, oldest first) that used ``run_id``."""
+    used = [v for v in versions if run_id in (v["source_runs"] or [])]
+    return used[-1] if used else None
+
+
+def _design_with_fit(params: Mapping[str, dict], run_id: str, coefficients: Mapping[str, float]):
+    from pencli.fit.resistance import with_coefficients
+    from pencli.model.design import design_from_sets
+    from pencli.params.validate import sets_from_mappings
+
+    p, m, e = sets_from_mappings(params, run_id)
+    return with_coefficients(design_from_sets(p, m, e), coefficients), m
+
+
+def run_section(ws, run_id: str, versions: Sequence[dict]) -> Section:
+    """A run: parameters, stages, events, raw channels (Fig. 11), measurements (Fig. 12), model against data
+    (Fig. 13) and energy per term with the newest fit that used it."""
+    from pencli.filter.tare import tare as tare_run
+    from pencli.model.dynamics import simulate
+    from pencli.report import figures
+    from pencli.store.workspace import raw_columns_of
+
+    params = ws.run_parameters(run_id)
+    stages = ws.stages(run_id)
+    raw_table, _ = ws.read_stage(run_id, "raw")
+    raw = raw_columns_of(raw_table)
+    tares = [s for s in stages if s.stage == "tare"]
+    events = tares[-1].parameters["events"] if tares else tare_run(
+        raw, params["energizing"]["surface_offset_mm"], params["penetrator"]["penetration_depth_mm"],
+        where=run_id).events.to_dict()
+    section = Section(f"run {run_id}", provenance={"run": {k: str(v) for k, v in ws.run_row(run_id).items()}})
+    section.tables.append(("parameters", ["key", "value", "unit"],
+                           [r for kind in ("penetrator", "material", "energizing") for r in parameter_rows(params[kind])]))
+    section.tables.append(("stages", ["#", "stage", "command", "pen", "created (UTC)"],
+                           [[s.stage_no, s.stage, s.command, s.pen_version, str(s.created_at)] for s in stages]))
+    section.tables.append(("events (time since release)", ["event", "value", "unit"],
+                           [[k, v * 1e3 if k.endswith("_s") else v, "ms" if k.endswith("_s") else ""]
+                            for k, v in events.items() if isinstance(v, (int, float))]))
+    section.add_figure(figures.raw_channels(run_id, raw, events))
+    inertia = [s for s in stages if s.stage == "inertia"]
+    if inertia:
+        table, _ = ws.read_stage(run_id, inertia[-1].stage_no)
+        section.add_figure(figures.kinematics_panels(
+            run_id, {c: table.column(c).to_numpy() for c in table.column_names}, events))
+    fit = latest_fit_with(versions, run_id)
+    if fit is not None and fit["model_data_path"]:
+        data = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
+                             filters=[("run_id", "=", run_id)]).to_pydict()
+        section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v) for k, v in data.items()}))
+        design, _ = _design_with_fit(params, run_id, json.loads(fit["coefficients"]))
+        s = simulate(design, output_rate_hz=2000.0).summary
+        section.add_figure(figures.energy_per_term(
+            f"{run_id}: energy per term, {fit['material']} v{fit['version']} coefficients (predicted run)",
+            {"strength": s.energy_strength_j, "friction": s.energy_friction_j, "damping": s.energy_damping_j,
+             "inertia": s.energy_inertia_j}, {"spring": s.spring_energy_j, "gravity": s.gravity_work_j,
+                                              "residual KE": s.residual_ke_j}))
+    return section
+
+
+def material_section(ws, row: Mapping[str, Any]) -> Section:
+    """A fitted material version (its catalogue row): coefficients, intervals, runs, Fig. 13 per run (first
+    12), and the model against simpler estimates on the median run (Fig. 16)."""
+    from pencli.model.dynamics import simulate
+    from pencli.model.resistance import TERMS, coefficient_of
+    from pencli.report import figures
+
+    material = row["material"]
+    fit = json.loads(row["fit"])
+    units = {coefficient_of(t).key.removeprefix("coefficients."): coefficient_of(t).unit for t in TERMS}
+    section = Section(f"material {material} v{row['version']} ({fit['mode']} fit over {len(fit['runs'])} runs)",
+                      text=" ".join(fit.get("warnings", [])), provenance={"catalog": {k: str(v) for k, v in row.items()
+                                                                                    if k not in ("fit",)}})
+    section.tables.append(("coefficients", ["coefficient", "value", "std. error", "95 % low", "95 % high", "unit"],
+                           [[n, v, fit["stderr"][n], *(fit["ci95"][n] or [None, None]), units[n]]
+                            for n, v in fit["coefficients"].items()]))
+    section.tables.append(("runs", ["run", "samples", "RMS [N]", "NRMSE", "R²"],
+                           [[r["run_id"], r["n_samples"], r["rms_n"], r["nrmse"], r["r2"]] for r in fit["runs"]]))
+    section.add_figure(figures.fit_intervals(material, fit))
+    if row["model_data_path"]:
+        table = ws.read_table(row["model_data_path"], "fit's model-vs-data table").to_pydict()
+        ids = np.asarray(table["run_id"])
+        for run_id in list(dict.fromkeys(table["run_id"]))[:12]:
+            sel = ids == run_id
+            section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v)[sel] for k, v in table.items()}))
+    runs = row["source_runs"]
+    median_run = runs[len(runs) // 2]
+    design, m = _design_with_fit(ws.run_parameters(median_run), median_run, fit["coefficients"])
+    tr = simulate(design, output_rate_hz=20_000.0).trajectory
+    inside = tr.phase == 1
+    cone, ucs = REFERENCE_ESTIMATES.get(m.name, (None, None))
+    section.add_figure(figures.estimates_comparison(
+        f"{median_run}: model against simpler estimates (Fig. 16)", tr.depth_m[inside] * 1e3,
+        tr.resistance_n[inside], design.frontal_area_m2, cone, ucs))
+    return section
+
+
+def sweep_section(ws, record: Mapping[str, Any]) -> Section:
+    """A sweep (its catalogue row): variables, ranges of the figures, heat maps with the full-penetration
+    boundary (Fig. 14), 4-D scatter (Fig. 15), partial dependence."""
+    from pencli.report import figures
+
+    sweep_id = record["sweep_id"]
+    variables = json.loads(record["variables"])
+    keys = list(variables)
+    wanted = list(dict.fromkeys([*keys, *SWEEP_FIGURES, "full_penetration"]))  # only what the figures need
+    arrow = ws.read_table(record["path"], f"sweep {sweep_id}'s table", columns=wanted)
+    table = {name: arrow.column(name).to_numpy(zero_copy_only=False) for name in wanted}
+    del arrow
+    section = Section(f"sweep {sweep_id}: {record['penetrator']} · {record['material']} · {record['energizing']}",
+                      provenance={k: str(v) for k, v in record.items()})
+    section.tables.append(("variables", ["key", "unit", "min", "max", "points"],
+                           [[k, v["unit"], v["min"], v["max"], v["points"]] for k, v in variables.items()]))
+    section.tables.append(("figures over the sweep", ["figure", "min", "max"],
+                           [[f, float(np.min(table[f])), float(np.max(table[f]))] for f in SWEEP_FIGURES]))
+    if len(keys) >= 2:
+        for value in ("penetration_time_s", "peak_resistance_n"):
+            section.add_figure(figures.sweep_map(table, keys[0], keys[1], value))
+    section.add_figure(figures.sweep_scatter(table, keys))
+    section.add_figure(figures.sweep_partial(table, keys))
+    return section
+
+
+def diagnosis_section(result) -> Section:
+    """A diagnosis: verdict, effects best first, where the gap lies, what the misfit follows, the figure."""
+    from pencli.report.diagnosis import diagnosis_figure
+
+    report = result.to_dict()
+    section = Section(f"diagnosis: verdict {result.verdict}", text=" ".join(result.notes),
+                      provenance={"baseline": report["baseline"], "decision": report["decision"]})
+    section.tables.append(("effects, best first", ["effect", "held-out RMS [N]", "shrink [%]", "z", "significant",
+                                                   "detectable RMS [N]", "parameters"],
+                           [[e.name, e.heldout_rms_n, e.shrink_pct, e.z, e.significant, e.detectable_rms_n,
+                             ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
+                                       for k, v in e.params.items())] for e in result.effects]))
+    section.tables.append(("where the gap lies", ["phase", "depth [mm]", "time [ms]", "share of gap"],
+                           [[w["phase"], w.get("depth_mm"), w.get("time_ms"), w.get("share_of_gap")]
+                            for w in result.where]))
+    section.tables.append(("what the misfit follows (share of the baseline's held-out misfit explained by its "
+                           "mean along each axis, in the material)", list(result.axes), [list(result.axes.values())]))
+    section.add_figure(diagnosis_figure(result))
+    return section
+
+
+__all__ = ["REFERENCE_ESTIMATES", "diagnosis_section", "latest_fit_with", "material_section", "parameter_rows",
+           "run_section", "sweep_section"]
