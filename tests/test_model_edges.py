@@ -190,6 +190,43 @@ def test_damped_design_without_inertia_term_runs_on_the_linear_flow_from_contact
         assert got.figures[key][0] == pytest.approx(want[key], rel=1e-4), key
 
 
+_STALLED_BEFORE = {  # two of the 24 designs (of a 4,000-design fuzz) that the lock-step numpy batch left 'stalled'
+    "slow_drop": ({"blade_width_mm": 14.2682, "blade_thickness_mm": 2.06123, "sprung_mass_kg": 2.58484},
+                  {"density_kg_m3": 1388.15, "microstructure_strength_kpa": 404.284, "sidewall_pressure_kpa": 0.255869,
+                   "damping_kpa_s_m": 9081.46, "inertia_coefficient": 2.48636},
+                  {"spring_stiffness_kn_m": 1.01104, "surface_offset_mm": 3073.53}),
+    "heavy_wide": ({"blade_width_mm": 333.292, "blade_thickness_mm": 1.853, "sprung_mass_kg": 50.3533},
+                   {"density_kg_m3": 16.8639, "microstructure_strength_kpa": 98.4284, "sidewall_pressure_kpa": 1.03406,
+                    "damping_kpa_s_m": 7129.03, "inertia_coefficient": 3.45823},
+                   {"spring_stiffness_kn_m": 1.58225, "surface_offset_mm": 7.51168}),
+}
+
+
+@pytest.mark.parametrize("case", sorted(_STALLED_BEFORE))
+def test_heavily_damped_designs_end_in_the_batch_as_in_the_oracle(case):
+    """Heavy damping with a v² term: thousands of damping-limited RK4 steps before the linear regime.  The
+    lock-step batch stopped after 6,400 and called them 'stalled'; each design now runs its own compiled
+    loop with a budget of 2·10⁶ steps."""
+    from pencli.model.design import design_from_sets
+    from pencli.params.validate import validate_mapping
+    from pencli.predict.batch import design_arrays, simulate_batch
+
+    pen, mat, ene = _STALLED_BEFORE[case]
+    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", **ene)
+    p.update(pen)
+    coefficients = {k: v for k, v in mat.items() if k in ("sidewall_pressure_kpa", "damping_kpa_s_m",
+                                                          "inertia_coefficient")}
+    m.update({k: v for k, v in mat.items() if k not in coefficients})
+    m["coefficients"] = {**m["coefficients"], **coefficients}
+    want = reference_run(p, m, e)
+    sets = [validate_mapping(x, case, expected_kind=kind, allow_out_of_range=True)
+            for x, kind in ((p, "penetrator"), (m, "material"), (e, "energizing"))]
+    got = simulate_batch(design_arrays(design_from_sets(*sets)))
+    assert got.end[0] == want["end"]
+    for key in ("penetration_time_s", "final_depth_mm", "peak_resistance_n", "residual_ke_j"):
+        assert got.figures[key][0] == pytest.approx(want[key], rel=1e-4, abs=1e-9), key
+
+
 def test_unit_columns_times_file_coefficients_are_the_papers_eq9():
     """The fit's and the diagnosis's columns (one file unit of each coefficient, from the parameter definitions)
     times coefficients in file units give Eq. 9 written out here from the paper, kPa converted by hand."""

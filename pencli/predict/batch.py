@@ -38,6 +38,8 @@ FIGURES = ("contact_speed_m_s", "penetration_time_s", "final_depth_mm", "full_pe
 
 
 ENDS = ("arrest", "full_depth", "creep", "stalled", "no_contact", "invalid")
+assert ENDS.index("arrest") == damped.ARREST and ENDS.index("full_depth") == damped.FULL_DEPTH \
+    and ENDS.index("creep") == damped.CREEP and ENDS.index("stalled") == damped.STALLED
 """How a design's run can end; :attr:`BatchResult.code` indexes this tuple."""
 _CODE = {name: np.int8(i) for i, name in enumerate(ENDS)}
 
@@ -118,13 +120,10 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
     # C > 0: time steps, then the exact linear flow
     j = np.flatnonzero(~no_contact & (b > 0.0))
     if j.size:
-        run = damped.Damped(v0[j], m[j], kd[j], xk[j], mg[j], a0[j], a1[j], b[j], dd[j], depth[j],
-                            _time_estimate(v0[j], m[j], kd[j], xk[j], mg[j], a0[j], a1[j], b[j], dd[j], depth[j]))
-        run.run()
-        t[j], x[j], v[j] = run.t, run.x, run.v
-        e_damp[j], e_inert[j], peak[j], peak_x[j] = run.e_damp, run.e_inert, run.peak, run.peak_x
-        for name in ("arrest", "full_depth", "creep", "stalled"):
-            code[j[run.end == name]] = _CODE[name]
+        t[j], x[j], v[j], e_damp[j], e_inert[j], peak[j], peak_x[j], ended = damped.penetrate(
+            v0[j], m[j], kd[j], xk[j], mg[j], a0[j], a1[j], b[j], dd[j], depth[j],
+            _time_estimate(v0[j], m[j], kd[j], xk[j], mg[j], a0[j], a1[j], b[j], dd[j], depth[j]))
+        code[j] = ended  # damped's codes are those of ENDS
 
     x_final = np.where(no_contact, 0.0, x)
     full = code == _CODE["full_depth"]
