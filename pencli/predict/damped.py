@@ -119,27 +119,6 @@ def _resistance_slope(x0, v0, a0, x1, v1, a1, h, s, fa1, b, d):
 
 
 @njit(**_JIT)
-def _bisect_hermite(mode, target, x0, v0, a0, x1, v1, a1, h, hi, fa1, b, d):
-    """Largest s in [0, hi] where (mode 0) v(s) > 0, (1) x(s) < target, (2) dR/ds > 0 on a step's
-    interpolant; the condition holds at 0 and fails at hi."""
-    lo = 0.0
-    for _ in range(_BISECT):
-        mid = 0.5 * (lo + hi)
-        x, v = _hermite_xv(x0, v0, a0, x1, v1, a1, h, mid)
-        if mode == 0:
-            up = v > 0.0
-        elif mode == 1:
-            up = target - x > 0.0
-        else:
-            up = _resistance_slope(x0, v0, a0, x1, v1, a1, h, mid, fa1, b, d) > 0.0
-        if up:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
-
-
-@njit(**_JIT)
 def _flow(t, xi0, v0, sigma, mu2, w2):
     """Exact (ξ, v) after t of ξ' = v, v' = −w2·ξ + 2σ·v (σ ≤ 0), with μ² = σ² − w2."""
     z = mu2 * t * t
@@ -181,20 +160,37 @@ def _lin_state(s, h, xi0, v, sigma, mu2, w2, x_star, shifted, x0, v_term):
 
 
 @njit(**_JIT)
-def _bisect_linear(mode, target, hi, h, xi0, v, sigma, mu2, w2, x_star, shifted, x0, v_term,
-                   fa1, b, d, F_lin, k, b_lin, m):
-    """Largest s in [0, hi] where (mode 0) v(s) > 0, (1) x(s) < target, (2) dR/dt > 0 on a linear-flow
-    step; the condition holds at 0 and fails at hi."""
+def _at(on_flow, s, p):
+    """(x, v) at the fraction s of a step: the cubic Hermite interpolant of an RK4 step (``p`` = x0, v0, a0,
+    x1, v1, a1, h, …) or the linear flow (``p`` = h, ξ0, v, σ, μ², ω², x*, shifted, x0, v_term, …)."""
+    if on_flow:
+        return _lin_state(s, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7] > 0.0, p[8], p[9])
+    return _hermite_xv(p[0], p[1], p[2], p[3], p[4], p[5], p[6], s)
+
+
+@njit(**_JIT)
+def _rise(on_flow, s, p):
+    """A quantity with the sign of dR/dt at the fraction s of a step (R = a0 + a1·x + b·v + d·v²); ``p[10:13]``
+    = a1, b, d, and for the flow ``p[13:17]`` = F, k, b of the linearised force and m."""
+    fa1, b, d = p[10], p[11], p[12]
+    if on_flow:
+        x, v = _at(on_flow, s, p)
+        return fa1 * v + (b + 2.0 * d * v) * (p[13] - p[14] * x - p[15] * v) / p[16]
+    return _resistance_slope(p[0], p[1], p[2], p[3], p[4], p[5], p[6], s, fa1, b, d)
+
+
+@njit(**_JIT)
+def _bisect(on_flow, mode, target, hi, p):
+    """Largest s in [0, hi] where (mode 0) v(s) > 0, (1) x(s) < target, (2) dR/dt > 0 on a step (see
+    :func:`_at`); the condition holds at 0 and fails at hi."""
     lo = 0.0
     for _ in range(_BISECT):
         mid = 0.5 * (lo + hi)
-        x, vv = _lin_state(mid, h, xi0, v, sigma, mu2, w2, x_star, shifted, x0, v_term)
-        if mode == 0:
-            up = vv > 0.0
-        elif mode == 1:
-            up = target - x > 0.0
+        if mode == 2:
+            up = _rise(on_flow, mid, p) > 0.0
         else:
-            up = fa1 * vv + (b + 2.0 * d * vv) * (F_lin - k * x - b_lin * vv) / m > 0.0
+            x, v = _at(on_flow, mid, p)
+            up = v > 0.0 if mode == 0 else target - x > 0.0
         if up:
             lo = mid
         else:
@@ -230,14 +226,14 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
         stop_v = vn <= 0.0
         s = 1.0
         if stop_v:
-            s = _bisect_hermite(0, 0.0, xs, vs, a_s, xn, vn, an, h, 1.0, a1, b, d)
+            s = _bisect(False, 0, 0.0, 1.0, (xs, vs, a_s, xn, vn, an, h, 0.0, 0.0, 0.0, a1, b, d, 0.0, 0.0, 0.0, 0.0))
         x_reach = _hermite_xv(xs, vs, a_s, xn, vn, an, h, s)[0] if stop_v else xn
         kink = xs < xk < depth and x_reach >= xk
         stop_x = not kink and x_reach >= depth  # maybe passed before v = 0 in the same step
         cut = kink or stop_x
         if cut:
             target = xk if kink else depth
-            s = _bisect_hermite(1, target, xs, vs, a_s, xn, vn, an, h, s, a1, b, d)
+            s = _bisect(False, 1, target, s, (xs, vs, a_s, xn, vn, an, h, 0.0, 0.0, 0.0, a1, b, d, 0.0, 0.0, 0.0, 0.0))
             x_cut, v_cut, ed, ei, _, a_cut = _step(xs, vs, s * h, m, kd, xk, mg, a0, a1, b, d)
             # land exactly on the target: move the remaining round-off of x with the energy it costs
             xn = target
@@ -264,7 +260,8 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
         rise0 = a1 * vs + (b + 2.0 * d * max(vs, 0.0)) * a_s
         rise1 = _resistance_slope(xs, vs, a_s, xn, vn, an, h_used, s_used, a1, b, d)
         if rise0 > 0.0 and rise1 < 0.0:
-            s_top = _bisect_hermite(2, 0.0, xs, vs, a_s, xn, vn, an, h_used, s_used, a1, b, d)
+            s_top = _bisect(False, 2, 0.0, s_used,
+                            (xs, vs, a_s, xn, vn, an, h_used, 0.0, 0.0, 0.0, a1, b, d, 0.0, 0.0, 0.0, 0.0))
             xm, vm = _hermite_xv(xs, vs, a_s, xn, vn, an, h_used, s_top)
             rm = _reduced(xm, max(vm, 0.0), a0, a1, b, d)
             if rm > peak:
@@ -303,15 +300,15 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
         shifted = k * depth > 1e-9 * abs(F_lin)  # a rest depth within reach of float64
         xi0 = x - x_star if shifted else 0.0
         v_term = F_lin / b_lin  # k = 0: v tends to F/b
-        x1, v1 = _lin_state(1.0, h, xi0, v, sigma, mu2, w2, x_star, shifted, x, v_term)
+        flow = (h, xi0, v, sigma, mu2, w2, x_star, 1.0 if shifted else 0.0, x, v_term, a1, b, d, F_lin, k, b_lin, m)
+        x1, v1 = _at(True, 1.0, flow)
         s_end = 1.0
         kind = -1
         # arrest: v changes sign at most once in a step (overdamped always; underdamped by the cap)
         if v1 <= 0.0:
-            s_end = _bisect_linear(0, 0.0, 1.0, h, xi0, v, sigma, mu2, w2, x_star, shifted, x, v_term,
-                                   a1, b, d, F_lin, k, b_lin, m)
+            s_end = _bisect(True, 0, 0.0, 1.0, flow)
             kind = ARREST
-        x_far = _lin_state(s_end, h, xi0, v, sigma, mu2, w2, x_star, shifted, x, v_term)[0]  # x rises while v > 0
+        x_far = _at(True, s_end, flow)[0]  # x rises while v > 0
         # the first of: full depth, springs at free length, creep — each before s_end
         for event in range(3):
             if event == 0:
@@ -323,15 +320,14 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
                 applies = mu2 > 0.0 and x_star < depth and (not in_spring or x_star < xk)
             if not (applies and target > x and x_far >= target):
                 continue
-            s_hit = _bisect_linear(1, target, s_end, h, xi0, v, sigma, mu2, w2, x_star, shifted, x, v_term,
-                                   a1, b, d, F_lin, k, b_lin, m)
+            s_hit = _bisect(True, 1, target, s_end, flow)
             if name == CREEP:  # only a slow approach creeps; a fast one overshoots and arrests
-                v_hit = _lin_state(s_hit, h, xi0, v, sigma, mu2, w2, x_star, shifted, x, v_term)[1]
+                v_hit = _at(True, s_hit, flow)[1]
                 if not (shifted and v_hit <= math.sqrt(w2) * CREEP_DISTANCE_M * (1.0 + 1e-9)):
                     continue
             if s_hit <= s_end:
                 s_end, kind, x_far = s_hit, name, target
-        x_new, v_new = _lin_state(s_end, h, xi0, v, sigma, mu2, w2, x_star, shifted, x, v_term)
+        x_new, v_new = _at(True, s_end, flow)
         if kind == FULL_DEPTH or kind == _KINK or kind == CREEP:
             x_new = x_far  # on the target
         v_new = 0.0 if kind == ARREST else max(v_new, 0.0)
@@ -339,12 +335,9 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
         r1 = _reduced(x_new, v_new, a0, a1, b, d)
         if r1 > peak:
             peak, peak_x = r1, x_new
-        rise_0 = a1 * v + (b + 2.0 * d * v) * (F_lin - k * x - b_lin * v) / m
-        rise_1 = a1 * v_new + (b + 2.0 * d * v_new) * (F_lin - k * x_new - b_lin * v_new) / m
-        if rise_0 > 0.0 and rise_1 < 0.0:
-            s_top = _bisect_linear(2, 0.0, s_end, h, xi0, v, sigma, mu2, w2, x_star, shifted, x, v_term,
-                                   a1, b, d, F_lin, k, b_lin, m)
-            xt, vt = _lin_state(s_top, h, xi0, v, sigma, mu2, w2, x_star, shifted, x, v_term)
+        if _rise(True, 0.0, flow) > 0.0 and _rise(True, s_end, flow) < 0.0:
+            s_top = _bisect(True, 2, 0.0, s_end, flow)
+            xt, vt = _at(True, s_top, flow)
             rt = _reduced(xt, max(vt, 0.0), a0, a1, b, d)
             if rt > peak:
                 peak, peak_x = rt, xt
