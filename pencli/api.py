@@ -777,24 +777,6 @@ def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | No
 
 
 # ---------------------------------------------------------------------------- sweeps
-CHUNK = 100_000
-"""Designs per chunk: bounded memory (~0.2 GB a chunk in flight) whatever the sweep's size."""
-
-
-def _run_chunk(base: dict, columns: dict) -> dict:
-    """One chunk through the batch simulator (top level, so processes and dask can ship it)."""
-    from pencli.predict.batch import simulate_batch
-    from pencli.predict.sweep import si_designs
-
-    import pyarrow as pa
-
-    from pencli.predict.batch import ENDS
-
-    designs, speed = si_designs(base, columns)
-    result = simulate_batch(designs, speed_at_contact_m_s=speed)
-    return {**result.figures, "end": pa.DictionaryArray.from_arrays(result.code, ENDS)}
-
-
 @dataclass(frozen=True)
 class SweepOutcome:
     """A finished sweep: where its table is and a summary."""
@@ -807,71 +789,6 @@ class SweepOutcome:
     seconds: float
 
 
-def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: str | None = None,
-                     workers: int = 2, progress: Callable[[int, int], None] | None = None):
-    """Yield (chunk columns, results) in order; local processes or a dask cluster do the work.
-
-    ``columns``: the designs' varied columns, or a :class:`~pencli.predict.sweep.Grid` whose chunks are
-    made as they are needed (a few chunks in flight at a time, so memory does not grow with the sweep).
-    """
-    if isinstance(columns, dict):
-        n = len(next(iter(columns.values())))
-
-        def take(start: int, stop: int) -> dict:
-            return {k: np.asarray(v[start:stop]) for k, v in columns.items()}
-    else:
-        n, take = columns.size, columns.take
-    chunks = (take(s, min(s + CHUNK, n)) for s in range(0, n, CHUNK))
-    done = 0
-
-    def emit(chunk: dict, result: dict) -> tuple[dict, dict]:
-        nonlocal done
-        done += len(next(iter(chunk.values())))
-        if progress:
-            progress(done, n)
-        return chunk, result
-
-    if engine == "dask":
-        try:
-            from dask.distributed import Client, LocalCluster
-        except ImportError:
-            raise ParameterError("--engine dask needs the dask extra: pip install 'pen[dask]'") from None
-        cluster = None if scheduler else LocalCluster(n_workers=workers, threads_per_worker=1, processes=False,
-                                                      dashboard_address=None)
-        client = Client(scheduler or cluster)
-        try:
-            chunks = list(chunks)
-            futures = client.map(_run_chunk, [base] * len(chunks), chunks, pure=False)
-            for chunk, future in zip(chunks, futures):
-                yield emit(chunk, future.result())
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-        return
-    if engine != "local":
-        raise ParameterError(f"--engine {engine!r}: expected local or dask")
-    if n <= CHUNK or workers <= 1:
-        for chunk in chunks:
-            yield emit(chunk, _run_chunk(base, chunk))
-        return
-    from collections import deque
-    from concurrent.futures import ThreadPoolExecutor
-
-    # threads, not processes: the simulator's loops are compiled and release the GIL, and nothing is
-    # copied between processes; the caller writes each finished chunk while the next ones run
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        pending: deque = deque()  # at most 2 × workers chunks in flight
-        for chunk in chunks:
-            pending.append((chunk, pool.submit(_run_chunk, base, chunk)))
-            if len(pending) >= 2 * workers:
-                chunk, future = pending.popleft()
-                yield emit(chunk, future.result())
-        while pending:
-            chunk, future = pending.popleft()
-            yield emit(chunk, future.result())
-
-
 def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str] = (), resolution: int = 20,
           sample: str | None = None, n: int = 1000, seed: int = 0, overrides: Sequence[str] = (),
           out: str | Path | None = None, db: str | Path | None = None, engine: str = "local",
@@ -881,6 +798,8 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     import contextlib
     import time as _time
 
+    from pencli.predict.batch import ENDS
+    from pencli.predict.chunks import evaluate_columns
     from pencli.predict.sweep import MAX_DESIGNS, SPEED, Grid, Sample, parse_vary
     from pencli.store.tables import StreamedTable
 
@@ -908,7 +827,8 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
              "final_depth_mm": [np.inf, -np.inf]}
     meta = {"pen:version": __import__("pencli").__version__, "pen:base": json.dumps(base),
             "pen:variables": json.dumps([v.key for v in variables])}
-    with (StreamedTable(target, meta) if target is not None else contextlib.nullcontext()) as table:
+    with (StreamedTable(target, meta, categories={"end": ENDS}) if target is not None
+          else contextlib.nullcontext()) as table:
         for chunk, result in evaluate_columns(base, columns, engine=engine, scheduler=scheduler, workers=workers,
                                               progress=progress):
             if table is not None:

@@ -13,6 +13,7 @@ from pencli import api
 from pencli.model.design import Design, design_from_sets
 from pencli.model.dynamics import simulate
 from pencli.params.load import load_preset
+from pencli.predict import chunks
 from pencli.predict.batch import designs_from, simulate_batch
 from tests.conftest import invoke
 
@@ -139,7 +140,7 @@ def test_latin_hypercube_is_stratified(tmp_path):
 def test_chunks_do_not_change_results(tmp_path, monkeypatch):
     args = dict(vary=["blade_width_mm=100:200", "friction_coefficient=0.2:0.8"], resolution=40)
     one = api.sweep("appendix_c", "mpacs_c", "appendix_c", out=tmp_path / "one.parquet", workers=1, **args)
-    monkeypatch.setattr(api, "CHUNK", 300)
+    monkeypatch.setattr(chunks, "CHUNK", 300)
     many = api.sweep("appendix_c", "mpacs_c", "appendix_c", out=tmp_path / "many.parquet", workers=2, **args)
     assert one.n_designs == many.n_designs == 1600
     assert pq.read_table(tmp_path / "one.parquet").equals(pq.read_table(tmp_path / "many.parquet"))
@@ -147,7 +148,7 @@ def test_chunks_do_not_change_results(tmp_path, monkeypatch):
 
 def test_dask_engine_gives_identical_results(tmp_path, monkeypatch):
     pytest.importorskip("dask.distributed")
-    monkeypatch.setattr(api, "CHUNK", 500)
+    monkeypatch.setattr(chunks, "CHUNK", 500)
     args = dict(vary=["blade_thickness_mm=1:2", "surface_offset_mm=50:250"], resolution=30)
     local = api.sweep("appendix_c", "grill_brick", "appendix_c", out=tmp_path / "local.parquet", **args)
     dask = api.sweep("appendix_c", "grill_brick", "appendix_c", out=tmp_path / "dask.parquet", engine="dask",
@@ -223,6 +224,6 @@ def test_a_huge_grid_is_refused_in_one_line_and_a_large_one_is_made_in_slices(wo
     r = invoke(runner, "sweep", "-p", "appendix_c", "-m", "mpacs_c", "-e", "appendix_c", "--resolution", "400",
                "--vary", "blade_width_mm=100:200", "--vary", "blade_thickness_mm=1:2", "--json")
     assert r.exit_code == 0, r.output
-    from pencli.api import CHUNK
+    from pencli.predict.chunks import CHUNK
 
     assert sum(biggest) == 160_000 and max(biggest) <= CHUNK < 160_000
