@@ -171,11 +171,16 @@ def term_at(term: str, design, x, v, **values):
     """One Eq. 9 term of ``design`` at depth ``x`` [m] and speed ``v`` [m/s], with any of the design's fields
     replaced by ``values`` (SI). [N]"""
     fields = {a: values[a] if a in values else getattr(design, a) for a in _arguments(term)}
-    function = TERM_FUNCTIONS[term]
-    return function(x, **fields) if term in _STATIC else function(x, v, **fields)
+    if _takes_speed(term):
+        fields["v"] = v
+    return TERM_FUNCTIONS[term](x, **fields)
 
 
-_STATIC = ("strength", "friction")  # the terms that do not depend on speed
+@functools.cache
+def _takes_speed(term: str) -> bool:
+    import inspect
+
+    return "v" in inspect.signature(TERM_FUNCTIONS[term]).parameters
 
 
 def unit_terms(design, x, v) -> tuple:

@@ -38,9 +38,11 @@ FIGURES = ("contact_speed_m_s", "penetration_time_s", "final_depth_mm", "full_pe
 
 
 ENDS = ("arrest", "full_depth", "creep", "stalled", "no_contact", "invalid")
-assert ENDS.index("arrest") == damped.ARREST and ENDS.index("full_depth") == damped.FULL_DEPTH \
-    and ENDS.index("creep") == damped.CREEP and ENDS.index("stalled") == damped.STALLED
-"""How a design's run can end; :attr:`BatchResult.code` indexes this tuple."""
+"""How a design's run can end; :attr:`BatchResult.code` indexes this tuple (the damped kernel's codes are
+its first four)."""
+assert ENDS[:4] == tuple(name for name, code in sorted(
+    {"arrest": damped.ARREST, "full_depth": damped.FULL_DEPTH, "creep": damped.CREEP,
+     "stalled": damped.STALLED}.items(), key=lambda item: item[1]))
 _CODE = {name: np.int8(i) for i, name in enumerate(ENDS)}
 
 
@@ -110,10 +112,7 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
     mg = m * g
     # C = 0 (every Table 1 material): closed form over depth
     j = np.flatnonzero(~no_contact & (b == 0.0))
-    if j.size == n:  # the common case: no copies
-        t, x, v, full, peak, peak_x, e_inert = closed_form.penetrate(v0, m, kd, xk, mg, a0, a1, dd, depth)
-        code[full] = _CODE["full_depth"]
-    elif j.size:
+    if j.size:
         t[j], x[j], v[j], full, peak[j], peak_x[j], e_inert[j] = closed_form.penetrate(
             v0[j], m[j], kd[j], xk[j], mg[j], a0[j], a1[j], dd[j], depth[j])
         code[j[full]] = _CODE["full_depth"]

@@ -30,9 +30,10 @@ def run_chunk(base: dict, columns: dict) -> dict:
 
 def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: str | None = None,
                      workers: int = 2, progress: Callable[[int, int], None] | None = None):
-    """Yield (chunk columns, results) in order; local processes or a dask cluster do the work.
+    """Yield (chunk columns, results) in order; local threads or a dask cluster do the work.
 
-    ``columns``: the designs' varied columns, or a :class:`~pencli.predict.sweep.Grid` whose chunks are
+    ``columns``: the designs' varied columns, or a :class:`~pencli.predict.sweep.Grid` or
+    :class:`~pencli.predict.sweep.Sample` whose chunks are
     made as they are needed (a few chunks in flight at a time, so memory does not grow with the sweep).
     """
     if isinstance(columns, dict):

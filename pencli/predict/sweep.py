@@ -126,9 +126,10 @@ class Sample:
     def take(self, start: int, stop: int) -> dict[str, np.ndarray]:
         """Designs ``start`` to ``stop`` (exclusive) of the sample, as columns."""
         first, last = start // self.BLOCK, (stop - 1) // self.BLOCK + 1
-        k = len(self.domains)
-        u = np.concatenate([np.random.default_rng([self.seed, 1, b]).random((min(self.BLOCK, self.size - b * self.BLOCK), k))
-                            for b in range(first, last)])[start - first * self.BLOCK:stop - first * self.BLOCK]
+        blocks = [np.random.default_rng([self.seed, 1, b]).random(
+            (min(self.BLOCK, self.size - b * self.BLOCK), len(self.domains))) for b in range(first, last)]
+        offset = first * self.BLOCK
+        u = np.concatenate(blocks)[start - offset:stop - offset]
         out = {}
         for i, (key, domain) in enumerate(self.domains.items()):
             ui = u[:, i]

@@ -72,8 +72,8 @@ def run_section(ws, run_id: str, versions: Sequence[dict]) -> Section:
         raw, params["energizing"]["surface_offset_mm"], params["penetrator"]["penetration_depth_mm"],
         where=run_id).events.to_dict()
     section = Section(f"run {run_id}", provenance={"run": {k: str(v) for k, v in ws.run_row(run_id).items()}})
-    section.tables.append(("parameters", ["key", "value", "unit"],
-                           [r for kind in ("penetrator", "material", "energizing") for r in parameter_rows(params[kind])]))
+    rows = [r for kind in ("penetrator", "material", "energizing") for r in parameter_rows(params[kind])]
+    section.tables.append(("parameters", ["key", "value", "unit"], rows))
     section.tables.append(("stages", ["#", "stage", "command", "pen", "created (UTC)"],
                            [[s.stage_no, s.stage, s.command, s.pen_version, str(s.created_at)] for s in stages]))
     section.tables.append(("events (time since release)", ["event", "value", "unit"],
