@@ -62,13 +62,6 @@ _reduced = njit(**_JIT)(reduced)          # the model core's own Eq. 9 and stati
 _static_work = njit(**_JIT)(static_work)
 
 
-def phi1(z):
-    """(e^z − 1)/z, 1 at z = 0; accurate for every z (numpy arrays)."""
-    z = np.asarray(z, dtype=float)
-    safe = np.where(z == 0.0, 1.0, z)
-    return np.where(z == 0.0, 1.0, np.expm1(safe) / safe)
-
-
 # A segment is (xs, qs, fs, beta, lam): it starts at depth xs [m] with q = v² = qs [m²/s²]; there
 # 2F/m = fs + beta·(x − xs) [m/s²] and λ = 2d/m [1/m].
 
@@ -255,4 +248,4 @@ def penetrate(v0, m, kd, xk, mg, a0, a1, d, depth):
     return tuple(out)
 
 
-__all__ = ["GAUSS_NODES", "penetrate", "penetrate_one", "peak_on", "phi1", "q_at", "slope_at", "travel_time"]
+__all__ = ["GAUSS_NODES", "penetrate", "penetrate_one", "peak_on", "q_at", "slope_at", "travel_time"]
