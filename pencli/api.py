@@ -793,7 +793,8 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
           sample: str | None = None, n: int = 1000, seed: int = 0, overrides: Sequence[str] = (),
           out: str | Path | None = None, db: str | Path | None = None, engine: str = "local",
           scheduler: str | None = None, workers: int = 2, progress: Callable[[int, int], None] | None = None,
-          speed_at_contact_m_s: float | None = None, command: str = "pen sweep") -> SweepOutcome:
+          speed_at_contact_m_s: float | None = None, command: str = "pen sweep",
+          allow_out_of_range: bool = False) -> SweepOutcome:
     """``pen sweep``: the CONTRACT §5 figures over a grid or a sample of designs, streamed to Parquet."""
     import contextlib
     import time as _time
@@ -807,7 +808,8 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
         raise ParameterError("give at least one --vary KEY=... (e.g. --vary friction_coefficient=+40%,-30%)")
     if resolution < 2:
         raise ParameterError(f"--resolution {resolution}: at least 2 points per variable")
-    p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides)
+    p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
+                                  allow_out_of_range=allow_out_of_range)
     base = {**p.values, **m.values, **e.values}
     base[SPEED] = (float(speed_at_contact_m_s) if speed_at_contact_m_s is not None else
                    float(simulate(design_from_sets(p, m, e), output_rate_hz=1000.0).summary.contact_speed_m_s))
@@ -869,14 +871,15 @@ class SensitivityRow:
 
 def sensitivity(penetrator: str = "appendix_c", material: str = "grill_brick", energizing: str = "appendix_c", *,
                 steps: Sequence[float] = (-0.5, -0.2, 0.2, 0.5), keys: Sequence[str] | None = None,
-                overrides: Sequence[str] = ()) -> list[SensitivityRow]:
+                overrides: Sequence[str] = (), allow_out_of_range: bool = False) -> list[SensitivityRow]:
     """The paper's Appendix C study: each design variable moved alone; blank where full depth is not reached."""
 
     from pencli.params.definitions import BY_KEY
     from pencli.predict.batch import simulate_batch
     from pencli.predict.sweep import SENSITIVITY_KEYS, one_at_a_time, si_designs
 
-    p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides)
+    p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
+                                  allow_out_of_range=allow_out_of_range)
     base = {**p.values, **m.values, **e.values}
     chosen = list(keys or SENSITIVITY_KEYS)
     rows, columns = one_at_a_time(base, chosen, [0.0, *steps])
@@ -908,7 +911,8 @@ class SolveOutcome:
 
 
 def solve(penetrator: str, material: str, energizing: str, *, target: str, until: str,
-          search: tuple[float, float] | None = None, overrides: Sequence[str] = ()) -> SolveOutcome:
+          search: tuple[float, float] | None = None, overrides: Sequence[str] = (),
+          allow_out_of_range: bool = False) -> SolveOutcome:
     """``--solve max:KEY --until COND``: the largest (or least) value of a §1 key for which COND holds.
 
     E.g. the largest microstructure strength a launcher penetrates to full depth
@@ -925,7 +929,8 @@ def solve(penetrator: str, material: str, energizing: str, *, target: str, until
     if want not in ("max", "min") or key not in BY_KEY:
         raise ParameterError(f"--solve {target!r}: expected max:KEY or min:KEY with a CONTRACT §1 key")
     name, threshold = parse_condition(until)
-    p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides)
+    p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
+                                  allow_out_of_range=allow_out_of_range)
     base = {**p.values, **m.values, **e.values}
     param = BY_KEY[key]
     if search is None:

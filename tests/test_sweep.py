@@ -227,3 +227,19 @@ def test_a_huge_grid_is_refused_in_one_line_and_a_large_one_is_made_in_slices(wo
     from pencli.predict.chunks import CHUNK
 
     assert sum(biggest) == 160_000 and max(biggest) <= CHUNK < 160_000
+
+
+def test_sweep_accepts_out_of_range_base_values_when_asked(runner, tmp_path):
+    """The validation error tells the user to pass --allow-out-of-range; pen sweep had no such option."""
+    args = ["sweep", "-p", "appendix_c", "-m", "mpacs_c", "-e", "appendix_c", "--set", "density_kg_m3=5000",
+            "--vary", "blade_width_mm=100:200", "--resolution", "3", "--out", str(tmp_path / "s.parquet"), "--json"]
+    refused = invoke(runner, *args)
+    assert refused.exit_code != 0 and "--allow-out-of-range" in refused.output
+    assert not (tmp_path / "s.parquet").exists()
+    accepted = invoke(runner, *args, "--allow-out-of-range")
+    assert accepted.exit_code == 0, accepted.output
+    assert pq.read_table(tmp_path / "s.parquet").num_rows == 3
+    for extra in (["--sensitivity"], ["--solve", "max:microstructure_strength_kpa", "--range", "10:5000"]):
+        r = invoke(runner, "sweep", "-p", "appendix_c", "-m", "mpacs_c", "-e", "appendix_c", "--set",
+                   "density_kg_m3=5000", "--allow-out-of-range", "--json", *extra)
+        assert r.exit_code == 0, (extra, r.output)

@@ -51,6 +51,8 @@ def sweep(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="With --engine dask: the scheduler address "
                                                                       "(default: a LocalCluster)."),
     workers: int = typer.Option(2, "--workers", min=1, help="Local threads (or LocalCluster workers)."),
+    allow_out_of_range: bool = typer.Option(False, "--allow-out-of-range",
+                                            help="Accept base values outside a parameter's documented range."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary (or table, or answer) as JSON."),
     db: Optional[Path] = DbOption,
 ) -> None:
@@ -62,7 +64,8 @@ def sweep(
     if out is not None and out.suffix.lower() != ".parquet":
         raise typer.BadParameter(f"'{out}' must end in .parquet", param_hint="--out")
     if sensitivity:
-        rows = api.sensitivity(penetrator, material, energizing, overrides=set_ or ())
+        rows = api.sensitivity(penetrator, material, energizing, overrides=set_ or (),
+                               allow_out_of_range=allow_out_of_range)
         if json_out:
             print_json([r.__dict__ for r in rows])
             return
@@ -80,7 +83,8 @@ def sweep(
         return
     if solve is not None:
         answer = api.solve(penetrator, material, energizing, target=solve, until=until,
-                           search=number_pair(search, ":", "LO:HI", "--range"), overrides=set_ or ())
+                           search=number_pair(search, ":", "LO:HI", "--range"), overrides=set_ or (),
+                           allow_out_of_range=allow_out_of_range)
         if json_out:
             print_json(answer.__dict__)
             return
@@ -94,6 +98,7 @@ def sweep(
         outcome = api.sweep(penetrator, material, energizing, vary=vary or (), resolution=resolution, sample=sample,
                             n=n, seed=seed, overrides=set_ or (), out=out, db=None if out else db_path(db),
                             engine=engine, scheduler=scheduler, workers=workers, speed_at_contact_m_s=speed_at_contact,
+                            allow_out_of_range=allow_out_of_range,
                             progress=lambda done, total: progress("sweeping", done, total))
     record = {"n_designs": outcome.n_designs, "variables": outcome.variables, "summary": outcome.summary,
               "path": str(outcome.path) if outcome.path else None, "sweep_id": outcome.sweep_id,
