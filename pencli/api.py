@@ -420,7 +420,7 @@ def acquire(*, springs: int | None, penetrator: str, material: str, energizing: 
             duration_s: float = 2.0, pre_trigger_s: float = 0.2, post_motion_s: float = 0.2,
             position_cal: str | Path | None = None, force_cal: str | Path | None = None,
             info: Mapping[str, Any] | None = None, confirm: Callable[[], bool] = lambda: True,
-            progress: Progress | None = None) -> Acquisition:
+            progress: Progress | None = None, allow_out_of_range: bool = False) -> Acquisition:
     """Fire one shot on the rig (simulated by default) and return it, unsaved."""
     import datetime as _dt
 
@@ -434,11 +434,11 @@ def acquire(*, springs: int | None, penetrator: str, material: str, energizing: 
         if springs is None:
             raise ParameterError("give --springs N (2, 4 or 6) or --energizing PRESET_OR_FILE")
         energizing = f"springs_{springs}"
-    e = resolve(energizing, "energizing")
+    e = resolve(energizing, "energizing", allow_out_of_range=allow_out_of_range)
     if springs is not None and int(e.values["spring_count"]) != springs:
         raise ParameterError(f"--springs {springs} but {e.source} has spring_count {e.values['spring_count']}")
-    p = resolve(penetrator, "penetrator")
-    m = resolve(material, "material")
+    p = resolve(penetrator, "penetrator", allow_out_of_range=allow_out_of_range)
+    m = resolve(material, "material", allow_out_of_range=allow_out_of_range)
     rig_config = load_rig(rig)
     name = driver or rig_config["driver"]
     rate = float(rate_hz or rig_config["sampling_rate_hz"])

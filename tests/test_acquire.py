@@ -243,3 +243,23 @@ def test_the_bundled_example_catalog_holds_no_machine_paths():
     assert absolute == []
     assert {i["position_calibration"] for i in info} == {"bundled:encoder_default.yaml"}
     assert {i["force_calibration"] for i in info} == {"bundled:ft_default.cal"}
+
+
+def test_acquire_accepts_an_out_of_range_material_when_asked(workspace, runner):
+    """The validation error tells the user to pass --allow-out-of-range; pen acquire had no such option."""
+    import yaml
+
+    from pencli.params.load import load_preset
+
+    material = load_preset("mpacs_c", "material").to_mapping()
+    material["density_kg_m3"] = 5000.0  # documented range [1, 3000] kg/m³
+    path = workspace / "dense.yaml"
+    path.write_text(yaml.safe_dump(material))
+    before = snapshot(workspace)
+    refused = invoke(runner, "acquire", "--springs", "4", "-m", str(path), "--yes", "--save")
+    assert refused.exit_code == 1 and "--allow-out-of-range" in refused.stderr
+    assert snapshot(workspace) == before
+    accepted = invoke(runner, "acquire", "--springs", "4", "-m", str(path), "--yes", "--save", "--id", "dense",
+                      "--allow-out-of-range", "--json")
+    assert accepted.exit_code == 0, accepted.output
+    assert api.run_detail(workspace / "runs.duckdb", "dense").parameters["material"]["density_kg_m3"] == 5000.0

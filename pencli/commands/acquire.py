@@ -48,6 +48,8 @@ def acquire(
     tag: Optional[List[str]] = typer.Option(None, "--tag", help="Tag stored with the run (repeatable)."),
     truth_out: Optional[Path] = typer.Option(None, "--truth-out", help="Simulated rig only: write its true "
                                                                        "figures (contact, stop, strength) as JSON."),
+    allow_out_of_range: bool = typer.Option(False, "--allow-out-of-range",
+                                            help="Accept parameter values outside their documented ranges."),
     json_out: bool = typer.Option(False, "--json", help='Print {"id": ..., "saved": ...} as JSON.'),
     db: Optional[Path] = DbOption,
 ) -> None:
@@ -71,7 +73,8 @@ def acquire(
     with progress_bar("arming", disable=json_out) as progress:
         shot = api.acquire(springs=springs, penetrator=penetrator, material=material, energizing=energizing, rig=rig,
                            driver=driver, rate_hz=rate, duration_s=duration, position_cal=position_cal,
-                           force_cal=force_cal, info=info, confirm=confirm, progress=progress)
+                           force_cal=force_cal, info=info, confirm=confirm, progress=progress,
+                           allow_out_of_range=allow_out_of_range)
     for warning in shot.warnings:
         err_console.print(f"[yellow]warning:[/yellow] {escape(warning)}")
     columns = shot.run.columns
