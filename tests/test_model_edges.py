@@ -248,3 +248,27 @@ def test_unit_columns_times_file_coefficients_are_the_papers_eq9():
     a0, a1, b, dd = eq9_coefficients(with_coefficients(d, {"strength_factor": cs, "sidewall_pressure_kpa": p_kpa,
                                                            "damping_kpa_s_m": c_kpa_s_m, "inertia_coefficient": k}))
     assert a0 + a1 * x + b * v + dd * v * v == pytest.approx(paper, rel=1e-12)
+
+
+@pytest.mark.parametrize("fields", [{"density_kg_m3": 1e300}, {"blade_width_m": 1e300, "blade_thickness_m": 1e299},
+                                    {"damping_pa_s_m": 1e300}])
+def test_batch_marks_designs_the_scalar_simulator_refuses_as_overflow(fields):
+    """A force beyond float64's reach: `pen predict` refuses the design in one line, and the batch used to
+    return figures for it anyway (an 'arrest' at 2e-23 mm after 2e124 s for a density of 1e300)."""
+    from dataclasses import replace
+
+    from pencli.model.design import design_from_sets
+    from pencli.model.dynamics import simulate
+    from pencli.params.load import resolve
+    from pencli.predict.batch import design_arrays, simulate_batch
+
+    base = design_from_sets(resolve("appendix_c", "penetrator"), resolve("grill_brick", "material"),
+                            resolve("appendix_c", "energizing"))
+    design = replace(base, **fields)
+    with pytest.raises(Exception, match="cannot be integrated in float64"):
+        simulate(design)
+    got = simulate_batch(design_arrays(design))
+    assert got.end[0] == "overflow"
+    assert got.figures["penetration_time_s"][0] == 0.0 and not got.figures["full_penetration"][0]
+    ordinary = simulate_batch(design_arrays(base))
+    assert ordinary.end[0] in ("arrest", "full_depth")

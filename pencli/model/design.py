@@ -110,6 +110,19 @@ def static_work(x0, x1, xk, kd, mg, a0, a1):
     return spring + (mg - a0) * (x1 - x0) - 0.5 * a1 * (x1 * x1 - x0 * x0)
 
 
+FORCE_LIMIT_N = 1e30
+"""Forces beyond this are outside what float64 integrates meaningfully. [N]"""
+
+
+def force_scales(design: Design, a0, a1, b, d, speed) -> dict:
+    """The largest size of each force of the model (Eq. 9 at full depth and the contact speed, the drive at
+    release, the weight), to compare with :data:`FORCE_LIMIT_N`.  ``a0…d``: Eq. 9's coefficients; floats, or
+    arrays for the batch's designs. [N]"""
+    return {"strength": a0, "friction": a1 * design.penetration_depth_m, "damping": b * speed,
+            "inertia": d * speed * speed, "drive": design.drive_stiffness_n_m * design.stroke_m,
+            "weight": design.effective_mass_kg * design.gravity_m_s2}
+
+
 DESIGN_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Design))
 
 

@@ -40,7 +40,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
 from pencli.errors import ModelError
-from pencli.model.design import CREEP_DISTANCE_M, Design, static_work
+from pencli.model.design import CREEP_DISTANCE_M, FORCE_LIMIT_N, Design, force_scales, static_work
 from pencli.model.flight import reach
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, resistance_law, term_keys
 
@@ -59,9 +59,6 @@ MAX_SAMPLES = 1_000_000
 """Trajectory samples kept at most (~100 MB); a longer motion is sampled more coarsely and says so."""
 ENERGY_TOLERANCE = 1e-6
 """Energy balance error, relative to the energy put in, beyond which a result carries a warning. [–]"""
-FORCE_LIMIT_N = 1e30
-"""Forces beyond this are outside what float64 integrates meaningfully. [N]"""
-
 _DRIVE_KEYS = {
     "drive": ("spring_stiffness_kn_m", "spring_count", "spring_nominal_length_mm", "spring_compressed_length_mm"),
     "weight": ("sprung_mass_kg", "gravity_m_s2"),
@@ -74,11 +71,8 @@ class SimulationLimit(ModelError):
 
 def _check_scales(design: Design, law: ResistanceLaw, speed_m_s: float) -> None:
     """Refuse a design whose forces overflow float64 before integrating it."""
-    depth = design.penetration_depth_m
-    forces = {"strength": law.strength_n, "friction": law.friction_n_m * depth,
-              "damping": law.damping_n_s_m * speed_m_s, "inertia": law.inertia_n_s2_m2 * speed_m_s ** 2,
-              "drive": design.drive_stiffness_n_m * design.stroke_m,
-              "weight": design.effective_mass_kg * design.gravity_m_s2}
+    forces = force_scales(design, law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2,
+                          speed_m_s)
     for term, force in forces.items():
         if not math.isfinite(force) or abs(force) > FORCE_LIMIT_N:
             keys = _DRIVE_KEYS[term] if term in _DRIVE_KEYS else term_keys(term)

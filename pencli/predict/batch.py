@@ -23,7 +23,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numba import njit
 
-from pencli.model.design import Design
+from pencli.model.design import FORCE_LIMIT_N, Design, force_scales
 from pencli.model.flight import reach
 from pencli.model.resistance import eq9_coefficients, reduced
 from pencli.predict import closed_form, damped
@@ -37,7 +37,7 @@ FIGURES = ("contact_speed_m_s", "penetration_time_s", "final_depth_mm", "full_pe
 """The CONTRACT §5 record, in order."""
 
 
-ENDS = ("arrest", "full_depth", "creep", "stalled", "no_contact", "invalid")
+ENDS = ("arrest", "full_depth", "creep", "stalled", "no_contact", "invalid", "overflow")
 """How a design's run can end; :attr:`BatchResult.code` indexes this tuple (the damped kernel's codes are
 its first four)."""
 assert ENDS[:4] == tuple(name for name, code in sorted(
@@ -56,8 +56,9 @@ class BatchResult:
 
     @property
     def end(self) -> np.ndarray:
-        """``arrest``, ``full_depth``, ``creep`` (see :mod:`pencli.predict.damped`), ``stalled``, ``no_contact``
-        or ``invalid`` (a CONTRACT §1 rule broken) per design."""
+        """``arrest``, ``full_depth``, ``creep`` (see :mod:`pencli.predict.damped`), ``stalled``, ``no_contact``,
+        ``invalid`` (a CONTRACT §1 rule broken) or ``overflow`` (a force beyond
+        :data:`~pencli.model.design.FORCE_LIMIT_N`: not simulated, as ``pen predict`` refuses it) per design."""
         return np.asarray(ENDS)[self.code]
 
     def __len__(self) -> int:
@@ -84,7 +85,8 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
     m, kd, stroke = design.effective_mass_kg, design.drive_stiffness_n_m, design.stroke_m  # stroke 0: a drop
     s0, g = design.surface_offset_m, design.gravity_m_s2
     w, T = design.blade_width_m, design.blade_thickness_m
-    a0, a1, b, dd = eq9_coefficients(design)  # R = a0 + a1·x + b·v + dd·v² in contact
+    with np.errstate(over="ignore", invalid="ignore"):  # absurd designs overflow here; marked 'overflow' below
+        a0, a1, b, dd = eq9_coefficients(design)  # R = a0 + a1·x + b·v + dd·v² in contact
     depth = design.penetration_depth_m
 
     # ---- flight, closed form
@@ -103,7 +105,14 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
     invalid = (T >= w) | (d["load_cell_mass_kg"] > d["sprung_mass_kg"])
     code[invalid] = _CODE["invalid"]
     no_contact = no_contact | invalid
+    with np.errstate(over="ignore", invalid="ignore"):
+        scales = force_scales(design, a0, a1, b, dd, np.where(no_contact, 0.0, v0))
+        too_large = ~no_contact & np.logical_or.reduce(
+            [~np.isfinite(f) | (np.abs(f) > FORCE_LIMIT_N) for f in np.broadcast_arrays(*scales.values())])
+    code[too_large] = _CODE["overflow"]
+    no_contact = no_contact | too_large
     v0 = np.where(no_contact, 0.0, v0)
+    a0, a1, b, dd = (np.where(no_contact, 0.0, c) for c in (a0, a1, b, dd))  # designs not simulated book nothing
 
     x, v, t = np.zeros(n), np.zeros(n), np.zeros(n)
     e_damp, e_inert = np.zeros(n), np.zeros(n)
