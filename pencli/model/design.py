@@ -123,6 +123,12 @@ def force_scales(design: Design, a0, a1, b, d, speed) -> dict:
             "weight": design.effective_mass_kg * design.gravity_m_s2}
 
 
+def beyond_limit(force):
+    """True where a force (float or array) is not finite or exceeds :data:`FORCE_LIMIT_N` in size."""
+    force = np.asarray(force, dtype=float)
+    return ~np.isfinite(force) | (np.abs(force) > FORCE_LIMIT_N)
+
+
 DESIGN_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Design))
 
 

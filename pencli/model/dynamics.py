@@ -40,7 +40,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
 from pencli.errors import ModelError
-from pencli.model.design import CREEP_DISTANCE_M, FORCE_LIMIT_N, Design, force_scales, static_work
+from pencli.model.design import CREEP_DISTANCE_M, FORCE_LIMIT_N, Design, beyond_limit, force_scales, static_work
 from pencli.model.flight import reach
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, resistance_law, term_keys
 
@@ -74,7 +74,7 @@ def _check_scales(design: Design, law: ResistanceLaw, speed_m_s: float) -> None:
     forces = force_scales(design, law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2,
                           speed_m_s)
     for term, force in forces.items():
-        if not math.isfinite(force) or abs(force) > FORCE_LIMIT_N:
+        if beyond_limit(force):
             keys = _DRIVE_KEYS[term] if term in _DRIVE_KEYS else term_keys(term)
             raise SimulationLimit(f"the {term} force is {force:.3g} N (from {', '.join(keys)}); "
                                   f"beyond {FORCE_LIMIT_N:g} N the model cannot be integrated in float64")

@@ -23,7 +23,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numba import njit
 
-from pencli.model.design import FORCE_LIMIT_N, Design, force_scales
+from pencli.model.design import Design, beyond_limit, force_scales
 from pencli.model.flight import reach
 from pencli.model.resistance import eq9_coefficients, reduced
 from pencli.predict import closed_form, damped
@@ -107,8 +107,7 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
     no_contact = no_contact | invalid
     with np.errstate(over="ignore", invalid="ignore"):
         scales = force_scales(design, a0, a1, b, dd, np.where(no_contact, 0.0, v0))
-        too_large = ~no_contact & np.logical_or.reduce(
-            [~np.isfinite(f) | (np.abs(f) > FORCE_LIMIT_N) for f in np.broadcast_arrays(*scales.values())])
+        too_large = ~no_contact & np.logical_or.reduce([beyond_limit(f) for f in np.broadcast_arrays(*scales.values())])
     code[too_large] = _CODE["overflow"]
     no_contact = no_contact | too_large
     v0 = np.where(no_contact, 0.0, v0)
