@@ -24,12 +24,11 @@ import numpy as np
 from numba import njit
 
 from pencli.model.design import Design, beyond_limit, force_scales
-from pencli.model.flight import reach
 from pencli.model.resistance import eq9_coefficients, reduced
 from pencli.predict import closed_form, damped
+from pencli.predict.compiled import JIT as _JIT
+from pencli.predict.compiled import reach as _reach
 
-_JIT = dict(cache=True, nogil=True, error_model="numpy")
-_reach = njit(**_JIT)(reach)
 
 FIGURES = ("contact_speed_m_s", "penetration_time_s", "final_depth_mm", "full_penetration", "peak_resistance_n",
            "peak_resistance_depth_mm", "residual_ke_j", "spring_energy_j", "energy_strength_j", "energy_friction_j",

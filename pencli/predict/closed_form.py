@@ -27,8 +27,8 @@ with :math:`f = 2F/m = f_s + \beta\Delta`, :math:`\varphi_1(z) = (e^z - 1)/z`,
   changes sign;
 - the inertia energy is the work of F less the gain in kinetic energy.
 
-Each design is worked through on its own (scalar code compiled by numba, designs spread over the
-cores): the number of Newton steps and which segments a design crosses are its own, and no array
+Each design is worked through on its own (scalar code compiled by numba; the sweep spreads chunks of
+designs over threads): the number of Newton steps and which segments a design crosses are its own, and no array
 temporaries are made.  Plain numpy with the same arithmetic ran at 0.47 s per 100,000 designs on one
 core; see the README's sweep bench for the compiled figure.
 
@@ -42,8 +42,10 @@ import math
 import numpy as np
 from numba import njit
 
-from pencli.model.design import static_work
-from pencli.model.resistance import reduced
+from pencli.predict.compiled import JIT as _JIT
+from pencli.predict.compiled import reduced as _reduced
+from pencli.predict.compiled import static_work as _static_work
+
 
 GAUSS_NODES = 8
 """Gauss–Legendre nodes on each half of a segment (the integrands are smooth after the substitution).
@@ -57,9 +59,6 @@ _UNIT_W = 0.5 * _WEIGHTS
 _TINY = 1e-300
 _MAX_NEWTON = 80
 
-_JIT = dict(cache=True, nogil=True, error_model="numpy")
-_reduced = njit(**_JIT)(reduced)          # the model core's own Eq. 9 and static work, compiled
-_static_work = njit(**_JIT)(static_work)
 
 
 # A segment is (xs, qs, fs, beta, lam): it starts at depth xs [m] with q = v² = qs [m²/s²]; there
@@ -87,21 +86,19 @@ def slope_at(x, q, xs, fs, beta, lam):
 
 
 @njit(**_JIT)
+def _target(kind, c, x, xs, qs, fs, beta, lam):
+    """(f, f') at x for a root search: q and its slope (kind 0), or slope − c and q'' = β − λq' (kind 1)."""
+    q = q_at(x, xs, qs, fs, beta, lam)
+    s = slope_at(x, q, xs, fs, beta, lam)
+    return (q, s) if kind == 0 else (s - c, beta - lam * s)
+
+
+@njit(**_JIT)
 def _root(kind, c, xs, qs, fs, beta, lam, lo, hi):
-    """Root in [lo, hi] of q (kind 0, slope as derivative) or of slope − c (kind 1, q'' = β − λq' as
-    derivative), the ends of opposite sign (or zero at one): Newton steps, bisection when they leave the
-    bracket, until the root is located to round-off."""
-    x = lo
-    f_lo = 0.0
-    f_hi = 0.0
-    for end in range(2):
-        x = lo if end == 0 else hi
-        q = q_at(x, xs, qs, fs, beta, lam)
-        f = q if kind == 0 else slope_at(x, q, xs, fs, beta, lam) - c
-        if end == 0:
-            f_lo = f
-        else:
-            f_hi = f
+    """Root in [lo, hi] of :func:`_target`'s f, the ends of opposite sign (or zero at one): Newton steps,
+    bisection when they leave the bracket, until the root is located to round-off."""
+    f_lo = _target(kind, c, lo, xs, qs, fs, beta, lam)[0]
+    f_hi = _target(kind, c, hi, xs, qs, fs, beta, lam)[0]
     if f_hi == 0.0:
         return hi
     if f_lo == 0.0:
@@ -111,12 +108,7 @@ def _root(kind, c, xs, qs, fs, beta, lam, lo, hi):
         x = 0.5 * (lo + hi)
     up = f_lo > 0.0
     for _ in range(_MAX_NEWTON):
-        q = q_at(x, xs, qs, fs, beta, lam)
-        s = slope_at(x, q, xs, fs, beta, lam)
-        if kind == 0:
-            fx, dfx = q, s
-        else:
-            fx, dfx = s - c, beta - lam * s
+        fx, dfx = _target(kind, c, x, xs, qs, fs, beta, lam)
         if fx == 0.0:
             return x
         if (fx > 0.0) == up:
@@ -125,7 +117,7 @@ def _root(kind, c, xs, qs, fs, beta, lam, lo, hi):
             hi = x
         newton = x - fx / dfx if dfx != 0.0 else math.nan
         x_new = newton if (lo < newton < hi) else 0.5 * (lo + hi)
-        done = (abs(x_new - x) <= 4e-16 * max(abs(x), abs(hi - lo))) or (hi - lo <= 4e-16 * max(abs(lo), abs(hi)))
+        done = abs(x_new - x) <= 4e-16 * max(abs(x), abs(hi - lo)) or hi - lo <= 4e-16 * max(abs(lo), abs(hi))
         x = x_new
         if done:
             break

@@ -32,8 +32,10 @@ import math
 import numpy as np
 from numba import njit
 
-from pencli.model.design import CREEP_DISTANCE_M, static_work
-from pencli.model.resistance import reduced
+from pencli.model.design import CREEP_DISTANCE_M
+from pencli.predict.compiled import JIT as _JIT
+from pencli.predict.compiled import reduced as _reduced
+from pencli.predict.compiled import static_work as _static_work
 
 STEPS = 160
 """RK4 steps over a design's estimated penetration time (doubled after as many steps again)."""
@@ -57,9 +59,6 @@ ARREST, FULL_DEPTH, CREEP, STALLED = 0, 1, 2, 3
 """End codes, in the order of :data:`pencli.predict.batch.ENDS`."""
 _KINK = 4
 
-_JIT = dict(cache=True, nogil=True, error_model="numpy")
-_reduced = njit(**_JIT)(reduced)
-_static_work = njit(**_JIT)(static_work)
 
 
 @njit(**_JIT)
