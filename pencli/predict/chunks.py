@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from typing import Callable
 
-import numpy as np
 
 from pencli.errors import ParameterError
 
@@ -32,17 +31,10 @@ def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: s
                      workers: int = 2, progress: Callable[[int, int], None] | None = None):
     """Yield (chunk columns, results) in order; local threads or a dask cluster do the work.
 
-    ``columns``: the designs' varied columns, or a :class:`~pencli.predict.sweep.Grid` or
-    :class:`~pencli.predict.sweep.Sample` whose chunks are
-    made as they are needed (a few chunks in flight at a time, so memory does not grow with the sweep).
+    ``columns``: a :class:`~pencli.predict.sweep.Grid` or :class:`~pencli.predict.sweep.Sample`, whose chunks
+    are made as they are needed (a few in flight at a time, so memory does not grow with the sweep).
     """
-    if isinstance(columns, dict):
-        n = len(next(iter(columns.values())))
-
-        def take(start: int, stop: int) -> dict:
-            return {k: np.asarray(v[start:stop]) for k, v in columns.items()}
-    else:
-        n, take = columns.size, columns.take
+    n, take = columns.size, columns.take
     chunks = (take(s, min(s + CHUNK, n)) for s in range(0, n, CHUNK))
     done = 0
 
