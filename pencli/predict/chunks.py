@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from typing import Callable
 
-
 from pencli.errors import ParameterError
 
 CHUNK = 100_000
