@@ -7,6 +7,8 @@ physics says.
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from pencli.acquire.rig import rig_from_mapping
@@ -56,3 +58,65 @@ def test_effects_move_the_world_as_their_physics_says():
     assert block.final_depth_m < base.final_depth_m
     sensor_only = _depth([{"name": "sensor_lag", "tau_ms": 0.5}])
     assert sensor_only.final_depth_m == base.final_depth_m  # a sensor effect leaves the motion alone
+
+
+def _resistance(effects, x, v):
+    from pencli.acquire.truth import _resistance_function
+
+    ps, ms, es = sets("al6061_1mm", "mpacs_c", "springs_2")
+    return _resistance_function(world_from(ps, ms, es, rig_from_mapping({"effects": effects})))(x, v)
+
+
+@pytest.mark.parametrize("shape,at_50mm", [
+    (0, lambda c, e, L: (1 + c) ** 0.5 - 1), (1, lambda c, e, L: c * 0.5 ** e),
+    (2, lambda c, e, L: c * (1 - math.exp(-50 / L)) / (1 - math.exp(-100 / L)))])
+def test_each_form_of_a_strength_gradient_changes_the_frontal_strength_as_described(shape, at_50mm):
+    """The sim world's random forms (issue 11): at 100 mm every form has changed the frontal strength force
+    (R at the surface, at rest) by change_per_100mm; at 50 mm by its own profile, written out here."""
+    change, exponent, length = 1.7, 2.2, 30.0
+    effect = [{"name": "strength_gradient", "change_per_100mm": change, "shape": shape, "exponent": exponent,
+               "length_mm": length}]
+    frontal = _resistance([], 0.0, 0.0)
+    assert _resistance(effect, 0.1, 0.0) - _resistance([], 0.1, 0.0) == pytest.approx(change * frontal, rel=1e-12)
+    assert _resistance(effect, 0.05, 0.0) - _resistance([], 0.05, 0.0) == pytest.approx(
+        at_50mm(change, exponent, length) * frontal, rel=1e-12)
+
+
+@pytest.mark.parametrize("shape,h", [(0, lambda r: r / (1 + r)), (1, lambda r: 1 - math.exp(-r)),
+                                     (2, lambda r: min(r, 1.0))])
+def test_each_form_of_plug_growth_widens_every_frontal_term(shape, h):
+    growth, length, T = 2.0, 20.0, 1.0  # mm; al6061_1mm
+    effect = [{"name": "plug_growth", "growth_mm": growth, "length_mm": length, "shape": shape}]
+    for x_mm, v in ((10.0, 0.0), (35.0, 4.0)):
+        x = x_mm * 1e-3
+        widened = 1 + growth * h(x_mm / length) / T
+        frontal = _resistance([], x, v) - _resistance([], x, 0.0) + _resistance([], 0.0, 0.0)  # friction has no v
+        assert _resistance(effect, x, v) - _resistance([], x, v) == pytest.approx((widened - 1) * frontal, rel=1e-9)
+
+
+def test_saturating_sidewall_pressure_integrates_its_rise():
+    rise, scale = 2.0, 25.0
+    effect = [{"name": "sidewall_pressure_growth", "shape": 1, "rise": rise, "scale_mm": scale}]
+    x = 0.06
+    friction = _resistance([], x, 0.0) - _resistance([], 0.0, 0.0)  # 2 μ w P x
+    integral = rise * (x - scale * 1e-3 * (1 - math.exp(-x / (scale * 1e-3))))  # ∫ rise (1 − e^(−z/a)) dz
+    assert _resistance(effect, x, 0.0) - _resistance([], x, 0.0) == pytest.approx(friction * integral / x, rel=1e-9)
+
+
+def test_an_effect_form_outside_its_shapes_is_refused_in_one_line():
+    from pencli.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=r"effects\[0\] \(sensor_lag\): shape = 3; expected one of 0, 1, 2"):
+        _resistance([{"name": "sensor_lag", "shape": 3}], 0.0, 0.0)
+
+
+def test_the_pure_delay_lag_shifts_the_force_by_its_delay():
+    import numpy as np
+
+    from pencli.acquire.sim import _lag
+
+    rate = 30000.0
+    t = np.arange(300) / rate
+    signal = np.sin(2 * np.pi * 200.0 * t)
+    delayed = _lag(signal, 0.5e-3, rate, 2)  # 15 samples
+    assert np.allclose(delayed[15:], signal[:-15], atol=1e-12)

@@ -59,13 +59,17 @@ def world_from(penetrator: ParameterSet, material: ParameterSet, energizing: Par
         efficiency=ev["propulsion_efficiency_pct"] / 100.0, effects=rig.effects)
 
 
-def _two_pole_lag(signal: np.ndarray, tau_s: float, rate_hz: float) -> np.ndarray:
-    """Two cascaded first-order low-passes (exact discretisation), starting settled."""
+def _lag(signal: np.ndarray, tau_s: float, rate_hz: float, shape: int) -> np.ndarray:
+    """The force channel's lag, starting settled: shape 0 two cascaded first-order low-passes (exact
+    discretisation), 1 one of them, 2 a pure delay of ``tau_s`` (linear interpolation between samples)."""
+    if shape == 2:
+        shifted = np.arange(signal.size) - tau_s * rate_hz
+        return np.interp(shifted, np.arange(signal.size), signal)
     from scipy.signal import lfilter
 
     a = math.exp(-1.0 / (tau_s * rate_hz))
     out = signal
-    for _ in range(2):
+    for _ in range(2 if shape == 0 else 1):
         out = lfilter([1 - a], [1, -a], out, zi=[out[0] * a])[0]
     return out
 
@@ -95,16 +99,19 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
         zeta = ringing["damping_ratio"]
         wd = w0 * math.sqrt(max(1 - zeta ** 2, 1e-9))
         amp = ringing["amplitude_n_per_m_s"] * motion.contact_speed_m_s
+        second, ratio = ringing["second_amplitude"], ringing["second_ratio"]
         modes = (amp * np.exp(-zeta * w0 * np.maximum(tc, 0)) * np.sin(wd * tc)
-                 + 0.3 * amp * np.exp(-2 * zeta * w0 * np.maximum(tc, 0)) * np.sin(2.7 * wd * tc))
+                 + second * amp * np.exp(-2 * zeta * w0 * np.maximum(tc, 0)) * np.sin(ratio * wd * tc))
         axial = axial + np.where(tc > 0, modes, 0.0)
     lag = world.effect("sensor_lag")
     if lag:
-        axial = _two_pole_lag(axial, lag["tau_ms"] * 1e-3, rate)
+        axial = _lag(axial, lag["tau_ms"] * 1e-3, rate, int(lag["shape"]))
     drift = world.effect("force_drift")
     if drift:
         tp = np.maximum(t, 0.0)
-        axial = axial + drift["amplitude_n"] * (1.0 - np.exp(-tp / drift["time_constant_s"]))
+        ratio = tp / drift["time_constant_s"]
+        profile = -np.expm1(-ratio) if drift["shape"] == 0 else ratio if drift["shape"] == 1 else np.log1p(ratio)
+        axial = axial + drift["amplitude_n"] * profile
 
     noise_f = float(rig["force_noise_n"])
     noise_t = float(rig["torque_noise_nm"])

@@ -40,31 +40,44 @@ class EffectSpec:
     name: str
     description: str
     defaults: Mapping[str, float]
+    shapes: int = 1
+    """How many forms ``shape`` may choose (0 … shapes − 1); 1: the effect has one form."""
 
 
 TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
     EffectSpec("strength_layer", "strength takes ratio × S in a layer from depth_mm to depth_mm + thickness_mm "
                "(a plateau), with smooth edges edge_mm wide", {"depth_mm": 60.0, "ratio": 0.5,
                                                               "thickness_mm": 50.0, "edge_mm": 2.0}),
-    EffectSpec("strength_gradient", "strength grows exponentially with depth: S·exp(ln(1 + change_per_100mm)·x/0.1 m)",
-               {"change_per_100mm": 0.5}),
-    EffectSpec("plug_growth", "a crushed plug widens the frontal thickness, saturating hyperbolically: "
-               "T + growth_mm·(x/length_mm)/(1 + x/length_mm)", {"growth_mm": 1.5, "length_mm": 30.0}),
-    EffectSpec("sidewall_pressure_growth", "sidewall pressure rises with depth as P·(1 + (x/scale_mm)^exponent)",
-               {"scale_mm": 60.0, "exponent": 1.5}),
-    EffectSpec("velocity_friction", "friction falls with sliding speed (Stribeck-like): "
-               "μ·(1 − drop·(1 − exp(−v/speed_m_s)))", {"drop": 0.4, "speed_m_s": 3.0}),
-    EffectSpec("rate_strength", "strength rises with penetration rate as a power law: "
-               "S·(1 + coefficient·(v/1 m/s)^exponent)", {"coefficient": 0.05, "exponent": 1.5}),
+    EffectSpec("strength_gradient", "strength changes smoothly with depth, by change_per_100mm at 100 mm; shape 0: "
+               "exponential S·(1 + change)^(x/0.1 m); 1: power S·(1 + change·(x/0.1 m)^exponent); 2: saturating "
+               "S·(1 + change·(1 − exp(−x/length_mm))/(1 − exp(−0.1 m/length_mm)))",
+               {"change_per_100mm": 0.5, "shape": 0.0, "exponent": 1.5, "length_mm": 40.0}, 3),
+    EffectSpec("plug_growth", "a crushed plug widens the frontal thickness to T + growth_mm·h(x); shape 0: "
+               "hyperbolic h = (x/length_mm)/(1 + x/length_mm); 1: exponential h = 1 − exp(−x/length_mm); 2: "
+               "linear until length_mm, then constant", {"growth_mm": 1.5, "length_mm": 30.0, "shape": 0.0}, 3),
+    EffectSpec("sidewall_pressure_growth", "sidewall pressure rises with depth; shape 0: power "
+               "P·(1 + (x/scale_mm)^exponent); 1: saturating P·(1 + rise·(1 − exp(−x/scale_mm)))",
+               {"scale_mm": 60.0, "exponent": 1.5, "shape": 0.0, "rise": 2.0}, 2),
+    EffectSpec("velocity_friction", "friction changes with sliding speed, by up to −drop (a negative drop is a "
+               "rise); shape 0: Stribeck-like μ·(1 − drop·(1 − exp(−v/speed_m_s))); 1: hyperbolic "
+               "μ·(1 − drop·v/(v + speed_m_s)); 2: logarithmic μ·(1 − drop·ln(1 + v/speed_m_s)/ln(1 + 10 m/s / "
+               "speed_m_s))", {"drop": 0.4, "speed_m_s": 3.0, "shape": 0.0}, 3),
+    EffectSpec("rate_strength", "strength rises with penetration rate; shape 0: power "
+               "S·(1 + coefficient·(v/1 m/s)^exponent); 1: logarithmic S·(1 + 4·coefficient·ln(1 + v/speed_m_s)); "
+               "2: saturating S·(1 + 5·coefficient·(1 − exp(−v/speed_m_s)))",
+               {"coefficient": 0.05, "exponent": 1.5, "shape": 0.0, "speed_m_s": 3.0}, 3),
     EffectSpec("load_cell_mass_error", "the mass below the load cell is ratio × the file's value",
                {"ratio": 1.5}),
-    EffectSpec("sensor_lag", "the force channel passes through two first-order poles of tau_ms each",
-               {"tau_ms": 0.3}),
+    EffectSpec("sensor_lag", "the force channel lags; shape 0: two first-order poles of tau_ms each; 1: one pole "
+               "of tau_ms; 2: a pure delay of tau_ms", {"tau_ms": 0.3, "shape": 0.0}, 3),
     EffectSpec("rig_ringing", "two damped structural modes are struck at contact: amplitude_n_per_m_s × contact "
-               "speed at frequency_hz, and 0.3 of it at 2.7 × frequency_hz (twice the decay)",
-               {"amplitude_n_per_m_s": 40.0, "frequency_hz": 900.0, "damping_ratio": 0.03}),
-    EffectSpec("force_drift", "the force offset drifts from the release on: amplitude_n·(1 − exp(−t/time_constant_s))",
-               {"amplitude_n": 30.0, "time_constant_s": 0.05}),
+               "speed at frequency_hz, and second_amplitude of it at second_ratio × frequency_hz (twice the decay)",
+               {"amplitude_n_per_m_s": 40.0, "frequency_hz": 900.0, "damping_ratio": 0.03,
+                "second_amplitude": 0.3, "second_ratio": 2.7}),
+    EffectSpec("force_drift", "the force offset drifts from the release on; shape 0: "
+               "amplitude_n·(1 − exp(−t/time_constant_s)); 1: linear, amplitude_n per time_constant_s; 2: "
+               "logarithmic, amplitude_n·ln(1 + t/time_constant_s)",
+               {"amplitude_n": 30.0, "time_constant_s": 0.05, "shape": 0.0}, 3),
     EffectSpec("propulsion_loss", "the launcher loses energy: efficiency × (1 − loss) and a guide friction of "
                "guide_friction_n along the whole travel", {"loss": 0.15, "guide_friction_n": 10.0}),
     EffectSpec("brittle_bursts", "(outside the diagnosis catalogue) strength collapses and recovers in "
@@ -96,6 +109,10 @@ def validate_effects(effects: Any, where: str) -> tuple[tuple[str, dict[str, flo
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ParameterError(f"{where}: effects[{i}] ({name}): {key} = {value!r}; expected a number")
             params[key] = float(value)
+        shape = params.get("shape", 0.0)
+        if shape not in range(spec.shapes):
+            raise ParameterError(f"{where}: effects[{i}] ({name}): shape = {shape:g}; expected one of "
+                                 f"{', '.join(map(str, range(spec.shapes)))}")
         out.append((name, params))
     return tuple(out)
 
@@ -165,6 +182,23 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
     bursts = world.effect("brittle_bursts")
     sin_t, cos_t = math.sin(theta), math.cos(theta)
 
+    def gradient_factor(x: float) -> float:
+        change, shape = gradient["change_per_100mm"], gradient["shape"]
+        if shape == 0:
+            return math.exp(math.log1p(change) * x / 0.1)
+        if shape == 1:
+            return 1.0 + change * (x / 0.1) ** gradient["exponent"]
+        length = gradient["length_mm"] * 1e-3
+        return 1.0 + change * -math.expm1(-x / length) / -math.expm1(-0.1 / length)
+
+    def rate_factor(v: float) -> float:
+        c, shape = rate["coefficient"], rate["shape"]
+        if shape == 0:
+            return 1.0 + c * v ** rate["exponent"]
+        if shape == 1:
+            return 1.0 + 4.0 * c * math.log1p(v / rate["speed_m_s"])
+        return 1.0 + 5.0 * c * -math.expm1(-v / rate["speed_m_s"])
+
     def strength(x: float, v: float) -> float:
         s = S0
         if layer:
@@ -174,9 +208,9 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
             inside = 0.5 * (math.tanh((x - top) / edge) - math.tanh((x - bottom) / edge))
             s *= 1.0 + (layer["ratio"] - 1.0) * inside
         if gradient:
-            s *= math.exp(math.log1p(gradient["change_per_100mm"]) * x / 0.1)
+            s *= gradient_factor(x)
         if rate and v > 0:
-            s *= 1.0 + rate["coefficient"] * v ** rate["exponent"]
+            s *= rate_factor(v)
         if bursts:
             phase = (x / (bursts["period_mm"] * 1e-3)) % 1.0
             s *= 1.0 - (1.0 - bursts["ratio"]) * phase
@@ -184,7 +218,14 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
 
     def friction_coefficient(v: float) -> float:
         if vfric and v > 0:
-            return mu0 * (1.0 - vfric["drop"] * (1.0 - math.exp(-v / vfric["speed_m_s"])))
+            s, shape = vfric["speed_m_s"], vfric["shape"]
+            if shape == 0:
+                law = -math.expm1(-v / s)
+            elif shape == 1:
+                law = v / (v + s)
+            else:
+                law = math.log1p(v / s) / math.log1p(10.0 / s)
+            return mu0 * (1.0 - vfric["drop"] * law)
         return mu0
 
     def sidewall_integral(x: float) -> float:
@@ -192,12 +233,16 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
         if not pgrowth:
             return P0 * x
         a, n = pgrowth["scale_mm"] * 1e-3, pgrowth["exponent"]
+        if pgrowth["shape"] == 1:
+            return P0 * (x + pgrowth["rise"] * (x + a * math.expm1(-x / a)))
         return P0 * (x + x ** (n + 1) / ((n + 1) * a ** n))
 
     def thickness(x: float) -> float:
         if plug:
             ratio = x / (plug["length_mm"] * 1e-3)
-            return T + plug["growth_mm"] * 1e-3 * ratio / (1.0 + ratio)
+            shape = plug["shape"]
+            h = ratio / (1.0 + ratio) if shape == 0 else -math.expm1(-ratio) if shape == 1 else min(ratio, 1.0)
+            return T + plug["growth_mm"] * 1e-3 * h
         return T
 
     def resistance(x: float, v: float) -> float:
