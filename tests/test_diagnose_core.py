@@ -37,7 +37,7 @@ def _random_runs(rng, n_runs=5, n_extra=2, c_true=-0.5):
     return mats, ys
 
 
-def _direct_heldout(mats, ys, k, bounded):
+def _direct_heldout(mats, ys, k, bounded, nonnegative_extra=()):
     """Fit on the other runs (own strength column per run, shared rest) by stacked least squares; score run k."""
     train = [i for i in range(len(mats)) if i != k]
     q = mats[0].shape[1] - 1
@@ -52,6 +52,7 @@ def _direct_heldout(mats, ys, k, bounded):
     X, y = np.vstack(rows), np.concatenate(rhs)
     if bounded:
         lower = np.r_[np.full(len(train), -np.inf), np.zeros(3), np.full(q - 3, -np.inf)]
+        lower[[len(train) + 3 + j for j in nonnegative_extra]] = 0.0
         theta = lsq_linear(X, y, bounds=(lower, np.inf), method="bvls", tol=1e-12).x
     else:
         theta = np.linalg.lstsq(X, y, rcond=None)[0]
@@ -86,6 +87,24 @@ def test_gram_leave_one_out_matches_stacked_least_squares(c_true):
         expected, _ = _direct_heldout([m[:, :q - 1] for m in mats], [y - m[:, q - 1] for y, m in zip(ys, mats)], k,
                                       bounded=True)
         assert offset.heldout[0, k, 0] == pytest.approx(expected, rel=1e-6)
+
+
+def test_an_effect_whose_sign_is_fixed_is_fitted_with_its_bound_as_stacked_bounded_least_squares():
+    """Issue 11: a plug or a pressure rise is ≥ 0 by meaning; its column is bounded in every fold and target."""
+    rng = np.random.default_rng(11)
+    mats, ys = _random_runs(rng, n_extra=2, c_true=0.4)
+    ys = [y - 3.0 * m[:, 5] for y, m in zip(ys, mats)]  # the second extra's truth is negative
+    q = mats[0].shape[1]
+    with_zero = [np.column_stack([m, np.zeros(m.shape[0])]) for m in mats]
+    nonnegative = np.zeros(q + 1, dtype=bool)
+    nonnegative[5] = True
+    scores = Statistics(with_zero, [y[:, None] for y in ys], nonnegative).score([Spec(tuple(range(q)), offset=q)])
+    free = Statistics(with_zero, [y[:, None] for y in ys]).score([Spec(tuple(range(q)), offset=q)])
+    assert free.coefficients[0, 4, 0] < -0.5  # unbounded it goes negative
+    assert scores.coefficients[0, 4, 0] == pytest.approx(0.0, abs=1e-9)
+    for k in range(len(mats)):
+        expected, _ = _direct_heldout(mats, ys, k, bounded=True, nonnegative_extra=(1,))
+        assert scores.heldout[0, k, 0] == pytest.approx(expected, rel=1e-6)
 
 
 def test_noise_model_recovers_an_ar1_process():

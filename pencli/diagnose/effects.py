@@ -176,6 +176,9 @@ class Member:
     chain: Callable[[DiagnosisRun, Basis], Columns] | None = None
     dynamic: Callable[[Sequence[float], Design, Mapping[str, float]], Callable[[float, float], float]] | None = None
     """For members with their own columns that still act on the motion: their extra force (see :meth:`force`)."""
+    nonnegative: bool = False
+    """The coefficients are ≥ 0 by the effect's meaning (a plug widens, pressure grows): fitted with that bound,
+    so that a family cannot mimic another's shape with the opposite, unphysical sign."""
 
     def columns(self, run: DiagnosisRun, basis: Basis) -> Columns:
         if self.chain is not None:
@@ -241,8 +244,8 @@ class Effect:
         return self.family() if callable(self.family) else self.family
 
 
-def law(term: str, *profiles: Profile, **params) -> Member:
-    return Member(params, term, tuple(profiles))
+def law(term: str, *profiles: Profile, nonnegative: bool = False, **params) -> Member:
+    return Member(params, term, tuple(profiles), nonnegative=nonnegative)
 
 
 def _sigmoid(z):
@@ -296,13 +299,13 @@ def _describe_gradient(m: Member, c, ctx) -> dict:
 
 
 def _plug_members() -> tuple[Member, ...]:
-    # a plug adds a width g·h(x) to every blade, whatever its thickness: T_eff = T + g·h(x), so every frontal
+    # a plug adds a width g·h(x) ≥ 0 to every blade, whatever its thickness: T_eff = T + g·h(x), so every frontal
     # term gains (its force / T) × g·h(x); h is dimensionless (1 at saturation), g in metres.  The strength
     # and the rate terms get a coefficient each: the baseline's split of the frontal force between them is
     # itself biased by the plug, so one shared g would leave a misfit another family would take up.
     def member(h, **params):
         return Member(params, chain=lambda run, b, h=h: _plug_columns(run, b, h),
-                      dynamic=lambda c, design, values, h=h: _plug_force(c, design, values, h))
+                      dynamic=lambda c, design, values, h=h: _plug_force(c, design, values, h), nonnegative=True)
 
     out = [member(lambda x, L=L * 1e-3: -np.expm1(-x / L), length_mm=L, shape="exponential") for L in _LENGTHS_MM]
     out += [member(lambda x, L=L * 1e-3: (x / L) / (1.0 + x / L), length_mm=L, shape="hyperbolic")
@@ -340,10 +343,10 @@ def _describe_plug(m: Member, c, ctx) -> dict:
 
 def _pressure_members() -> tuple[Member, ...]:
     # P(x) = P (1 + f(x)); friction = 2 μ w ∫P dz; column friction × (∫f)/x (friction carries x)
-    out = [law("friction", (lambda x, v, n=n: (x / 0.1) ** n / (n + 1.0)), exponent=n, shape="power")
-           for n in _EXPONENTS]
+    out = [law("friction", (lambda x, v, n=n: (x / 0.1) ** n / (n + 1.0)), exponent=n, shape="power",
+               nonnegative=True) for n in _EXPONENTS]
     out += [law("friction", (lambda x, v, L=L * 1e-3: 1.0 - L * -np.expm1(-x / L) / np.maximum(x, 1e-12)),
-                length_mm=L, shape="saturating") for L in _LENGTHS_MM[1:]]
+                length_mm=L, shape="saturating", nonnegative=True) for L in _LENGTHS_MM[1:]]
     return tuple(out)
 
 

@@ -72,12 +72,15 @@ class _Columns:
 
     per_run: list[list[np.ndarray]]
     keys: dict
+    nonnegative: list[bool] = field(default_factory=list)
+    """Per column: its coefficient is ≥ 0 in every model (the sign its effect's meaning fixes)."""
 
-    def add(self, cols: Sequence[np.ndarray]) -> int:
+    def add(self, cols: Sequence[np.ndarray], nonnegative: bool = False) -> int:
         """Register one column (one array per run); returns its index (shared when already present)."""
-        key = hash(b"".join(c.tobytes() for c in cols))
+        key = (hash(b"".join(c.tobytes() for c in cols)), nonnegative)
         if key not in self.keys:
             self.keys[key] = len(self.per_run[0])
+            self.nonnegative.append(nonnegative)
             for run_cols, c in zip(self.per_run, cols):
                 run_cols.append(c)
         return self.keys[key]
@@ -95,7 +98,8 @@ class _Candidate:
 def _register(columns: _Columns, bases: Sequence[Basis], runs: Sequence[DiagnosisRun], uses, member: Member,
               base_spec: Spec) -> _Candidate:
     built = [member.columns(run, basis) for run, basis in zip(runs, bases)]
-    extra = [columns.add([b.extra[:, j][u] for b, u in zip(built, uses)]) for j in range(built[0].extra.shape[1])]
+    extra = [columns.add([b.extra[:, j][u] for b, u in zip(built, uses)], member.nonnegative)
+             for j in range(built[0].extra.shape[1])]
     base = list(base_spec.columns)
     if built[0].base is not None:
         base = [columns.add([b.base[:, j][u] for b, u in zip(built, uses)]) for j in range(4)]
@@ -558,7 +562,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         e.name: [_register(columns, bases, runs, uses, m, base_spec) for m in e.members]
         for e in (*law_effects, *PROBES.values())}
     matrices = columns.matrices()
-    stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(ys, replicates)])
+    stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(ys, replicates)],
+                       np.array(columns.nonnegative))
     baseline, _ = _score_family(stats, [base_spec])
     S0 = baseline.heldout
     z_gap = _standardise(np.log(np.maximum(S0, 1e-300)))[0]

@@ -2,7 +2,7 @@ r"""Leave-one-run-out least squares from per-run sufficient statistics, for many
 
 Every model the diagnosis scores is linear in its coefficients: a strength
 factor per run (block scatter), shared P, C, K (≥ 0) and an effect's
-coefficients (free).  With each run's Gram matrix of all candidate columns,
+coefficients (free, or ≥ 0 where the effect's meaning fixes their sign).  With each run's Gram matrix of all candidate columns,
 
 .. math:: G_i = W_i^\top W_i / n_i, \qquad c_i = W_i^\top Y_i / n_i,
 
@@ -56,9 +56,15 @@ class Scores:
 
 
 class Statistics:
-    """Per-run sufficient statistics of a candidate matrix W (n_i × Q) and targets Y (n_i × T)."""
+    """Per-run sufficient statistics of a candidate matrix W (n_i × Q) and targets Y (n_i × T).
 
-    def __init__(self, matrices: list[np.ndarray], targets: list[np.ndarray]):
+    ``nonnegative`` (Q,) marks the columns whose coefficient is ≥ 0 whatever model it enters (an effect whose
+    meaning fixes its sign: a plug widens the blade, sidewall pressure grows); P, C and K are bounded anyway.
+    """
+
+    def __init__(self, matrices: list[np.ndarray], targets: list[np.ndarray], nonnegative: np.ndarray | None = None):
+        self.nonnegative = (np.zeros(matrices[0].shape[1], dtype=bool) if nonnegative is None
+                            else np.asarray(nonnegative, dtype=bool))
         self.gram = np.stack([W.T @ W / W.shape[0] for W in matrices])  # (R, Q, Q)
         self.cross = np.stack([W.T @ Y / W.shape[0] for W, Y in zip(matrices, targets)])  # (R, Q, T)
         self.square = np.stack([np.einsum("nt,nt->t", Y, Y) / Y.shape[0] for Y in targets])  # (R, T)
@@ -82,16 +88,17 @@ class Statistics:
         cr = c[:, :, 1:, :] - D[:, :, 1:, :1] * c[:, :, :1, :] / d00[..., None]
         ttr = tt - c[:, :, 0, :] ** 2 / d00
         A_all, b_all, t_all = Dr.sum(0), cr.sum(0), ttr.sum(0)
+        bounded = np.column_stack([np.ones((len(specs), N_BOUNDED), dtype=bool), self.nonnegative[J[:, 1 + N_BOUNDED:]]])
         R = self.n_runs
         heldout = np.empty((len(specs), R, C.shape[2]))
         train = np.empty_like(heldout)
         folds = np.empty((len(specs), R, J.shape[1] - 1))
         for k in range(R):
-            theta = bounded_solve(A_all - Dr[k], b_all - cr[k])
+            theta = bounded_solve(A_all - Dr[k], b_all - cr[k], bounded)
             folds[:, k, :] = theta[:, :, 0]
             heldout[:, k, :] = _quadratic(Dr[k], cr[k], ttr[k], theta)
             train[:, k, :] = _quadratic(A_all - Dr[k], b_all - cr[k], t_all - ttr[k], theta) / (R - 1)
-        theta = bounded_solve(A_all, b_all)
+        theta = bounded_solve(A_all, b_all, bounded)
         total = _quadratic(A_all, b_all, t_all, theta) / R
         # strength factors: cs_i = (c_i0 − D_i0,rest · θ) / D_i00
         strength = (c[:, :, 0, :] - np.einsum("rmq,mqt->rmt", D[:, :, 0, 1:], theta)) / d00
@@ -116,30 +123,35 @@ def _quadratic(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray) 
     return tt - np.einsum("mqt,mqt->mt", theta, 2 * b - np.matmul(A, theta))
 
 
-def bounded_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve A θ = b per model (A: (M, q, q); b: (M, q, T)) with θ[:3] ≥ 0 (P, C, K).
+def bounded_solve(A: np.ndarray, b: np.ndarray, bounded: np.ndarray | None = None) -> np.ndarray:
+    """Solve A θ = b per model (A: (M, q, q); b: (M, q, T)) with θ ≥ 0 where ``bounded`` (M, q) says so
+    (default: θ[:3] ≥ 0, P, C, K).
 
     Columns are scaled to unit diagonal and a tiny ridge keeps empty columns
     (a layer below every run's depth) at zero.  Bounds by an active set: a
     bounded coefficient that comes out negative is fixed at 0 and the rest
-    refitted, until none is negative (at most three rounds: three bounds).
+    refitted, until none is negative (at most one round per bounded coefficient).
     """
     M, q, _ = A.shape
+    if bounded is None:
+        bounded = np.zeros((M, q), dtype=bool)
+        bounded[:, :N_BOUNDED] = True
     scale = np.sqrt(np.maximum(np.einsum("mii->mi", A), 0.0))
     scale[scale == 0] = 1.0
     As = A / scale[:, :, None] / scale[:, None, :] + 1e-10 * np.eye(q)
     bs = b / scale[:, :, None]
     theta = np.linalg.solve(As, bs)
-    fixed = np.zeros((M, N_BOUNDED, b.shape[2]), dtype=bool)
-    for _ in range(N_BOUNDED):
-        fixed_new = fixed | (theta[:, :N_BOUNDED, :] < 0)
+    fixed = np.zeros(theta.shape, dtype=bool)
+    bits = 1 << np.arange(q, dtype=np.int64)
+    for _ in range(int(bounded.sum(axis=1).max(initial=0))):
+        fixed_new = fixed | (bounded[:, :, None] & (theta < 0))
         if not (fixed_new & ~fixed).any():
             break
         fixed = fixed_new
-        codes = (fixed * (1 << np.arange(N_BOUNDED))[None, :, None]).sum(1)  # (M, T)
+        codes = (fixed * bits[None, :, None]).sum(1)  # (M, T)
         for code in np.unique(codes[codes > 0]):
             m_idx, t_idx = np.nonzero(codes == code)
-            free = np.array([i for i in range(q) if i >= N_BOUNDED or not (code >> i) & 1], dtype=int)
+            free = np.array([i for i in range(q) if not (int(code) >> i) & 1], dtype=int)
             full = np.zeros((m_idx.size, q))
             if free.size:
                 sub = As[m_idx][:, free][:, :, free]
