@@ -417,16 +417,13 @@ def _delay(delay_ms: float) -> Callable[[DiagnosisRun, Basis], Columns]:
     return build
 
 
-_TAUS_MS = tuple(round(0.05 * 1.2 ** k, 4) for k in range(20))  # 0.05 to 1.6 ms, 20 % apart
-_DELAYS_MS = tuple(round(0.05 * 1.1 ** k, 4) for k in range(36))  # 0.05 to 1.41 ms, 10 % apart
-"""A pure delay mismatched by δ leaves the force's rate of change × δ, as large as the contact step allows:
-its grid is twice as fine as the poles' (a first-order lag mismatched by 20 % leaves a smoother error)."""
+_TAUS_MS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.7, 1.0, 1.5)
 
 
 def _lag_members() -> tuple[Member, ...]:
     out = [Member({"tau_ms": t, "order": 1, "shape": "first_order"}, chain=_poles(t, 1)) for t in _TAUS_MS]
-    out += [Member({"tau_ms": t, "order": 2, "shape": "second_order"}, chain=_poles(t, 2)) for t in _TAUS_MS[:-2]]
-    out += [Member({"delay_ms": t, "shape": "delay"}, chain=_delay(t)) for t in _DELAYS_MS]
+    out += [Member({"tau_ms": t, "order": 2, "shape": "second_order"}, chain=_poles(t, 2)) for t in _TAUS_MS[:-1]]
+    out += [Member({"delay_ms": t, "shape": "delay"}, chain=_delay(t)) for t in _TAUS_MS]
     return tuple(out)
 
 
