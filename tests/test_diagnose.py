@@ -135,7 +135,10 @@ def test_varied_null_campaign_is_none_and_says_what_it_would_have_seen(tmp_path)
     assert strict.decision["false_alarm"] == 0.001 and strict.decision["bootstrap"] == 40
     limits = strict.to_dict()["detection_limits_rms_n"]
     assert set(limits) >= {"strength_layer", "sensor_lag", "force_drift"}
-    assert all(0 < v < 3 * strict.noise_floor_n for v in limits.values()), limits
+    # of the order of the noise floor (velocity friction, nearly collinear with Eq. 9's P, sits highest: 3.0–3.1 ×
+    # on this campaign since the acceleration column is refitted per replicate, which raised the family-wise
+    # threshold from 9.35 to 9.93 z)
+    assert all(0 < v < 4 * strict.noise_floor_n for v in limits.values()), limits
     assert any("would have been seen" in note for note in strict.notes)
     # the baseline's held-out error sits within its null replicates
     assert abs(strict.baseline["gap_z"]) < 3.5

@@ -107,6 +107,32 @@ def test_an_effect_whose_sign_is_fixed_is_fitted_with_its_bound_as_stacked_bound
         assert scores.heldout[0, k, 0] == pytest.approx(expected, rel=1e-6)
 
 
+def test_a_column_measured_per_target_is_fitted_with_that_targets_values():
+    """Issue 11: the acceleration column carries the same derivative error as the target it is fitted to;
+    each target (a null replicate) is scored with its own version of that column, as a direct stacked fit of
+    that target on that column does, and models without the column are scored as before."""
+    rng = np.random.default_rng(17)
+    mats, ys = _random_runs(rng, n_extra=2, c_true=0.6)
+    q = mats[0].shape[1]
+    with_zero = [np.column_stack([m, np.zeros(m.shape[0]), rng.normal(0, 1, m.shape[0])]) for m in mats]
+    versions = [np.column_stack([m[:, 5]] + [m[:, 5] + rng.normal(0, 0.5, m.shape[0]) for _ in range(2)])
+                for m in mats]  # the last extra as measured for target 0, 1, 2
+    targets = [np.column_stack([y, y - 0.8 * (v[:, 1] - m[:, 5]), y + rng.normal(0, 0.3, y.size)])
+               for y, v, m in zip(ys, versions, mats)]
+    stats = Statistics(with_zero, targets, varying={5: versions})
+    fixed = Statistics(with_zero, targets)
+    with_it, without_it = Spec(tuple(range(q)), offset=q), Spec((*range(q - 1), q + 1), offset=q)
+    both = stats.score([without_it, with_it])  # batched together: the order of the models is kept
+    assert np.allclose(both.heldout[0], fixed.score([without_it]).heldout[0], rtol=1e-12)
+    for target in range(3):
+        own = [np.column_stack([m[:, :5], v[:, target]]) for m, v in zip(mats, versions)]
+        for k in range(len(mats)):
+            expected, _ = _direct_heldout(own, [t[:, target] for t in targets], k, bounded=True)
+            assert both.heldout[1, k, target] == pytest.approx(expected, rel=1e-6)
+    # kept at the data's values instead, the column cannot follow target 1's own error: the scores differ
+    assert not np.allclose(fixed.score([with_it]).heldout[0, :, 1], both.heldout[1, :, 1], rtol=1e-3)
+
+
 def test_noise_model_recovers_an_ar1_process():
     rng = np.random.default_rng(5)
     e = lfilter([1.0], [1.0, -0.8], rng.normal(0, 2.0, 20000))

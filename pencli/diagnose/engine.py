@@ -561,9 +561,13 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     candidates: dict[str, list[_Candidate]] = {
         e.name: [_register(columns, bases, runs, uses, m, base_spec) for m in e.members]
         for e in (*law_effects, *PROBES.values())}
+    # the acceleration column (load-cell mass) as each target measured it: its error is in that target's resistance
+    acceleration = columns.add([b.a[u] for b, u in zip(bases, uses)])
     matrices = columns.matrices()
     stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(ys, replicates)],
-                       np.array(columns.nonnegative))
+                       np.array(columns.nonnegative),
+                       {acceleration: [np.column_stack([b.a[u], rep.acceleration_m_s2])
+                                       for b, u, rep in zip(bases, uses, replicates)]})
     baseline, _ = _score_family(stats, [base_spec])
     S0 = baseline.heldout
     z_gap = _standardise(np.log(np.maximum(S0, 1e-300)))[0]

@@ -60,14 +60,27 @@ class Statistics:
 
     ``nonnegative`` (Q,) marks the columns whose coefficient is ≥ 0 whatever model it enters (an effect whose
     meaning fixes its sign: a plug widens the blade, sidewall pressure grows); P, C and K are bounded anyway.
+
+    ``varying`` maps a column index to that column's values *per target* (one (n_i × T) array per run), for
+    a regressor that is itself measured with an error the target shares: the acceleration, whose derivative
+    error enters the resistance through the inertia subtraction (R = F − m·a).  Kept fixed at the data's
+    values, such a column correlates with the data's residual but not with a replicate's, and every null
+    replicate would understate what fitting it gains on the data.
     """
 
-    def __init__(self, matrices: list[np.ndarray], targets: list[np.ndarray], nonnegative: np.ndarray | None = None):
+    def __init__(self, matrices: list[np.ndarray], targets: list[np.ndarray], nonnegative: np.ndarray | None = None,
+                 varying: dict[int, list[np.ndarray]] | None = None):
         self.nonnegative = (np.zeros(matrices[0].shape[1], dtype=bool) if nonnegative is None
                             else np.asarray(nonnegative, dtype=bool))
         self.gram = np.stack([W.T @ W / W.shape[0] for W in matrices])  # (R, Q, Q)
         self.cross = np.stack([W.T @ Y / W.shape[0] for W, Y in zip(matrices, targets)])  # (R, Q, T)
         self.square = np.stack([np.einsum("nt,nt->t", Y, Y) / Y.shape[0] for Y in targets])  # (R, T)
+        self.varying = {}
+        for q, values in (varying or {}).items():  # per target: the column against all columns, itself, the target
+            against = np.stack([V.T @ W / W.shape[0] for V, W in zip(values, matrices)])  # (R, T, Q)
+            itself = np.stack([np.einsum("nt,nt->t", V, V) / V.shape[0] for V in values])  # (R, T)
+            cross = np.stack([np.einsum("nt,nt->t", V, Y) / V.shape[0] for V, Y in zip(values, targets)])  # (R, T)
+            self.varying[int(q)] = (against, itself, cross)
 
     @property
     def n_runs(self) -> int:
@@ -75,9 +88,31 @@ class Statistics:
 
     def score(self, specs: list[Spec]) -> Scores:
         """Score models with equal numbers of columns (batched)."""
+        touched = [i for i, s in enumerate(specs) if any(q in self.varying for q in (*s.columns, s.offset))]
+        if not touched:
+            return self._score(specs, self.gram, self.cross, self.square)
+        fixed = [i for i in range(len(specs)) if i not in touched]
+        parts = [(fixed, self._score([specs[i] for i in fixed], self.gram, self.cross, self.square))] if fixed else []
+        per_target = []
+        for t in range(self.cross.shape[2]):  # a model with a varying column: its Gram differs per target
+            G, C = self.gram.copy(), self.cross[:, :, t:t + 1].copy()
+            for q, (against, itself, cross) in self.varying.items():
+                G[:, q, :] = against[:, t, :]
+                G[:, :, q] = against[:, t, :]
+                G[:, q, q] = itself[:, t]
+                C[:, q, 0] = cross[:, t]
+            per_target.append(self._score([specs[i] for i in touched], G, C, self.square[:, t:t + 1]))
+        joined = Scores(*(np.concatenate([getattr(s, f) for s in per_target], axis=-1)
+                          for f in ("heldout", "train", "total", "coefficients", "strength")),
+                        per_target[0].folds)
+        parts.append((touched, joined))
+        order = np.argsort(np.concatenate([np.array(idx) for idx, _ in parts]))
+        return Scores(*(np.concatenate([getattr(s, f) for _, s in parts], axis=0)[order]
+                        for f in ("heldout", "train", "total", "coefficients", "strength", "folds")))
+
+    def _score(self, specs: list[Spec], G: np.ndarray, C: np.ndarray, S: np.ndarray) -> Scores:
         J = np.array([s.columns for s in specs])  # (M, p)
         off = np.array([s.offset for s in specs])  # (M,)
-        G, C, S = self.gram, self.cross, self.square
         # per-run Gram of [columns], cross with the target t = y − w_off, and |t|²
         D = G[:, J[:, :, None], J[:, None, :]]  # (R, M, p, p)
         c = C[:, J, :] - G[:, J, off[:, None]][..., None]  # (R, M, p, T)

@@ -17,7 +17,12 @@ chain, as read from its data:
 Replicates go through the same inertia subtraction (R = F − m_lc·a) and
 contact-speed measurement as the data.  The basis (measured x, v) is kept
 from the data: the replicates perturb what is measured, not the regressors
-(their speed errors are second order in the Eq. 9 columns).
+(their speed errors are second order in the Eq. 9 columns).  The
+acceleration is the exception: its error enters the resistance itself
+(−m_lc × error), so a column of the *data's* acceleration correlates with
+the data's residual and with no replicate's.  Each replicate therefore also
+returns the acceleration it measured, and the load-cell mass column is
+fitted to each replicate with its own.
 """
 
 from __future__ import annotations
@@ -114,6 +119,9 @@ class Replicates:
     """Measured contact speed of each replicate (NaN where the detector failed). [m/s]"""
     true_contact_speed_m_s: float
     """Contact speed of the smoothed trajectory the replicates were made from. [m/s]"""
+    acceleration_m_s2: np.ndarray
+    """(analysis samples, replicates): the acceleration each replicate *measures* (its true acceleration plus
+    its own derivative error, the error its resistance carries through R = F − m·a). [m/s²]"""
 
 
 def replicate_run(null: RunNull, count: int, seed: int) -> Replicates:
@@ -161,7 +169,7 @@ def replicate_run(null: RunNull, count: int, seed: int) -> Replicates:
         accel = derivatives(depth, rate, breaks, null.method, count_m=step, joins=joins)[1]
     error = np.where(null.at_rest[:, None], 0.0, accel - reference[:, None])
     out = null.fitted_n[:, None] - null.load_cell_mass_kg * error[null.use] + noise[null.use]
-    return Replicates(out, speeds, true_contact)
+    return Replicates(out, speeds, true_contact, reference[null.use, None] + error[null.use])
 
 
 def _replicate_job(args) -> Replicates:
