@@ -288,3 +288,22 @@ def test_an_effect_the_dynamic_model_cannot_finish_is_a_note_not_a_crash(monkeyp
     monkeypatch.setattr(dyn, "MAX_EVALUATIONS", 50)
     change = engine._trajectory_change(effect, member, coefficients, runs, values)
     assert "did not finish" in change["note"] and "integration steps" in change["note"]
+
+
+def test_a_family_held_at_its_bound_on_most_replicates_does_not_blind_the_threshold():
+    """Issue 11: a sign-bounded family (plug growth ≥ 0) gains exactly nothing on the replicates where it sits at
+    its bound; the MAD of that point mass is round-off.  Standardised by it, the one replicate that does fit
+    stood 1.7 × 10¹¹ z out and the family-wise threshold of every effect with it (dev null 27, seed 6000)."""
+    from pencli.diagnose.engine import _standardise
+
+    rng = np.random.default_rng(5)
+    null = np.r_[rng.normal(0.0, 1e-15, 57), 0.02, 0.05]  # held-out improvements on 59 replicates [N²]
+    z, centre, scale = _standardise(np.r_[0.01, null])
+    assert scale == pytest.approx(np.std(null, ddof=1))
+    replicate_z = (null - centre) / scale
+    assert replicate_z.max() <= math.sqrt(null.size - 1)  # the bound on a standardised sample's largest value
+    assert gumbel_quantile(np.abs(replicate_z), 0.01) < 20
+    # a spread-out null keeps the robust scale: 1.4826 × the median absolute deviation
+    spread = rng.normal(1.0, 2.0, 200)
+    _, centre, scale = _standardise(np.r_[0.0, spread])
+    assert scale == pytest.approx(1.4826 * np.median(np.abs(spread - np.median(spread))))

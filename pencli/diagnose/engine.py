@@ -491,8 +491,12 @@ def _standardise(values: np.ndarray) -> tuple[float, float, float]:
     """
     null = values[1:]
     centre = float(np.median(null))
-    scale = 1.4826 * float(np.median(np.abs(null - centre)))
-    if not scale > 0:
+    deviation = np.abs(null - centre)
+    scale = 1.4826 * float(np.median(deviation))
+    if not scale > 1e-9 * float(deviation.max(initial=0.0)):
+        # a point mass: a sign-bounded family held at its bound on most replicates gains exactly nothing there,
+        # its MAD is round-off, and the one replicate that does fit would stand 10¹¹ "MADs" out and blind the
+        # family-wise threshold of every effect; the spread is then the standard deviation's
         scale = float(np.std(null, ddof=1))
     scale = max(scale, 1e-12 * max(abs(centre), 1e-300))
     return (float(values[0]) - centre) / scale, centre, scale
