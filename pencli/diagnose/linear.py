@@ -94,8 +94,9 @@ class Statistics:
         fixed = [i for i in range(len(specs)) if i not in touched]
         parts = [(fixed, self._score([specs[i] for i in fixed], self.gram, self.cross, self.square))] if fixed else []
         per_target = []
+        G = self.gram.copy()  # the varying rows and columns are overwritten for each target in turn
         for t in range(self.cross.shape[2]):  # a model with a varying column: its Gram differs per target
-            G, C = self.gram.copy(), self.cross[:, :, t:t + 1].copy()
+            C = self.cross[:, :, t:t + 1].copy()
             for q, (against, itself, cross) in self.varying.items():
                 G[:, q, :] = against[:, t, :]
                 G[:, :, q] = against[:, t, :]
