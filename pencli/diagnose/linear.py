@@ -17,7 +17,7 @@ over runs of each run's mean squared residual. [N²]
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -103,13 +103,13 @@ class Statistics:
                 G[:, q, q] = itself[:, t]
                 C[:, q, 0] = cross[:, t]
             per_target.append(self._score([specs[i] for i in touched], G, C, self.square[:, t:t + 1]))
-        joined = Scores(*(np.concatenate([getattr(s, f) for s in per_target], axis=-1)
-                          for f in ("heldout", "train", "total", "coefficients", "strength")),
-                        per_target[0].folds)
-        parts.append((touched, joined))
+        # targets side by side; the folds are the measured data's (target 0) alone
+        parts.append((touched, Scores(**{f.name: per_target[0].folds if f.name == "folds" else
+                                         np.concatenate([getattr(s, f.name) for s in per_target], axis=-1)
+                                         for f in fields(Scores)})))
         order = np.argsort(np.concatenate([np.array(idx) for idx, _ in parts]))
-        return Scores(*(np.concatenate([getattr(s, f) for _, s in parts], axis=0)[order]
-                        for f in ("heldout", "train", "total", "coefficients", "strength", "folds")))
+        return Scores(**{f.name: np.concatenate([getattr(s, f.name) for _, s in parts], axis=0)[order]
+                         for f in fields(Scores)})
 
     def _score(self, specs: list[Spec], G: np.ndarray, C: np.ndarray, S: np.ndarray) -> Scores:
         J = np.array([s.columns for s in specs])  # (M, p)
