@@ -133,6 +133,29 @@ def test_a_column_measured_per_target_is_fitted_with_that_targets_values():
     assert not np.allclose(fixed.score([with_it]).heldout[0, :, 1], both.heldout[1, :, 1], rtol=1e-3)
 
 
+def test_two_columns_measured_per_target_meet_each_other_with_that_targets_values():
+    """A model with two per-target columns (a pair of effects that both read the acceleration) is scored with
+    their product as the target measured them both, as a direct stacked fit does; the Gram does not mix one
+    target's version of one with the data's version of the other."""
+    rng = np.random.default_rng(23)
+    mats, ys = _random_runs(rng, n_extra=1, c_true=0.6)
+    q = mats[0].shape[1]
+    second = [rng.normal(0, 1, m.shape[0]) for m in mats]
+    with_zero = [np.column_stack([m, np.zeros(m.shape[0]), s]) for m, s in zip(mats, second)]
+    first_v = [np.column_stack([m[:, q - 1]] + [m[:, q - 1] + rng.normal(0, 0.5, m.shape[0]) for _ in range(2)])
+               for m in mats]
+    second_v = [np.column_stack([s] + [s + rng.normal(0, 0.7, s.size) for _ in range(2)]) for s in second]
+    targets = [np.column_stack([y + 0.5 * s, y - 0.8 * (a[:, 1] - m[:, q - 1]) + 0.5 * b[:, 1], y + 0.4 * b[:, 2]])
+               for y, s, a, b, m in zip(ys, second, first_v, second_v, mats)]
+    stats = Statistics(with_zero, targets, varying={q - 1: first_v, q + 1: second_v})
+    both = stats.score([Spec((*range(q), q + 1), offset=q)])
+    for target in range(3):
+        own = [np.column_stack([m[:, :q - 1], a[:, target], b[:, target]]) for m, a, b in zip(mats, first_v, second_v)]
+        for k in range(len(mats)):
+            expected, _ = _direct_heldout(own, [t[:, target] for t in targets], k, bounded=True)
+            assert both.heldout[0, k, target] == pytest.approx(expected, rel=1e-6)
+
+
 def test_noise_model_recovers_an_ar1_process():
     rng = np.random.default_rng(5)
     e = lfilter([1.0], [1.0, -0.8], rng.normal(0, 2.0, 20000))

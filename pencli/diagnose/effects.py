@@ -179,6 +179,11 @@ class Member:
     nonnegative: bool = False
     """The coefficients are ≥ 0 by the effect's meaning (a plug widens, pressure grows): fitted with that bound,
     so that a family cannot mimic another's shape with the opposite, unphysical sign."""
+    reads_acceleration: bool = False
+    """``chain`` builds its extra columns or offset from the basis's measured acceleration ``a``, and accepts an
+    (n, T) ``a`` (one measurement per column) as well as an (n,) one: the diagnosis then builds them again from
+    each null replicate's own measured acceleration, whose derivative error that replicate's resistance carries
+    (R = F − m·a)."""
 
     def columns(self, run: DiagnosisRun, basis: Basis) -> Columns:
         if self.chain is not None:
@@ -375,7 +380,7 @@ def _describe_speed(reference: str) -> Callable[[Member, np.ndarray, Mapping[str
 
 # ---- chain members
 def _mass(run: DiagnosisRun, b: Basis) -> Columns:
-    return Columns(b.a[:, None])
+    return Columns(b.a[:, None])  # (n, 1), or (n, 1, T) for per-target accelerations
 
 
 def _filtered(run: DiagnosisRun, b: Basis, filt: Callable[[np.ndarray], np.ndarray]) -> Columns:
@@ -421,6 +426,11 @@ _TAUS_MS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.7, 1.0, 1.5)
 
 
 def _lag_members() -> tuple[Member, ...]:
+    # The offset H(m·a) − m·a keeps the data's acceleration on every replicate (``reads_acceleration`` off).  Built
+    # from each replicate's own, it raised the lag's z on nulls (dev null-1 of seed 9000: 4.8 → 5.3, and a
+    # propulsion-loss campaign named a lag at z 12.4 against 4.9): the data's acceleration carries a smoothing
+    # bias the replicates' does not (README, "flight bias"), and with the data's offset on every target that
+    # bias costs the data's fit twice and a replicate's once, which errs towards `none`.
     out = [Member({"tau_ms": t, "order": 1, "shape": "first_order"}, chain=_poles(t, 1)) for t in _TAUS_MS]
     out += [Member({"tau_ms": t, "order": 2, "shape": "second_order"}, chain=_poles(t, 2)) for t in _TAUS_MS[:-1]]
     out += [Member({"delay_ms": t, "shape": "delay"}, chain=_delay(t)) for t in _TAUS_MS]
@@ -524,7 +534,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
     Effect("load_cell_mass_error", "chain", "acceleration",
            "The inertia subtraction used the wrong mass below the load cell. Signature: the 'resistance' follows "
            "the acceleration: non-zero in free flight, jumping at contact.",
-           (Member({}, chain=_mass),),
+           (Member({}, chain=_mass, reads_acceleration=True),),
            lambda m, c, ctx: {"delta_kg": float(c[0]), "ratio": 1.0 + float(c[0]) / ctx["load_cell_mass_kg"]}),
     Effect("sensor_lag", "chain", "contact",
            "The force channel lags the true force: a first- or second-order low-pass, or a pure delay. "

@@ -96,17 +96,41 @@ class _Candidate:
 
 
 def _register(columns: _Columns, bases: Sequence[Basis], runs: Sequence[DiagnosisRun], uses, member: Member,
-              base_spec: Spec) -> _Candidate:
-    built = [member.columns(run, basis) for run, basis in zip(runs, bases)]
-    extra = [columns.add([b.extra[:, j][u] for b, u in zip(built, uses)], member.nonnegative)
-             for j in range(built[0].extra.shape[1])]
+              base_spec: Spec, measured: Sequence[np.ndarray], varying: dict) -> _Candidate:
+    """Register a member's columns.  A member that reads the acceleration is built from ``measured`` (per run,
+    (context samples, targets): the data's acceleration, then each replicate's), its columns are the data's
+    (target 0) and their per-target values go into ``varying`` (column index → one (n × T) array per run)."""
+    if member.reads_acceleration:
+        built = [member.columns(run, replace(basis, a=a)) for run, basis, a in zip(runs, bases, measured)]
+    else:
+        built = [member.columns(run, basis) for run, basis in zip(runs, bases)]
+
+    def add(values: Sequence[np.ndarray], nonnegative: bool = False) -> int:
+        """One column from its values per run: (n,), or (n, T) for a member that reads the acceleration."""
+        if not member.reads_acceleration:
+            return columns.add([v[u] for v, u in zip(values, uses)], nonnegative)
+        q = columns.add([v[u, 0] for v, u in zip(values, uses)], nonnegative)
+        varying[q] = [v[u] for v, u in zip(values, uses)]
+        return q
+
+    extra = [add([b.extra[:, j] for b in built], member.nonnegative) for j in range(built[0].extra.shape[1])]
     base = list(base_spec.columns)
     if built[0].base is not None:
         base = [columns.add([b.base[:, j][u] for b, u in zip(built, uses)]) for j in range(4)]
     offset = base_spec.offset
     if built[0].offset is not None:
-        offset = columns.add([b.offset[u] for b, u in zip(built, uses)])
+        offset = add([b.offset for b in built])
     return _Candidate(member, Spec(tuple(base + extra), offset))
+
+
+def _measured_acceleration(basis: Basis, replicate: np.ndarray) -> np.ndarray:
+    """(context samples, 1 + replicates): the data's acceleration, then each replicate's (``replicate``: its
+    span, which starts where the context does; past the span, which no analysis sample reaches, the data's).
+    [m/s²]"""
+    out = np.repeat(basis.a[:, None], 1 + replicate.shape[1], axis=1)
+    k = min(out.shape[0], replicate.shape[0])
+    out[:k, 1:] = replicate[:k]
+    return out
 
 
 def _combine(a: _Candidate, b: _Candidate, base_spec: Spec) -> Spec | None:
@@ -567,16 +591,14 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     # ---- every candidate of every resistance-view effect (and the probes), one matrix per run
     say("scoring effects", 0.5)
     law_effects = [EFFECTS[n] for n in names if EFFECTS[n].side != "drive"]
+    measured = [_measured_acceleration(b, rep.acceleration_m_s2) for b, rep in zip(bases, replicates)]
+    varying: dict[int, list[np.ndarray]] = {}
     candidates: dict[str, list[_Candidate]] = {
-        e.name: [_register(columns, bases, runs, uses, m, base_spec) for m in e.members]
+        e.name: [_register(columns, bases, runs, uses, m, base_spec, measured, varying) for m in e.members]
         for e in (*law_effects, *PROBES.values())}
-    # the acceleration column (load-cell mass) as each target measured it: its error is in that target's resistance
-    acceleration = columns.add([b.a[u] for b, u in zip(bases, uses)])
     matrices = columns.matrices()
     stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(ys, replicates)],
-                       np.array(columns.nonnegative),
-                       {acceleration: [np.column_stack([b.a[u], rep.acceleration_m_s2])
-                                       for b, u, rep in zip(bases, uses, replicates)]})
+                       np.array(columns.nonnegative), varying)
     baseline, _ = _score_family(stats, [base_spec])
     S0 = baseline.heldout
     z_gap = _standardise(np.log(np.maximum(S0, 1e-300)))[0]

@@ -75,12 +75,18 @@ class Statistics:
         self.gram = np.stack([W.T @ W / W.shape[0] for W in matrices])  # (R, Q, Q)
         self.cross = np.stack([W.T @ Y / W.shape[0] for W, Y in zip(matrices, targets)])  # (R, Q, T)
         self.square = np.stack([np.einsum("nt,nt->t", Y, Y) / Y.shape[0] for Y in targets])  # (R, T)
-        self.varying = {}
-        for q, values in (varying or {}).items():  # per target: the column against all columns, itself, the target
-            against = np.stack([V.T @ W / W.shape[0] for V, W in zip(values, matrices)])  # (R, T, Q)
-            itself = np.stack([np.einsum("nt,nt->t", V, V) / V.shape[0] for V in values])  # (R, T)
-            cross = np.stack([np.einsum("nt,nt->t", V, Y) / V.shape[0] for V, Y in zip(values, targets)])  # (R, T)
-            self.varying[int(q)] = (against, itself, cross)
+        # per target: each varying column against all columns, against each varying column (itself included), and
+        # against the target; all varying columns of a run in one product
+        self.varying = np.array(sorted(varying or {}), dtype=int)  # (k,) column indices
+        if self.varying.size:
+            against, mutual, cross = [], [], []
+            for r, (W, Y) in enumerate(zip(matrices, targets)):
+                V = np.stack([varying[q][r] for q in self.varying], axis=2)  # (n, T, k)
+                n, T, k = V.shape
+                against.append((V.reshape(n, T * k).T @ W).reshape(T, k, -1) / n)  # (T, k, Q)
+                mutual.append(np.einsum("ntk,ntj->tkj", V, V) / n)  # (T, k, k)
+                cross.append(np.einsum("ntk,nt->tk", V, Y) / n)  # (T, k)
+            self._against, self._mutual, self._cross = np.stack(against), np.stack(mutual), np.stack(cross)
 
     @property
     def n_runs(self) -> int:
@@ -88,20 +94,21 @@ class Statistics:
 
     def score(self, specs: list[Spec]) -> Scores:
         """Score models with equal numbers of columns (batched)."""
-        touched = [i for i, s in enumerate(specs) if any(q in self.varying for q in (*s.columns, s.offset))]
+        varying = set(self.varying.tolist())
+        touched = [i for i, s in enumerate(specs) if varying.intersection((*s.columns, s.offset))]
         if not touched:
             return self._score(specs, self.gram, self.cross, self.square)
         fixed = [i for i in range(len(specs)) if i not in touched]
         parts = [(fixed, self._score([specs[i] for i in fixed], self.gram, self.cross, self.square))] if fixed else []
         per_target = []
         G = self.gram.copy()  # the varying rows and columns are overwritten for each target in turn
+        q = self.varying
         for t in range(self.cross.shape[2]):  # a model with a varying column: its Gram differs per target
             C = self.cross[:, :, t:t + 1].copy()
-            for q, (against, itself, cross) in self.varying.items():
-                G[:, q, :] = against[:, t, :]
-                G[:, :, q] = against[:, t, :]
-                G[:, q, q] = itself[:, t]
-                C[:, q, 0] = cross[:, t]
+            G[:, q, :] = self._against[:, t]
+            G[:, :, q] = np.swapaxes(self._against[:, t], 1, 2)
+            G[:, q[:, None], q[None, :]] = self._mutual[:, t]
+            C[:, q, 0] = self._cross[:, t]
             per_target.append(self._score([specs[i] for i in touched], G, C, self.square[:, t:t + 1]))
         # targets side by side; the folds are the measured data's (target 0) alone
         parts.append((touched, Scores(**{f.name: per_target[0].folds if f.name == "folds" else

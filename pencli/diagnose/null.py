@@ -21,8 +21,9 @@ from the data: the replicates perturb what is measured, not the regressors
 acceleration is the exception: its error enters the resistance itself
 (−m_lc × error), so a column of the *data's* acceleration correlates with
 the data's residual and with no replicate's.  Each replicate therefore also
-returns the acceleration it measured, and the load-cell mass column is
-fitted to each replicate with its own.
+returns the acceleration it measured, and every column built from the
+acceleration (the load-cell mass column, a sensor lag's offset) is built
+for each replicate from its own.
 """
 
 from __future__ import annotations
@@ -120,8 +121,9 @@ class Replicates:
     true_contact_speed_m_s: float
     """Contact speed of the smoothed trajectory the replicates were made from. [m/s]"""
     acceleration_m_s2: np.ndarray
-    """(analysis samples, replicates): the acceleration each replicate *measures* (its true acceleration plus
-    its own derivative error, the error its resistance carries through R = F − m·a). [m/s²]"""
+    """(span samples, replicates): the acceleration each replicate *measures* (its true acceleration plus its
+    own derivative error, the error its resistance carries through R = F − m·a), on the whole span, so that a
+    causal filter of it (a sensor lag's offset) starts where the data's does. [m/s²]"""
 
 
 def replicate_run(null: RunNull, count: int, seed: int) -> Replicates:
@@ -169,7 +171,7 @@ def replicate_run(null: RunNull, count: int, seed: int) -> Replicates:
         accel = derivatives(depth, rate, breaks, null.method, count_m=step, joins=joins)[1]
     error = np.where(null.at_rest[:, None], 0.0, accel - reference[:, None])
     out = null.fitted_n[:, None] - null.load_cell_mass_kg * error[null.use] + noise[null.use]
-    return Replicates(out, speeds, true_contact, reference[null.use, None] + error[null.use])
+    return Replicates(out, speeds, true_contact, reference[:, None] + error)
 
 
 def _replicate_job(args) -> Replicates:
