@@ -126,7 +126,7 @@ class Replicates:
     causal filter of it (a sensor lag's offset) starts where the data's does. [m/s²]"""
 
 
-def replicate_run(null: RunNull, count: int, seed: int) -> Replicates:
+def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | None = None) -> Replicates:
     """``count`` null replicates of one run (see the module docstring).
 
     The motion a replicate is measured from is the smoothed record x̃ in flight and, from the contact on,
@@ -155,7 +155,7 @@ def replicate_run(null: RunNull, count: int, seed: int) -> Replicates:
     if null.model is not None:
         reference = np.where(inside, model_accel, reference)
     noise = null.noise.simulate(t.size, rng, count)
-    phases = rng.uniform(0.0, step, count)
+    phases = step * (rng.uniform(0.0, 1.0, count) if phases is None else np.asarray(phases, dtype=float))
     depth = step * np.round((smooth[:, None] + phases) / step) - phases
     depth -= depth[:1] - null.depth_m[0]  # the encoder is zeroed at rest, as the data's
     speeds = np.full(count, np.nan)
@@ -179,8 +179,16 @@ def _replicate_job(args) -> Replicates:
 
 
 def replicate_campaign(nulls: list[RunNull], count: int, seed: int, *, workers: int = 2) -> list[Replicates]:
-    """Replicates of every run, runs spread over ``workers`` processes (one process when 1)."""
-    jobs = [(null, count, seed * 1000 + i) for i, null in enumerate(nulls)]
+    """Replicates of every run, runs spread over ``workers`` processes (one process when 1).
+
+    Replicate b of every run is read through the same encoder phase (a fraction of a count): a rig whose blade
+    rests at the same place before every shot, as the simulated rig's does, reads every run through one phase,
+    so its runs' derivative errors agree in sign where their motions agree; drawn independently per run they
+    would average out over a campaign in every replicate but not in the data.  Where the data's phases are
+    independent, the shared phase makes the null wider than the data's: an error towards `none`.
+    """
+    phases = np.random.default_rng(seed).uniform(0.0, 1.0, count)
+    jobs = [(null, count, seed * 1000 + i, phases) for i, null in enumerate(nulls)]
     if workers <= 1 or len(jobs) < 2:
         return [replicate_run(*job) for job in jobs]
     import multiprocessing
