@@ -199,9 +199,10 @@ def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str,
     replicates) and the threshold its z must beat: the Gumbel tail, at ``alpha``, of the largest z over the
     families on the null replicates (one test for the whole set)."""
     tested = {}
+    roundoff = 1e-9 * float(np.median(np.abs(reference)))  # improvements below this are the solver's round-off
     for name, specs in families.items():
         family, fit = _score_family(stats, specs)
-        tested[name] = _Tested(family, fit, *_standardise(reference - family.heldout))
+        tested[name] = _Tested(family, fit, *_standardise(reference - family.heldout, roundoff))
     if not tested:
         return tested, math.inf
     null_z = np.column_stack([((reference - t.family.heldout)[1:] - t.centre) / t.scale for t in tested.values()])
@@ -506,28 +507,24 @@ def _model_motion(run: DiagnosisRun, ts: np.ndarray, contact_s: float, values: M
     return depth, accel, contact_s + end
 
 
-def _standardise(values: np.ndarray) -> tuple[float, float, float]:
+def _standardise(values: np.ndarray, floor: float = 0.0) -> tuple[float, float, float]:
     """(z of the data, null centre, null scale) of a statistic whose element 0 is the data and the rest the null.
 
     Centre: the median.  Scale: the larger of 1.4826 × MAD and the upper semi-deviation about the median
-    (√(2·mean(max(v − median, 0)²)); both are σ for a normal null).  A false alarm comes from the null's upper
-    tail only, and the two sides misbehave differently: a family nearly collinear with Eq. 9 sometimes
-    extrapolates badly to a held-out run on null data, a long tail of *worse* scores below the median that would
-    inflate a standard deviation and with it every threshold and detection limit of that family; a sign-bounded
-    family sits at its bound on most replicates, gains exactly nothing there, and its MAD is the spread of that
-    point mass while the replicates that do fit form the upper tail.  Standardised by the MAD alone, one such
-    replicate stood 1,800 z out and put the family-wise threshold of every effect at 1,097 z (dev varied-16,
-    seed 7000).  With the semi-deviation no replicate stands more than √(n/2) out.
+    (√(2·mean(max(v − median, 0)²)); both are σ for a normal null), and of ``floor``, the statistic's round-off.
+    A false alarm comes from the null's upper tail only, and the two sides misbehave differently: a family nearly
+    collinear with Eq. 9 sometimes extrapolates badly to a held-out run on null data, a long tail of *worse*
+    scores below the median (one replicate at −10¹⁹ on dev varied-4 of seed 11000) that must not set the scale;
+    a sign-bounded family sits at its bound on most replicates, gains exactly nothing there, and its MAD is the
+    spread of that point mass while the replicates that do fit form the upper tail.  Standardised by the MAD
+    alone, one such replicate stood 1,800 z out and put the family-wise threshold of every effect at 1,097 z
+    (dev varied-16, seed 7000).  With the semi-deviation no replicate stands more than √(n/2) out.
     """
     null = values[1:]
     centre = float(np.median(null))
-    deviation = np.abs(null - centre)
     upper = np.maximum(null - centre, 0.0)
-    scale = max(1.4826 * float(np.median(deviation)), math.sqrt(2.0 * float(np.mean(upper * upper))))
-    if not scale > 1e-9 * float(deviation.max(initial=0.0)):
-        # a point mass with nothing above it: the spread is then the standard deviation's
-        scale = float(np.std(null, ddof=1))
-    scale = max(scale, 1e-12 * max(abs(centre), 1e-300))
+    scale = max(1.4826 * float(np.median(np.abs(null - centre))), math.sqrt(2.0 * float(np.mean(upper * upper))),
+                floor, 1e-12 * abs(centre), 1e-300)
     return (float(values[0]) - centre) / scale, centre, scale
 
 
@@ -601,7 +598,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                        np.array(columns.nonnegative), varying)
     baseline, _ = _score_family(stats, [base_spec])
     S0 = baseline.heldout
-    z_gap = _standardise(np.log(np.maximum(S0, 1e-300)))[0]
+    z_gap = _standardise(np.log(np.maximum(S0, 1e-300)), 1e-9)[0]
     floor_sq = float(np.mean(S0[1:]))
     excess = float(S0[0]) - floor_sq
     tested, z_threshold = _familywise(stats, S0, {e.name: [c.spec for c in candidates[e.name]]
@@ -783,7 +780,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
     """
     lead = candidates[top][tested[top].family.best]
     S_top = tested[top].family.heldout
-    if _standardise(np.log(np.maximum(S_top, 1e-300)))[0] <= normal_quantile(alpha):
+    if _standardise(np.log(np.maximum(S_top, 1e-300)), 1e-9)[0] <= normal_quantile(alpha):
         return None  # the first effect leaves no gap its own null would not
     combined = {}
     for name, cands in candidates.items():
