@@ -315,6 +315,9 @@ def _plug_members() -> tuple[Member, ...]:
     out = [member(lambda x, L=L * 1e-3: -np.expm1(-x / L), length_mm=L, shape="exponential") for L in _LENGTHS_MM]
     out += [member(lambda x, L=L * 1e-3: (x / L) / (1.0 + x / L), length_mm=L, shape="hyperbolic")
             for L in _LENGTHS_MM]
+    # a plug that grows at a steady rate until it reaches its final size, then stays (a ramp with a corner)
+    out += [member(lambda x, L=L * 1e-3: np.minimum(x / L, 1.0), length_mm=L, shape="capped_ramp")
+            for L in _LENGTHS_MM]
     out.append(member(lambda x: x / 0.1, shape="linear"))
     return tuple(out)
 
@@ -516,7 +519,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            _gradient_members, _describe_gradient),
     Effect("plug_growth", "law", "depth",
            "A crushed plug widens the effective frontal thickness with depth (exponential or hyperbolic "
-           "saturation, or linear): every frontal term grows. Signature: grows with depth, early, and more so "
+           "saturation, a ramp capped at its final size, or linear): every frontal term grows. Signature: grows with depth, early, and more so "
            "for thin blades relative to their thickness.",
            _plug_members, _describe_plug),
     Effect("sidewall_pressure_growth", "law", "depth",
