@@ -41,8 +41,9 @@ from scipy.optimize import minimize_scalar
 
 from pencli.errors import ModelError
 from pencli.model.design import CREEP_DISTANCE_M, FORCE_LIMIT_N, Design, beyond_limit, force_scales, static_work
-from pencli.model.flight import reach
-from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, resistance_law, term_keys
+from pencli.model.drive import SPRINGS, Drive, Flight, FlightPath, flight_of
+from pencli.model.geometry import BLADE, Geometry
+from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, term_keys
 
 MODEL_NAME = "contract-2/eq9-1dof"
 """Identifier of the reference dynamic model, recorded with every result."""
@@ -59,23 +60,26 @@ MAX_SAMPLES = 1_000_000
 """Trajectory samples kept at most (~100 MB); a longer motion is sampled more coarsely and says so."""
 ENERGY_TOLERANCE = 1e-6
 """Energy balance error, relative to the energy put in, beyond which a result carries a warning. [–]"""
-_DRIVE_KEYS = {
-    "drive": ("spring_stiffness_kn_m", "spring_count", "spring_nominal_length_mm", "spring_compressed_length_mm"),
-    "weight": ("sprung_mass_kg", "gravity_m_s2"),
-}
+_WEIGHT_KEYS = ("sprung_mass_kg", "gravity_m_s2")
 
 
 class SimulationLimit(ModelError):
     """A design the model cannot simulate in bounded time and memory (one line, names the inputs)."""
 
 
-def _check_scales(design: Design, law: ResistanceLaw, speed_m_s: float) -> None:
-    """Refuse a design whose forces overflow float64 before integrating it."""
+def _check_scales(design: Design, law: ResistanceLaw, speed_m_s: float, drive: Drive = SPRINGS,
+                  other=None) -> None:
+    """Refuse a design whose forces overflow float64 before integrating it.  ``other``: a resistance outside
+    Eq. 9's four terms, R(x, v), checked at full depth and the contact speed."""
     forces = force_scales(design, law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2,
                           speed_m_s)
+    forces["drive"] = drive.largest_force(design)
+    if other is not None:
+        forces["resistance"] = other(float(design.penetration_depth_m), max(float(speed_m_s), 0.0))
+    keys_of = {"drive": drive.keys, "weight": _WEIGHT_KEYS, "resistance": ("the geometry's parameters",)}
     for term, force in forces.items():
         if beyond_limit(force):
-            keys = _DRIVE_KEYS[term] if term in _DRIVE_KEYS else term_keys(term)
+            keys = keys_of[term] if term in keys_of else term_keys(term)
             raise SimulationLimit(f"the {term} force is {force:.3g} N (from {', '.join(keys)}); "
                                   f"beyond {FORCE_LIMIT_N:g} N the model cannot be integrated in float64")
 
@@ -121,7 +125,10 @@ class Summary:
     initial_ke_j: float
     """Kinetic energy at the start of the simulated span. [J]"""
     energy_balance_error_j: float
-    """initial KE + spring + gravity − (final KE + Σ term energies). [J]"""
+    """initial KE + spring + gravity − (final KE + Σ term energies + other). [J]"""
+    energy_other_j: float = 0.0
+    """Dissipated by resistance outside Eq. 9's four terms: a diagnosis effect's, or a geometry's that does
+    not reduce to Eq. 9 (:mod:`pencli.model.geometry`). [J]"""
 
     def to_dict(self) -> dict:
         """Flat mapping, JSON-ready."""
@@ -191,76 +198,9 @@ class SimulationResult:
         return out
 
 
-# --------------------------------------------------------------------------- flight
-@dataclass(frozen=True)
-class Flight:
-    """Closed-form flight from release (t = 0, at rest) to contact.
-
-    ``u`` is the displacement from the release position (= x + s0).
-    """
-
-    mass_kg: float
-    stiffness_n_m: float
-    stroke_m: float
-    gravity_m_s2: float
-    surface_offset_m: float
-
-    @property
-    def omega_rad_s(self) -> float:
-        """Angular frequency of the spring phase, sqrt(η n k / m_eff). [rad/s]"""
-        return math.sqrt(self.stiffness_n_m / self.mass_kg)
-
-    @property
-    def amplitude_m(self) -> float:
-        """U = stroke + m g/(η n k): the harmonic motion is u = U(1 − cos ωt). [m]"""
-        return self.stroke_m + self.mass_kg * self.gravity_m_s2 / self.stiffness_n_m
-
-    def time_to_reach(self, u: float) -> float:
-        """Time at which the body has moved ``u`` from release (``inf`` if never). [s]"""
-        return self.reach(u)[0]
-
-    def reach(self, u: float) -> tuple[float, float]:
-        """(time [s], speed [m/s]) when the body has moved ``u`` from release; (inf, 0) if never."""
-        return reach(u, self.mass_kg, self.stiffness_n_m, self.stroke_m, self.gravity_m_s2)
-
-    @property
-    def release_time_s(self) -> float:
-        """When the springs reach free length. [s]"""
-        return self.time_to_reach(self.stroke_m)
-
-    def state(self, t):
-        """(u, v, a) at time(s) ``t`` since release. [m, m/s, m/s²]"""
-        t = np.asarray(t, dtype=float)
-        U, w = self.amplitude_m, self.omega_rad_s
-        t_rel = 2.0 * math.asin(math.sqrt(self.stroke_m / (2.0 * U))) / w
-        ta = np.minimum(t, t_rel)
-        u = 2.0 * U * np.sin(0.5 * w * ta) ** 2
-        v = U * w * np.sin(w * ta)
-        a = U * w * w * np.cos(w * ta)
-        tau = np.maximum(t - t_rel, 0.0)
-        after = t > t_rel
-        v_rel = U * w * math.sin(w * t_rel)
-        u = np.where(after, self.stroke_m + v_rel * tau + 0.5 * self.gravity_m_s2 * tau * tau, u)
-        v = np.where(after, v_rel + self.gravity_m_s2 * tau, v)
-        a = np.where(after, self.gravity_m_s2, a)
-        return u, v, a
-
-
-def flight_of(design: Design) -> Flight:
-    """The closed-form flight of ``design``."""
-    return Flight(design.effective_mass_kg, design.drive_stiffness_n_m, design.stroke_m,
-                  design.gravity_m_s2, design.surface_offset_m)
-
-
 # --------------------------------------------------------------------------- penetration
-def _spring_force(design: Design, x):
-    """η·n·k·(L0 − L(x)) while L < L0, else 0. [N]"""
-    compression = design.stroke_m - (np.asarray(x, dtype=float) + design.surface_offset_m)
-    return design.drive_stiffness_n_m * np.maximum(compression, 0.0)
-
-
-def _make_rhs(law: ResistanceLaw, mass: float, stiffness: float, stroke: float, offset: float, gravity: float,
-              extra=None):
+def _make_rhs(law: ResistanceLaw, mass: float, push, offset: float, gravity: float, extra=None):
+    """``push(u)``: the drive's force at travel u from release (floats). [N]"""
     a0, a1, b, d = law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2
     weight = mass * gravity
     calls = [0]
@@ -273,8 +213,7 @@ def _make_rhs(law: ResistanceLaw, mass: float, stiffness: float, stroke: float, 
                                   f"Eq. 9 coefficients)")
         x, v = y[0], y[1]
         vp = v if v > 0.0 else 0.0
-        compression = stroke - x - offset
-        spring = stiffness * compression if compression > 0.0 else 0.0
+        spring = push(x + offset)
         resist = reduced(x, vp, a0, a1, b, d)
         if extra is None:
             return [v, (spring + weight - resist) / mass, b * vp * vp, d * vp * vp * vp]
@@ -300,28 +239,29 @@ def _root(fn, lo: float, hi: float) -> float:
 
 
 def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float, rtol: float = _RTOL,
-                           extra=None):
+                           extra=None, drive: Drive = SPRINGS):
     """Integrate from contact; returns (segments, end, t_end, y_end)."""
     mass = design.effective_mass_kg
-    stroke, offset = design.stroke_m, design.surface_offset_m
+    offset = design.surface_offset_m
     depth = design.penetration_depth_m
-    rhs = _make_rhs(law, mass, design.drive_stiffness_n_m, stroke, offset, design.gravity_m_s2, extra)
+    rhs = _make_rhs(law, mass, lambda u: drive.force(design, u), offset, design.gravity_m_s2, extra)
     y = np.array([0.0, v0, 0.0, 0.0] + ([0.0] if extra is not None else []))
     t = t0
     segments = []
-    release_depth = stroke - offset  # > 0: springs still push at contact
     if v0 <= 0.0 and rhs(t, y)[1] <= 0.0:
         return segments, "arrest", t, y  # the drive cannot overcome the static resistance
     atol = np.array([1e-13, 1e-12, 1e-11, 1e-11, 1e-11][:y.size])
     ev_full = _event(lambda _t, s: s[0] - depth, 1.0)
     ev_arrest = _event(lambda _t, s: s[1], -1.0)
     stops = {"full": ev_full, "arrest": ev_arrest}
-    creep = None if extra is not None else creep_target(design, law)
+    creep = None if extra is not None or not drive.closed_form else creep_target(design, law)
     if creep is not None:
         stops["creep"] = _event(lambda _t, s: s[0] - creep[0], 1.0)
-    if release_depth > 0.0 and release_depth < depth:
-        stops["release"] = _event(lambda _t, s: s[0] - release_depth, 1.0)
-    method = "Radau" if _stiff(design, law) else "DOP853"
+    # depths where the drive's force or slope jumps (the springs reach free length): > 0, still ahead
+    corners = {f"corner {i}": u - offset for i, u in enumerate(drive.corners(design)) if 0.0 < u - offset < depth}
+    for name, corner in corners.items():
+        stops[name] = _event(lambda _t, s, c=corner: s[0] - c, 1.0)
+    method = "Radau" if _stiff(design, law, drive) else "DOP853"
     while True:
         sol = solve_ivp(rhs, (t, t0 + _T_MAX_S), y, method=method, rtol=rtol, atol=atol,
                         events=list(stops.values()), dense_output=True)
@@ -348,7 +288,7 @@ def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: fl
                 return segments, "full_depth", t_full, y_full
             y_hit[1] = 0.0
             return segments, "arrest", t_hit, y_hit
-        del stops[name]  # a creep distance or the springs' free length, passed: restart without it
+        del stops[name]  # a creep distance or a corner of the drive, passed: restart without it
         if name == "creep":
             if y_hit[1] <= creep[1]:  # slow: on the slow mode, it creeps towards x* and never gets there
                 rest = creep[2]
@@ -357,7 +297,7 @@ def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: fl
                 return segments, "creep", t_hit, y_hit
             t, y = t_hit, y_hit  # fast: it will pass x* and arrest beyond it
             continue
-        y_hit[0] = release_depth  # springs at free length
+        y_hit[0] = corners[name]  # exactly at the corner (the springs at free length)
         t, y = t_hit, y_hit
 
 
@@ -401,9 +341,9 @@ the penetration is integrated with Radau (implicit) instead of DOP853, whose ste
 hold to m/b. [–]"""
 
 
-def _stiff(design: Design, law: ResistanceLaw) -> bool:
+def _stiff(design: Design, law: ResistanceLaw, drive: Drive = SPRINGS) -> bool:
     b = law.damping_n_s_m
-    k = design.drive_stiffness_n_m + law.friction_n_m
+    k = drive.largest_slope(design) + law.friction_n_m
     return b > 0.0 and b * b > STIFF_RATIO * design.effective_mass_kg * max(k, 1e-300)
 
 
@@ -437,7 +377,8 @@ def _peak(law: ResistanceLaw, segments, extra=None) -> tuple[float, float]:
 
 def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
              speed_at_contact_m_s: float | None = None, output_rate_hz: float = 50_000.0,
-             rtol: float = _RTOL, extra_resistance=None) -> SimulationResult:
+             rtol: float = _RTOL, extra_resistance=None, geometry: Geometry = BLADE,
+             drive: Drive = SPRINGS) -> SimulationResult:
     """Simulate one shot of the rig (CONTRACT §2).
 
     Parameters
@@ -455,7 +396,11 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         Relative tolerance of the penetration integration (default 1e-10; fits use less).
     extra_resistance
         Optional ``f(x [m], v [m/s]) -> N`` added to R in the material (a diagnosis effect's
-        term); its dissipated energy is booked in the balance and its force in ``resistance_n``.
+        term); its dissipated energy is booked in ``energy_other_j`` and its force in ``resistance_n``.
+    geometry
+        The penetrator (default: CONTRACT §2's blade, Eq. 9); see :mod:`pencli.model.geometry`.
+    drive
+        What pushes the body (default: CONTRACT §2's springs); see :mod:`pencli.model.drive`.
 
     Returns
     -------
@@ -463,21 +408,27 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         Summary (CONTRACT §5) and trajectory.
     """
     chosen = parse_terms(terms)
-    law = resistance_law(design, chosen)
+    law = geometry.law(design, chosen)
+    other = None
+    if law is None:  # not Eq. 9's form: the whole resistance is integrated as a force of its own
+        law = ResistanceLaw(0.0, 0.0, 0.0, 0.0)
+        other = geometry.resistance(design, chosen)
+        extra_resistance = other if extra_resistance is None else _sum(other, extra_resistance)
     mass = design.effective_mass_kg
-    flight = flight_of(design)
+    flight = drive.flight(design)
 
     if speed_at_contact_m_s is None:
         t_contact, v_contact = flight.reach(design.surface_offset_m)
         if not math.isfinite(t_contact):
-            return _no_contact(design, chosen, flight)
+            return _no_contact(design, chosen, flight, drive)
         u_start, initial_ke = 0.0, 0.0
     else:
         t_contact, v_contact = 0.0, float(speed_at_contact_m_s)
         u_start, initial_ke = design.surface_offset_m, 0.5 * mass * v_contact ** 2
 
-    _check_scales(design, law, v_contact)
-    segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact, rtol, extra_resistance)
+    _check_scales(design, law, v_contact, drive, other)
+    segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact, rtol, extra_resistance,
+                                                         drive)
     x_end, v_end = float(y_end[0]), float(y_end[1])
     full = end == "full_depth"
 
@@ -486,8 +437,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
     e_friction = 0.5 * law.friction_n_m * x_end ** 2
     e_damping, e_inertia = float(y_end[2]), float(y_end[3])
     u_end = x_end + design.surface_offset_m
-    spring_j = 0.5 * design.drive_stiffness_n_m * (max(design.stroke_m - u_start, 0.0) ** 2
-                                                   - max(design.stroke_m - u_end, 0.0) ** 2)
+    spring_j = drive.work(design, u_start, u_end)
     gravity_j = mass * design.gravity_m_s2 * (u_end - u_start)
     final_ke = 0.5 * mass * v_end ** 2
     e_extra = float(y_end[4]) if len(y_end) > 4 else 0.0
@@ -505,7 +455,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
                      f"instead of {output_rate_hz:g} Hz to stay within {MAX_SAMPLES:,} samples")
         output_rate_hz = MAX_SAMPLES / t_end
     trajectory = _sample(design, law, flight, segments, speed_at_contact_m_s is None, t_contact, v_contact,
-                         t_end, y_end, output_rate_hz, extra_resistance)
+                         t_end, y_end, output_rate_hz, extra_resistance, drive)
     summary = Summary(
         contact_speed_m_s=v_contact,
         penetration_time_s=t_end - t_contact,
@@ -524,6 +474,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         gravity_work_j=gravity_j,
         initial_ke_j=initial_ke,
         energy_balance_error_j=balance,
+        energy_other_j=e_extra,
     )
     if end == "stalled":
         notes.insert(0, f"neither arrest nor full depth within {_T_MAX_S:g} s of contact; figures are at that time")
@@ -537,15 +488,15 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
                             success=end != "stalled", message=message)
 
 
-def _no_contact(design: Design, chosen: tuple[str, ...], flight: Flight) -> SimulationResult:
+def _no_contact(design: Design, chosen: tuple[str, ...], flight: FlightPath, drive: Drive) -> SimulationResult:
     """The body never reaches the surface (no gravity and no push left)."""
     mass = design.effective_mass_kg
-    spring_j = 0.5 * design.drive_stiffness_n_m * design.stroke_m ** 2
     t = np.linspace(0.0, flight.release_time_s, 2)
     u, v, a = flight.state(t)
+    spring_j = drive.work(design, 0.0, float(u[-1]))
     zeros = np.zeros_like(t)
     trajectory = Trajectory(t, u - design.surface_offset_m, v, a, zeros, zeros, zeros, zeros, zeros,
-                            _spring_force(design, u - design.surface_offset_m), design.load_cell_mass_kg * a,
+                            drive.force(design, u), design.load_cell_mass_kg * a,
                             np.zeros(t.size, dtype=np.int8))
     summary = Summary(0.0, 0.0, 0.0, False, 0.0, 0.0, 0.0, spring_j, 0.0, 0.0, 0.0, 0.0, math.inf,
                       "no_contact", 0.0, 0.0, spring_j - 0.5 * mass * float(v[-1]) ** 2)
@@ -553,7 +504,8 @@ def _no_contact(design: Design, chosen: tuple[str, ...], flight: Flight) -> Simu
                             message="the body never reaches the surface")
 
 
-def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_end, y_end, rate_hz, extra=None):
+def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_end, y_end, rate_hz, extra=None,
+            drive: Drive = SPRINGS):
     """Uniformly sampled trajectory, with contact and the end included exactly."""
     step = 1.0 / rate_hz
     mass = design.effective_mass_kg
@@ -591,10 +543,15 @@ def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_
     resistance = strength + friction + damping + inertia
     if extra is not None:
         resistance = resistance + mask * np.vectorize(extra, otypes=[float])(x, np.maximum(v, 0.0))
-    spring = _spring_force(design, x)
+    spring = drive.force(design, x + design.surface_offset_m)
     a = np.where(in_material, (spring + mass * design.gravity_m_s2 - resistance) / mass, a_flight)
     load_cell = resistance + design.load_cell_mass_kg * a
     return Trajectory(t, x, v, a, strength, friction, damping, inertia, resistance, spring, load_cell, phase)
+
+
+def _sum(first, second):
+    """R(x, v) of two resistances together. [N]"""
+    return lambda x, v: first(x, v) + second(x, v)
 
 
 __all__ = ["CREEP_DISTANCE_M", "MODEL_NAME", "PHASES", "TERMS", "Flight", "SimulationResult", "Summary", "Trajectory",
