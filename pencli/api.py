@@ -515,8 +515,6 @@ def expand_run_refs(ws, refs: Sequence[str]) -> list[str]:
 def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, float] | None = None,
               progress: Progress | None = None) -> list[StageOutcome]:
     """``pen tare``: offsets from the pre-trigger span, depth from the stand-off, events; a new stage."""
-    import pyarrow as pa
-
     from pencli.filter.tare import tare
     from pencli.store.workspace import raw_columns_of
 
@@ -525,8 +523,8 @@ def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, fl
         params = ws.run_parameters(run_id)
         tared = tare(raw_columns_of(table), params["energizing"]["surface_offset_mm"],
                      params["penetrator"]["penetration_depth_mm"], window_ms=window_ms, where=run_id)
-        out = pa.table({"time_s": tared.time_s, "depth_m": tared.depth_m,
-                        **{name: np.asarray(values) for name, values in tared.forces.items()}})
+        out = {"time_s": tared.time_s, "depth_m": tared.depth_m,
+               **{name: np.asarray(values) for name, values in tared.forces.items()}}
         record = ws.add_stage(run_id, "tare", out, parent_no=raw.stage_no, command="pen tare",
                               parameters={"offsets": tared.offsets, "events": tared.events.to_dict(),
                                           "window_ms": list(window_ms) if window_ms else None})
@@ -538,8 +536,6 @@ def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, fl
 def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | None = None,
                           use_flight_mass: bool = False, progress: Progress | None = None) -> list[StageOutcome]:
     """``pen subtract-inertia``: v and a from the encoder, R = F − m_lc·a; a new stage."""
-    import pyarrow as pa
-
     from pencli.filter.derivatives import DEFAULT_METHOD
     from pencli.filter.inertia import subtract_inertia
     from pencli.filter.tare import Events
@@ -557,10 +553,10 @@ def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | 
         columns = {name: table.column(name).to_numpy() for name in table.column_names}
         kin = subtract_inertia(columns["time_s"], columns["depth_m"], columns["fz_n"], events, m_lc,
                                method=chosen, use_flight_mass=use_flight_mass)
-        out = pa.table({"time_s": columns["time_s"], "depth_m": columns["depth_m"],
-                        "velocity_m_s": kin.velocity_m_s, "acceleration_m_s2": kin.acceleration_m_s2,
-                        "force_n": columns["fz_n"], "resistance_n": kin.resistance_n,
-                        **{n: columns[n] for n in ("fx_n", "fy_n", "tx_nm", "ty_nm", "tz_nm")}})
+        out = {"time_s": columns["time_s"], "depth_m": columns["depth_m"],
+               "velocity_m_s": kin.velocity_m_s, "acceleration_m_s2": kin.acceleration_m_s2,
+               "force_n": columns["fz_n"], "resistance_n": kin.resistance_n,
+               **{n: columns[n] for n in ("fx_n", "fy_n", "tx_nm", "ty_nm", "tz_nm")}}
         estimate = kin.mass_estimate.to_dict() if kin.mass_estimate else None
         warnings = []
         if kin.mass_estimate is not None and kin.mass_estimate.disagrees:
@@ -694,7 +690,6 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
         bootstrap: int = 200, out: str | Path | None = None, record: bool = True,
         command: str = "pen fit", progress: Progress | None = None) -> FitOutcome:
     """``pen fit``: Eq. 9 coefficients over runs, recorded as a new material version."""
-    import pyarrow as pa
     import yaml
 
     from pencli.fit.compare import model_vs_data
@@ -728,7 +723,7 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
     mapping = material_file_from_fit(material, series, result)
     version = None
     if record:
-        table = pa.table(model_vs_data(series, result.values(), result.terms))
+        table = model_vs_data(series, result.values(), result.terms)
         version = workspace(db).add_material_version(material, result.to_dict(), mapping,
                                                      [s.run_id for s in series], table, command=command)
         mapping["notes"] += f" Catalog: {material} version {version}."

@@ -54,6 +54,11 @@ _STAGE_FILE = re.compile(r"^(\d{2})-([A-Za-z0-9_-]+)\.parquet$")
 QUARANTINE = "quarantine"
 
 
+def _as_table(columns: pa.Table | Mapping[str, Any]) -> pa.Table:
+    """A stage's or fit's columns as an Arrow table: callers hand the store plain arrays, by name."""
+    return columns if isinstance(columns, pa.Table) else pa.table({k: columns[k] for k in columns})
+
+
 def crash_point(name: str) -> None:
     """Die here, as kill -9 would, when ``PEN_TEST_CRASH_AT`` names this point (for the crash tests only)."""
     if os.environ.get("PEN_TEST_CRASH_AT") == name:
@@ -517,13 +522,14 @@ class Workspace:
                         [run_id, ps.kind, ps.name, json.dumps(ps.to_mapping())])
 
     # ------------------------------------------------------------------ stages
-    def add_stage(self, run_id: str, stage: str, table: pa.Table, *, parent_no: int, command: str,
-                  parameters: Mapping[str, Any]) -> StageRecord:
-        """Append a conditioning stage to a run (atomic).
+    def add_stage(self, run_id: str, stage: str, table: pa.Table | Mapping[str, Any], *, parent_no: int,
+                  command: str, parameters: Mapping[str, Any]) -> StageRecord:
+        """Append a conditioning stage to a run (atomic); ``table``: Arrow, or arrays by column name.
 
         The same step with the same parameters on the same parent giving the same table is the same stage:
         the existing record is returned and nothing is written (re-running ``pen tare`` does not stack copies).
         """
+        table = _as_table(table)
         digest = table_hash(table)
         with self.connect(write=True) as con:
             last = con.execute("SELECT max(stage_no) FROM stages WHERE run_id = ?", [run_id]).fetchone()[0]
@@ -676,8 +682,11 @@ class Workspace:
 
     # ------------------------------------------------------------------ fitted materials
     def add_material_version(self, material: str, fit: Mapping[str, Any], material_file: Mapping[str, Any],
-                             source_runs: Sequence[str], model_data: pa.Table | None, *, command: str) -> int:
-        """Record a fit as the next version of ``material``; its model-vs-data table goes to fits/ (atomic)."""
+                             source_runs: Sequence[str], model_data: pa.Table | Mapping[str, Any] | None, *,
+                             command: str) -> int:
+        """Record a fit as the next version of ``material``; its model-vs-data table (Arrow, or arrays by
+        column name) goes to fits/ (atomic)."""
+        model_data = None if model_data is None else _as_table(model_data)
         with self.connect(write=True) as con:
             last = con.execute("SELECT max(version) FROM materials WHERE material = ?", [material]).fetchone()[0]
             version = (last or 0) + 1
