@@ -27,12 +27,14 @@ def twelve_shots() -> list[tuple[str, int]]:
 
 def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, effects=(), block_kpa=None,
                   rig_extra=None, record_material: dict | None = None, standoff_mm: list | None = None,
-                  strength_scale: list | None = None, encoder_mm: float | None = None) -> Path:
+                  strength_scale: list | None = None, encoder_mm: float | None = None,
+                  encoder_phase: list | None = None) -> Path:
     """Fire a campaign into ``folder/runs.duckdb``; returns the catalog path.
 
     ``standoff_mm``: per shot, the true stand-off minus the file's (stand-off scatter).
     ``strength_scale``: per shot, the block's true strength over the recorded one (unrecorded scatter).
     ``encoder_mm``: the string encoder's step (default: the bundled encoder's).
+    ``encoder_phase``: per shot, where the blade rests within one count (default 0, every shot alike).
     """
     folder.mkdir(parents=True, exist_ok=True)
     db = folder / "runs.duckdb"
@@ -56,6 +58,8 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
             rig["surface_offset_error_mm"] = float(standoff_mm[i % len(standoff_mm)])
         if strength_scale is not None:
             rig["strength_scale"] = float(strength_scale[i % len(strength_scale)])
+        if encoder_phase is not None:
+            rig["encoder_phase"] = float(encoder_phase[i % len(encoder_phase)])
         rig_file = folder / f"rig-{i}.yaml"
         rig_file.write_text(yaml.safe_dump(rig))
         shot = api.acquire(springs=springs, penetrator=f"al6061_{blade}mm", material=str(material_file), rig=rig_file,
@@ -147,7 +151,9 @@ POOL = [(b, s) for b in BLADES for s in SPRINGS]
 
 def random_nuisances(rng) -> dict:
     """make_campaign keywords for a campaign with varied nuisances: noise level and colour, rate, encoder
-    step, 4–8 runs of random blades and springs, unrecorded block scatter 3–6 %, stand-off scatter."""
+    step, 4–8 runs of random blades and springs, unrecorded block scatter 3–6 %, stand-off scatter, and the
+    encoder's phase: at the middle of a count in every shot, at one random place in every shot (a blade that
+    rests against the same stop), or at a random place in each shot."""
     n_shots = int(rng.integers(4, 9))
     picks = rng.choice(len(POOL), n_shots, replace=n_shots > len(POOL))
     return {"rig_extra": {"force_noise_n": float(rng.uniform(0.5, 6.0)),
@@ -157,7 +163,17 @@ def random_nuisances(rng) -> dict:
             "shots": [POOL[int(k)] for k in picks],
             "encoder_mm": float(rng.choice([0.08, 0.16, 0.32])),
             "strength_scale": [float(x) for x in rng.normal(1.0, rng.uniform(0.03, 0.06), n_shots)],
-            "standoff_mm": [float(x) for x in rng.normal(0.0, rng.uniform(0.3, 1.5), n_shots)]}
+            "standoff_mm": [float(x) for x in rng.normal(0.0, rng.uniform(0.3, 1.5), n_shots)],
+            "encoder_phase": [float(x) for x in _phases(rng, n_shots)]}
+
+
+def _phases(rng, n_shots: int):
+    kind = int(rng.integers(0, 3))
+    if kind == 0:
+        return [0.0] * n_shots
+    if kind == 1:
+        return [float(rng.uniform(0.0, 1.0))] * n_shots
+    return rng.uniform(0.0, 1.0, n_shots)
 
 
 def varied_campaigns(count: int, seed: int, *, nulls_only: bool = False):

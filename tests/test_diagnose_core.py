@@ -18,7 +18,7 @@ from scipy.optimize import lsq_linear
 from scipy.signal import lfilter
 
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
-from pencli.diagnose.null import fit_noise, gumbel_quantile
+from pencli.diagnose.null import encoder_phase, fit_noise, gumbel_quantile
 from pencli.filter.derivatives import encoder_step_m
 from pencli.filter.tare import force_onset
 
@@ -342,3 +342,25 @@ def test_a_family_held_at_its_bound_on_most_replicates_does_not_blind_the_thresh
     # a null with nothing above its point mass: the scale is the round-off floor given, not zero
     _, _, scale = _standardise(np.r_[1.0, np.zeros(30), -np.abs(rng.normal(0.0, 1.0, 29))], floor=1e-6)
     assert scale == pytest.approx(1e-6)
+
+@pytest.mark.parametrize("step_mm", [0.08, 0.32])
+def test_encoder_phase_keeps_the_runs_phase_differences(step_mm):
+    """Runs read by a counter zeroed at rest, counts = round(u/step + φ) − round(φ) with φ where the blade
+    rests within a count (the rig's convention, written here): the phases read from the records differ as
+    the φ do, whatever the rest position, so replicates keep the relation the runs have: to 1/20 of a count
+    (the samples fix the edges only as finely as the motion moves between two of them; a guess is off by
+    up to 1/2)."""
+    step = step_mm * 1e-3
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 0.03, 901)
+    u = 0.5 * 200.0 * np.maximum(t - 0.001, 0.0) ** 2 + 0.2 * np.maximum(t - 0.001, 0.0)
+    span = t > 0.001
+    for x0 in (-0.148, -0.0503):
+        phis = rng.uniform(0.0, 1.0, 5)
+        read = []
+        for phi in phis:
+            record = x0 + step * (np.round(u / step + phi) - round(phi))
+            smooth = x0 + u + rng.normal(0.0, 0.02 * step, u.size)  # a smoother's small error
+            read.append(encoder_phase(record, smooth, span, step))
+        difference = (np.subtract(read, read[0]) - (phis - phis[0]) + 0.5) % 1.0 - 0.5
+        assert np.max(np.abs(difference)) <= 0.05

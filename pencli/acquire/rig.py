@@ -30,6 +30,9 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
     "strength_scale": ("the block's true strength over the recorded strength (block scatter) [–]", 1.0),
     "surface_offset_error_mm": ("true stand-off minus the energizing file's (the block's surface sits lower "
                                 "when positive) [mm]", 0.0),
+    "encoder_phase": ("where the blade rests within one encoder count, as a fraction of a count: the counter "
+                      "is zeroed there and steps when the motion crosses count edges (0: the rest position "
+                      "is at the middle of a count) [–]", 0.0),
     "effects": ("hidden effects of the true world (CONTRACT §4 names) with parameters", []),
     "seed": ("seed of the sensor noise (default: fresh each shot)", None),
     "device": ("nidaq: device name", "Dev1"),
@@ -92,6 +95,9 @@ def validate_rig(data: Any, where: str) -> RigConfig:
     _number(where, "correlated_noise_ms", values["correlated_noise_ms"], positive=True)
     _number(where, "strength_scale", values["strength_scale"], positive=True)
     _number(where, "surface_offset_error_mm", values["surface_offset_error_mm"])
+    if not 0.0 <= _number(where, "encoder_phase", values["encoder_phase"]) < 1.0:
+        raise ParameterError(f"{where}: key 'encoder_phase': got {values['encoder_phase']!r}; expected a "
+                             f"fraction of a count in [0, 1)")
     for key in ("force_offsets_n", "torque_offsets_nm"):
         offsets = values[key]
         if not isinstance(offsets, (list, tuple)) or len(offsets) != 3:

@@ -131,7 +131,8 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
     forces[:, 3] = to[0] - LEVER_ARM_M * 0.6 * side + rng.normal(0, noise_t, n_total)
     forces[:, 4] = to[1] + LEVER_ARM_M * 0.8 * side + rng.normal(0, noise_t, n_total)
     forces[:, 5] = to[2] + rng.normal(0, noise_t, n_total)
-    counts = np.round(u * 1e3 * position_cal.counts_per_mm).astype(np.int64)
+    phase = float(rig["encoder_phase"])  # the counter is zeroed at rest, wherever the count edges lie
+    counts = (np.round(u * 1e3 * position_cal.counts_per_mm + phase) - round(phase)).astype(np.int64)
     return counts, forces
 
 

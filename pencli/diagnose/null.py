@@ -7,9 +7,11 @@ chain, as read from its data:
   encoder record) in flight and, from the contact on, the baseline's own
   dynamics (whose acceleration jumps at contact and stop as the data's do,
   which the encoder cannot resolve and the spline does not reproduce);
-- the encoder quantises it to the record's own step (a random phase per
-  replicate), and the same derivative method re-derives velocity and
-  acceleration from it, so derivative errors are the pipeline's own;
+- the encoder quantises it to the record's own step, each run at its own
+  phase as read from its record (:func:`encoder_phase`) shifted by one
+  random amount per replicate, and the same derivative method re-derives
+  velocity and acceleration from it, so derivative errors are the
+  pipeline's own;
 - the force channel adds noise of the colour and level measured on the
   pre-trigger span (an autoregressive model, order by BIC);
 - the resistance is the baseline fit's, so a replicate holds no effect.
@@ -126,6 +128,28 @@ class Replicates:
     causal filter of it (a sensor lag's offset) starts where the data's does. [m/s²]"""
 
 
+PHASE_GRID = 64
+"""Phases (fractions of a count) tried by :func:`encoder_phase`. [–]"""
+
+
+def encoder_phase(record_m: np.ndarray, smooth_m: np.ndarray, span: np.ndarray, step_m: float) -> float:
+    """Where the record's encoder steps, as the phase f of :func:`replicate_run`'s quantiser
+    step·round((x + f·step)/step) − f·step (zeroed at the first sample, as the record is): of
+    :data:`PHASE_GRID` phases, the ones whose quantisation of the smoothed motion disagrees with the record
+    by more than half a count on the fewest samples of ``span`` (the flight, where the smoothed motion follows
+    the record within a fraction of a count), averaged on the circle. [fraction of a count]"""
+    f = np.arange(PHASE_GRID) / PHASE_GRID
+    shift = f * step_m
+
+    def quantised(x):
+        return step_m * np.round((x[:, None] + shift) / step_m) - shift
+
+    q = quantised(smooth_m[span]) - (quantised(smooth_m[:1]) - record_m[0])
+    mismatch = np.sum(np.abs(q - record_m[span][:, None]) > 0.5 * step_m, axis=0)
+    best = 2.0 * np.pi * f[mismatch == mismatch.min()]
+    return float(np.arctan2(np.sin(best).mean(), np.cos(best).mean()) / (2.0 * np.pi)) % 1.0
+
+
 def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | None = None) -> Replicates:
     """``count`` null replicates of one run (see the module docstring).
 
@@ -135,6 +159,9 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
     method D applied to that motion re-quantised (random encoder phase, zeroed at rest) minus its true
     acceleration a*, which in flight is D(x̃) (the smoother's own resolution bias, common to data and
     replicates, cancels).  Without a model the whole motion is x̃, as in flight.
+
+    ``phases``: one shift per replicate (fractions of a count) added to the run's own phase as read from its
+    record (:func:`encoder_phase`); without them each replicate reads the run at a random phase.
     """
     rng = np.random.default_rng(seed)
     t = null.time_s
@@ -155,7 +182,12 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
     if null.model is not None:
         reference = np.where(inside, model_accel, reference)
     noise = null.noise.simulate(t.size, rng, count)
-    phases = step * (rng.uniform(0.0, 1.0, count) if phases is None else np.asarray(phases, dtype=float))
+    if phases is None:
+        fractions = rng.uniform(0.0, 1.0, count)
+    else:
+        flight = ~null.at_rest & (t < null.events.contact_s)
+        fractions = (np.asarray(phases, dtype=float) + encoder_phase(null.depth_m, smooth, flight, step)) % 1.0
+    phases = step * fractions
     depth = step * np.round((smooth[:, None] + phases) / step) - phases
     depth -= depth[:1] - null.depth_m[0]  # the encoder is zeroed at rest, as the data's
     speeds = np.full(count, np.nan)
@@ -181,11 +213,13 @@ def _replicate_job(args) -> Replicates:
 def replicate_campaign(nulls: list[RunNull], count: int, seed: int, *, workers: int = 2) -> list[Replicates]:
     """Replicates of every run, runs spread over ``workers`` processes (one process when 1).
 
-    Replicate b of every run is read through the same encoder phase (a fraction of a count): a rig whose blade
-    rests at the same place before every shot, as the simulated rig's does, reads every run through one phase,
-    so its runs' derivative errors agree in sign where their motions agree; drawn independently per run they
-    would average out over a campaign in every replicate but not in the data.  Where the data's phases are
-    independent, the shared phase makes the null wider than the data's: an error towards `none`.
+    Replicate b reads every run at that run's own encoder phase, as read from its record, shifted by one
+    amount common to the campaign (a fraction of a count): the runs' phases keep the relation they have in
+    the data.  A rig whose blade rests at the same place before every shot reads every run through one phase,
+    so its runs' derivative errors agree in sign where their motions agree, and phases drawn independently
+    per run would average that out of every replicate but not out of the data; a rig whose blade rests
+    anywhere reads each run through its own phase, and one phase shared by the replicates' runs would add
+    up errors that the data's runs do not share.
     """
     phases = np.random.default_rng(seed).uniform(0.0, 1.0, count)
     jobs = [(null, count, seed * 1000 + i, phases) for i, null in enumerate(nulls)]
