@@ -392,3 +392,20 @@ def test_one_fitting_replicate_among_a_point_mass_does_not_blind_the_familywise_
     values[7, 0] = 0.8  # the plug fits on one replicate
     threshold = familywise_threshold(values, 1e-9, 0.01)
     assert threshold < 3.0 * math.sqrt(60 / 2.0)
+
+
+def test_sidewall_pressure_rise_is_the_pressure_added_at_100_mm():
+    """A sidewall pressure member's column is friction at 1 kPa × the mean added pressure over the wetted
+    depth, (1/x)∫₀ˣ f dz; the pressure added at the tip is then d(x·mean)/dx.  The reported rise must be that
+    at 100 mm, whatever the shape (the power laws' had been reported (n + 1) times too large)."""
+    from pencli.diagnose.effects import EFFECTS
+
+    effect = EFFECTS["sidewall_pressure_growth"]
+    x, h = 0.1, 1e-6
+    for member in effect.members:
+        profile = member.profiles[0]
+        mean = lambda d: float(d * profile(np.float64(d), np.float64(1.0)))  # noqa: E731
+        at_tip = (mean(x + h) - mean(x - h)) / (2.0 * h)
+        described = effect.describe(member, np.array([2.0]), {"p_kpa": 4.0, "cs_mean": 1.0})
+        assert described["added_kpa_at_100mm"] == pytest.approx(2.0 * at_tip, rel=1e-6), member.params
+        assert described["rise_at_100mm"] == pytest.approx(2.0 * at_tip / 4.0, rel=1e-6)

@@ -358,9 +358,17 @@ def _pressure_members() -> tuple[Member, ...]:
     return tuple(out)
 
 
+def _pressure_rise(m: Member) -> float:
+    """f(100 mm) of a member whose added sidewall pressure is c·f(x) kPa: (x/0.1)ⁿ, or 1 − e^(−x/L). [–]"""
+    if m.params["shape"] == "power":
+        return 1.0
+    return float(-np.expm1(-100.0 / m.params["length_mm"]))
+
+
 def _describe_pressure(m: Member, c, ctx) -> dict:
-    return {"rise_at_100mm": float(c[0]) * (m.params.get("exponent", 0.0) + 1.0 if m.params["shape"] == "power"
-                                            else 1.0) / ctx["p_kpa"], **dict(m.params)}
+    # the column is friction at 1 kPa × (1/x)∫₀ˣ f dz, so the pressure added at depth x is c·f(x) kPa
+    added = float(c[0]) * _pressure_rise(m)
+    return {"added_kpa_at_100mm": added, "rise_at_100mm": added / ctx["p_kpa"], **dict(m.params)}
 
 
 _SPEEDS = (0.5, 1.0, 2.0, 4.0, 8.0)
