@@ -75,11 +75,32 @@ def test_rig_file_hidden_effect_changes_the_run_but_not_its_record(workspace, ru
     assert "effects" not in json.dumps(params)
 
 
+def test_encoder_phase_moves_where_the_counts_step_not_where_they_start(workspace, runner):
+    """Rest at the middle of a count (0) steps after half a count of travel; rest just short of an edge (0.45
+    of a count past the middle) steps after 0.05 of a count.  Both records read 0 at rest."""
+    first_step = {}
+    for phase in (0.0, 0.45):
+        rig = workspace / f"rig-{phase}.yaml"
+        rig.write_text(yaml.safe_dump({"kind": "rig", "name": "p", "seed": 3, "encoder_phase": phase}))
+        run_id = f"phase-{phase}"
+        r = invoke(runner, "acquire", "--springs", "4", "--yes", "--save", "--id", run_id, "--rig", rig)
+        assert r.exit_code == 0, r.output
+        raw = _raw(workspace, run_id)
+        position, time = raw["position_mm"], raw["time_s"]
+        rest = position[time < 0]
+        assert np.all(rest == rest[0])
+        first_step[phase] = time[np.argmax(position != rest[0])]
+    # from rest under a nearly constant push the travel grows as t²: 0.5 and 0.05 of a count are √10 apart
+    # in time (sampled at 30 kHz, so only roughly)
+    assert first_step[0.45] < 0.5 * first_step[0.0]
+
+
 @pytest.mark.parametrize("content,words", [
     ({"kind": "rig", "name": "x", "sampling_rate": 3}, "unknown key 'sampling_rate'"),
     ({"kind": "rig", "name": "x", "effects": [{"name": "gremlins"}]}, "unknown effect 'gremlins'"),
     ({"kind": "rig", "name": "x", "effects": [{"name": "strength_layer", "depht_mm": 3}]}, "depht_mm"),
     ({"kind": "rig", "name": "x", "driver": "labview"}, "driver"),
+    ({"kind": "rig", "name": "x", "encoder_phase": 1.0}, "encoder_phase"),
 ])
 def test_bad_rig_file_is_one_line(workspace, runner, content, words):
     rig = workspace / "rig.yaml"
