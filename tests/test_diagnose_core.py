@@ -156,16 +156,29 @@ def test_two_columns_measured_per_target_meet_each_other_with_that_targets_value
             assert both.heldout[0, k, target] == pytest.approx(expected, rel=1e-6)
 
 
-def test_noise_model_recovers_an_ar1_process():
+def test_noise_model_keeps_the_low_frequencies_of_correlated_noise():
+    """White noise plus AR(1) noise correlated over 2 ms at 60 kHz (the simulated rig's correlated noise): the
+    replicates' noise must carry the variance of its 2-ms means, which is what a slowly varying column (a
+    load-cell mass error, a drift) picks up.  An AR(≤ 12) fit kept 0.60 of it."""
     rng = np.random.default_rng(5)
-    e = lfilter([1.0], [1.0, -0.8], rng.normal(0, 2.0, 20000))
-    model = fit_noise(e)
-    assert model.coefficients[0] == pytest.approx(0.8, abs=0.03)
-    assert model.innovation_n == pytest.approx(2.0, rel=0.03)
-    sim = model.simulate(20000, rng)
-    assert float(np.std(sim)) == pytest.approx(float(np.std(e)), rel=0.1)
+    a = math.exp(-1.0 / (2e-3 * 60000))
+
+    def record(n):
+        return rng.normal(0.0, 2.3, n) + lfilter([1.0], [1.0, -a], rng.normal(0.0, 1.6 * math.sqrt(1 - a * a), n))
+
+    def means_variance(x):
+        return float(np.var(np.convolve(x, np.ones(120) / 120, mode="valid")))
+
+    ratios = []
+    for _ in range(5):  # five pre-trigger spans of 0.2 s
+        model = fit_noise(record(12000))
+        sim = model.simulate(60000, rng, 2)
+        assert float(np.std(sim)) == pytest.approx(math.sqrt(2.3 ** 2 + 1.6 ** 2), rel=0.08)
+        ratios.append(means_variance(sim[:, 0]) / means_variance(record(400000)))
+    assert 0.8 < float(np.mean(ratios)) < 1.25
     white = fit_noise(rng.normal(0, 3.0, 5000))
-    assert white.coefficients.size <= 1 and white.level_n == pytest.approx(3.0, rel=0.05)
+    assert white.level_n == pytest.approx(3.0, rel=0.05)
+    assert float(np.std(white.simulate(20000, rng))) == pytest.approx(3.0, rel=0.05)
 
 
 def test_gumbel_tail_matches_the_law():

@@ -50,8 +50,8 @@ import numpy as np
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
-from pencli.diagnose.null import (RunNull, fit_noise, gumbel_quantile, normal_quantile, replicate_campaign,
-                                  student_quantile)
+from pencli.diagnose.null import (NoiseModel, RunNull, fit_noise, gumbel_quantile, normal_quantile,
+                                  replicate_campaign, student_quantile)
 from pencli.errors import FitError, ModelError
 from pencli.filter.tare import Events
 from pencli.fit.resistance import with_coefficients
@@ -488,9 +488,9 @@ def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted: np.ndarray, values:
                     float(run.depth_m[min(stop, t.size) - 1]), run.end, run.window_start_s, run.window_end_s)
     at_rest = (ts < run.motion_start_s - 1.0 / run.rate_hz) | (ts > run.stop_s)
     pre = run.pre_trigger
-    noise = fit_noise(run.resistance_n[pre]) if pre.sum() >= 64 else fit_noise(np.zeros(0))
+    noise = fit_noise(run.resistance_n[pre])
     if noise.level_n == 0.0:
-        noise = replace(noise, innovation_n=max(run.noise_n, 1e-6), level_n=max(run.noise_n, 1e-6))
+        noise = NoiseModel.white(max(run.noise_n, 1e-6))
     contact = run.seen_contact_s
     return RunNull(ts, run.depth_m[span], run.acceleration_m_s2[span], at_rest, use, fitted, events,
                    run.design.penetration_depth_m, run.encoder_step_m, run.load_cell_mass_kg, noise,

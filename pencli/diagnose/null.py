@@ -13,7 +13,7 @@ chain, as read from its data:
   velocity and acceleration from it, so derivative errors are the
   pipeline's own;
 - the force channel adds noise of the colour and level measured on the
-  pre-trigger span (an autoregressive model, order by BIC);
+  pre-trigger span (its spectrum, :class:`NoiseModel`);
 - the resistance is the baseline fit's, so a replicate holds no effect.
 
 Replicates go through the same inertia subtraction (R = F − m_lc·a) and
@@ -40,50 +40,66 @@ from pencli.filter.derivatives import derivatives, smooth_motion
 from pencli.filter.inertia import motion_breaks, motion_joins
 from pencli.filter.tare import Events, detect_events
 
-AR_MAX_ORDER = 12
-
-
 @dataclass(frozen=True)
 class NoiseModel:
-    """Autoregressive force noise: e_t = Σ a_k e_{t−k} + σ·w_t. [N]"""
+    """Stationary Gaussian force noise of a measured spectrum: the one-sided power spectral density ``psd``
+    [N² per cycle/sample] at frequencies ``frequency`` [cycles/sample, 0 to 0.5], read from the pre-trigger
+    span by Welch's method (:func:`fit_noise`), and synthesised by shaping white noise in the frequency domain.
 
-    coefficients: np.ndarray
-    innovation_n: float
+    An autoregressive model of order 12 or less, fitted by least squares, had this role before: it predicts
+    one sample ahead well and misses the low frequencies of noise correlated over milliseconds by 20–40 %
+    (white plus AR(1) noise of 1–2 ms at 30–60 kHz), the frequencies that the slowly varying columns (a
+    load-cell mass error, a drift, a depth profile) pick up, so its replicates had too narrow a null there.
+    """
+
+    frequency: np.ndarray
+    psd: np.ndarray
     level_n: float
     """Standard deviation of the noise itself. [N]"""
 
-    def simulate(self, n: int, rng: np.random.Generator, count: int = 1) -> np.ndarray:
-        """``count`` independent noise records of ``n`` samples (n, count), stationary from the start."""
-        from scipy.signal import lfilter
+    @classmethod
+    def white(cls, level_n: float) -> "NoiseModel":
+        """White noise of standard deviation ``level_n`` [N]."""
+        return cls(np.array([0.0, 0.5]), np.full(2, 2.0 * level_n ** 2), float(level_n))
 
-        burn = 20 * (len(self.coefficients) + 1) + 200
-        white = rng.normal(0.0, self.innovation_n, (n + burn, count))
-        return lfilter([1.0], np.r_[1.0, -self.coefficients], white, axis=0)[burn:]
+    def simulate(self, n: int, rng: np.random.Generator, count: int = 1) -> np.ndarray:
+        """``count`` independent noise records of ``n`` samples (n, count), stationary from the start (made
+        circularly on twice the length, the first half kept). [N]"""
+        size = 2 * max(n, 2 * (self.frequency.size - 1))
+        gain = np.sqrt(0.5 * np.interp(np.fft.rfftfreq(size), self.frequency, self.psd))  # white σ²: psd 2σ²
+        white = np.fft.rfft(rng.normal(0.0, 1.0, (size, count)), axis=0)
+        return np.fft.irfft(white * gain[:, None], n=size, axis=0)[:n]
 
     def to_dict(self) -> dict:
-        return {"order": int(self.coefficients.size), "level_n": self.level_n, "innovation_n": self.innovation_n}
+        return {"kind": "spectrum", "level_n": self.level_n, "segment_samples": int(2 * (self.frequency.size - 1)),
+                "low_frequency_n": float(math.sqrt(0.5 * self.psd[0]))}
+
+
+NOISE_SEGMENTS = 4
+"""Welch segments the pre-trigger span is cut into (halves overlapping): about 20 Hz of resolution from
+0.2 s of record, each frequency averaged over about 7 segments. [–]"""
 
 
 def fit_noise(samples: np.ndarray) -> NoiseModel:
-    """AR model of a noise record by least squares, order 0–12 by BIC."""
+    """The noise model of a noise record (its pre-trigger span): Welch's spectrum on :data:`NOISE_SEGMENTS`
+    segments, averaged over three neighbouring frequencies, and flat below the first frequency above 0 at the
+    mean of the three lowest (Welch's detrending empties the zero-frequency bin, and the noise this rig sees is
+    flat there); white for a record under 64 samples."""
+    from scipy.signal import welch
+
     e = np.asarray(samples, dtype=float)
-    e = e - e.mean()
-    n = e.size
-    level = float(e.std())
-    if n < 64 or level == 0.0:
-        return NoiseModel(np.zeros(0), level, level)
-    best = (n * math.log(max(level ** 2, 1e-300)), np.zeros(0), level)
-    for order in range(1, min(AR_MAX_ORDER, n // 16) + 1):
-        X = np.column_stack([e[order - k - 1:n - k - 1] for k in range(order)])
-        y = e[order:]
-        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-        resid = y - X @ coef
-        var = float(resid @ resid) / y.size
-        bic = y.size * math.log(max(var, 1e-300)) + order * math.log(y.size)
-        stable = np.all(np.abs(np.roots(np.r_[1.0, -coef])) < 0.999)
-        if stable and bic < best[0]:
-            best = (bic, coef, math.sqrt(var))
-    return NoiseModel(best[1], best[2], level)
+    e = e - e.mean() if e.size else e
+    level = float(e.std()) if e.size else 0.0
+    if e.size < 64 or level == 0.0:
+        return NoiseModel.white(level)
+    frequency, psd = welch(e, fs=1.0, nperseg=max(64, e.size // NOISE_SEGMENTS))
+    psd = np.asarray(psd, dtype=float)
+    psd[-1] = psd[-2] if frequency[-1] == 0.5 else psd[-1]  # Welch halves the Nyquist bin too
+    # each bin averages ~7 segments (±38 %); three bins together, ±22 %, and the zero bin from the three above
+    psd[0] = float(np.mean(psd[1:4]))
+    smooth = np.convolve(np.r_[psd[0], psd, psd[-1]], np.ones(3) / 3.0, mode="valid")
+    smooth[0] = psd[0]
+    return NoiseModel(frequency, smooth, level)
 
 
 @dataclass(frozen=True)
