@@ -135,14 +135,16 @@ def release_time(time_s: np.ndarray, depth_m: np.ndarray, changes: np.ndarray, e
     idx = np.asarray(rising)
     edges = time_s[idx] - 0.5 / rate  # the edge lies between the sample before and the sample of the change
     heights = depth_m[idx] - rest
-    best = (np.inf, float(time_s[first]))
-    for c in heights[0] * np.arange(32) / 32.0:
-        s = np.sqrt(heights - c)
-        beta, t_r = np.polyfit(s, edges, 1)
-        sse = float(np.sum((edges - t_r - beta * s) ** 2))
-        if beta > 0.0 and sse < best[0]:
-            best = (sse, float(t_r))
-    return float(np.clip(best[1], time_s[0], time_s[first]))
+    offsets = heights[0] * np.arange(32)[:, None] / 32.0  # c on its grid (rows)
+    s = np.sqrt(heights - offsets)  # (grid, counts): one straight line t = t_r + β·s per row
+    s_mean, e_mean = s.mean(axis=1, keepdims=True), edges.mean()
+    beta = np.sum((s - s_mean) * (edges - e_mean), axis=1) / np.sum((s - s_mean) ** 2, axis=1)
+    t_r = e_mean - beta * s_mean[:, 0]
+    sse = np.sum((edges - t_r[:, None] - beta[:, None] * s) ** 2, axis=1)
+    sse[~(beta > 0.0)] = np.inf
+    if not np.isfinite(sse).any():
+        return float(time_s[first])
+    return float(np.clip(t_r[int(np.argmin(sse))], time_s[0], time_s[first]))
 
 
 def _fit_crossing(t: np.ndarray, x: np.ndarray, level: float, degree: int = 2) -> tuple[float, float]:
