@@ -28,13 +28,16 @@ def twelve_shots() -> list[tuple[str, int]]:
 def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, effects=(), block_kpa=None,
                   rig_extra=None, record_material: dict | None = None, standoff_mm: list | None = None,
                   strength_scale: list | None = None, encoder_mm: float | None = None,
-                  encoder_phase: list | None = None) -> Path:
+                  encoder_phase: list | None = None, rates_hz: list | None = None,
+                  anti_alias: float | None = None) -> Path:
     """Fire a campaign into ``folder/runs.duckdb``; returns the catalog path.
 
     ``standoff_mm``: per shot, the true stand-off minus the file's (stand-off scatter).
     ``strength_scale``: per shot, the block's true strength over the recorded one (unrecorded scatter).
     ``encoder_mm``: the string encoder's step (default: the bundled encoder's).
     ``encoder_phase``: per shot, where the blade rests within one count (default 0, every shot alike).
+    ``rates_hz``: per shot, the sampling rate (default: the rig's, every shot alike).
+    ``anti_alias``: the force channels' anti-alias corner as a fraction of each shot's sampling rate (default none).
     """
     folder.mkdir(parents=True, exist_ok=True)
     db = folder / "runs.duckdb"
@@ -60,6 +63,10 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
             rig["strength_scale"] = float(strength_scale[i % len(strength_scale)])
         if encoder_phase is not None:
             rig["encoder_phase"] = float(encoder_phase[i % len(encoder_phase)])
+        if rates_hz is not None:
+            rig["sampling_rate_hz"] = float(rates_hz[i % len(rates_hz)])
+        if anti_alias is not None:
+            rig["anti_alias_hz"] = float(anti_alias) * float(rig.get("sampling_rate_hz", 30000.0))
         rig_file = folder / f"rig-{i}.yaml"
         rig_file.write_text(yaml.safe_dump(rig))
         shot = api.acquire(springs=springs, penetrator=f"al6061_{blade}mm", material=str(material_file), rig=rig_file,
@@ -151,9 +158,10 @@ POOL = [(b, s) for b in BLADES for s in SPRINGS]
 
 def random_nuisances(rng) -> dict:
     """make_campaign keywords for a campaign with varied nuisances: noise level and colour, rate, encoder
-    step, 4–8 runs of random blades and springs, unrecorded block scatter 3–6 %, stand-off scatter, and the
-    encoder's phase: at the middle of a count in every shot, at one random place in every shot (a blade that
-    rests against the same stop), or at a random place in each shot."""
+    step, 4–8 runs of random blades and springs, unrecorded block scatter 3–6 %, stand-off scatter, an
+    anti-alias filter and mixed rates (:func:`_acquisition`), and the encoder's phase: at the middle of a
+    count in every shot, at one random place in every shot (a blade that rests against the same stop), or
+    at a random place in each shot."""
     n_shots = int(rng.integers(4, 9))
     picks = rng.choice(len(POOL), n_shots, replace=n_shots > len(POOL))
     return {"rig_extra": {"force_noise_n": float(rng.uniform(0.5, 6.0)),
@@ -164,7 +172,23 @@ def random_nuisances(rng) -> dict:
             "encoder_mm": float(rng.choice([0.08, 0.16, 0.32])),
             "strength_scale": [float(x) for x in rng.normal(1.0, rng.uniform(0.03, 0.06), n_shots)],
             "standoff_mm": [float(x) for x in rng.normal(0.0, rng.uniform(0.3, 1.5), n_shots)],
-            "encoder_phase": [float(x) for x in _phases(rng, n_shots)]}
+            "encoder_phase": [float(x) for x in _phases(rng, n_shots)],
+            **_acquisition(rng, n_shots)}
+
+
+def _acquisition(rng, n_shots: int) -> dict:
+    """Half the campaigns' force channels behind an anti-alias low-pass (corner 0.1–0.4 of the rate); a third
+    of them with runs at mixed rates (30 and 60 kHz drawn per run).  Drawn from a stream of their own, so the
+    rest of a seed's campaign is what it was before these nuisances were added."""
+    import numpy as np
+
+    own = np.random.default_rng([int(rng.bit_generator.state["state"]["state"] % 2 ** 63), 11])
+    out = {}
+    if own.uniform() < 0.5:
+        out["anti_alias"] = float(own.uniform(0.1, 0.4))
+    if own.uniform() < 1.0 / 3.0:
+        out["rates_hz"] = [float(r) for r in own.choice([30000.0, 60000.0], n_shots)]
+    return out
 
 
 def _phases(rng, n_shots: int):

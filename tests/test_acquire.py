@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -95,12 +96,29 @@ def test_encoder_phase_moves_where_the_counts_step_not_where_they_start(workspac
     assert first_step[0.45] < 0.5 * first_step[0.0]
 
 
+def test_the_anti_alias_filter_passes_white_noise_in_its_noise_bandwidth():
+    """A 4th-order Butterworth low-pass at f_c passes white noise of a band f_c·(π/8)/sin(π/8) wide (its
+    noise-equivalent bandwidth): at 3 kHz of a 30 kHz record, √(1.0262·3/15) = 0.453 of the noise's standard
+    deviation, read on the pre-trigger span of the axial channel."""
+    from pencli import api
+
+    spread = {}
+    for corner in (0.0, 3000.0):
+        rig = {"kind": "rig", "name": "aa", "seed": 5, "force_noise_n": 4.0, "anti_alias_hz": corner}
+        columns = api.acquire(springs=2, penetrator="al6061_1mm", material="mpacs_c", rig=rig).run.columns
+        spread[corner] = float(np.std(columns["fz_n"][columns["time_s"] < -0.01]))
+    expected = math.sqrt(math.pi / 8 / math.sin(math.pi / 8) * 3000.0 / 15000.0)
+    assert spread[0.0] == pytest.approx(4.0, rel=0.04)
+    assert spread[3000.0] / spread[0.0] == pytest.approx(expected, rel=0.06)
+
+
 @pytest.mark.parametrize("content,words", [
     ({"kind": "rig", "name": "x", "sampling_rate": 3}, "unknown key 'sampling_rate'"),
     ({"kind": "rig", "name": "x", "effects": [{"name": "gremlins"}]}, "unknown effect 'gremlins'"),
     ({"kind": "rig", "name": "x", "effects": [{"name": "strength_layer", "depht_mm": 3}]}, "depht_mm"),
     ({"kind": "rig", "name": "x", "driver": "labview"}, "driver"),
     ({"kind": "rig", "name": "x", "encoder_phase": 1.0}, "encoder_phase"),
+    ({"kind": "rig", "name": "x", "anti_alias_hz": 15000.0}, "anti_alias_hz"),
 ])
 def test_bad_rig_file_is_one_line(workspace, runner, content, words):
     rig = workspace / "rig.yaml"

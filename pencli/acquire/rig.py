@@ -23,6 +23,8 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
     "torque_noise_nm": ("white noise of each torque channel, standard deviation [N·m]", 0.01),
     "correlated_noise_n": ("low-frequency (AR(1)) force noise, standard deviation [N]", 0.0),
     "correlated_noise_ms": ("correlation time of that noise [ms]", 2.0),
+    "anti_alias_hz": ("corner of the force and torque channels' anti-alias low-pass, a 4th-order Butterworth "
+                      "acting on signal and noise alike (0: none) [Hz]", 0.0),
     "force_offsets_n": ("untared offsets of fx, fy, fz [N]", [-13.2, -9.3, -0.8]),
     "torque_offsets_nm": ("untared offsets of tx, ty, tz [N·m]", [0.07, 0.04, 0.044]),
     "lateral_fraction": ("side force as a fraction of the axial resistance [–]", 0.02),
@@ -93,6 +95,10 @@ def validate_rig(data: Any, where: str) -> RigConfig:
     for key in ("force_noise_n", "torque_noise_nm", "correlated_noise_n", "lateral_fraction"):
         _number(where, key, values[key], minimum=0)
     _number(where, "correlated_noise_ms", values["correlated_noise_ms"], positive=True)
+    corner = _number(where, "anti_alias_hz", values["anti_alias_hz"], minimum=0)
+    if corner >= 0.5 * float(values["sampling_rate_hz"]):
+        raise ParameterError(f"{where}: key 'anti_alias_hz': got {values['anti_alias_hz']!r}; expected 0 (none) or "
+                             f"a corner below half the sampling rate ({0.5 * float(values['sampling_rate_hz']):g} Hz)")
     _number(where, "strength_scale", values["strength_scale"], positive=True)
     _number(where, "surface_offset_error_mm", values["surface_offset_error_mm"])
     if not 0.0 <= _number(where, "encoder_phase", values["encoder_phase"]) < 1.0:

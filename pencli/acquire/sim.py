@@ -131,6 +131,12 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
     forces[:, 3] = to[0] - LEVER_ARM_M * 0.6 * side + rng.normal(0, noise_t, n_total)
     forces[:, 4] = to[1] + LEVER_ARM_M * 0.8 * side + rng.normal(0, noise_t, n_total)
     forces[:, 5] = to[2] + rng.normal(0, noise_t, n_total)
+    corner = float(rig["anti_alias_hz"])
+    if corner > 0:  # the acquisition's anti-alias filter: signal and noise alike, settled at the rest level
+        from scipy.signal import butter, sosfilt, sosfilt_zi
+
+        sos = butter(4, corner, fs=rate, output="sos")
+        forces = sosfilt(sos, forces, axis=0, zi=sosfilt_zi(sos)[:, :, None] * forces[0][None, None, :])[0]
     phase = float(rig["encoder_phase"])  # the counter is zeroed at rest, wherever the count edges lie
     counts = (np.round(u * 1e3 * position_cal.counts_per_mm + phase) - round(phase)).astype(np.int64)
     return counts, forces
