@@ -169,3 +169,18 @@ def test_the_whole_catalogue_nulls_a_pair_and_an_outside_effect(tmp_path):
     assert all(o[3] for o in outcomes if len(o[1]) > 1), summary
     shrinks = [o[4] for o in outcomes if o[4] is not None and o[2] not in ("none", "unexplained")]
     assert statistics.median(shrinks) >= 60, summary
+
+
+def test_a_null_behind_an_anti_alias_filter_is_none(tmp_path):
+    """A 0.08 mm encoder at 60 kHz with the force channels behind a Butterworth low-pass at 0.1 of the rate: the
+    filter delays the inertia force m·a in flight, which a load-cell mass column follows.  With replicates that
+    did not pass the force through the filter read from the noise, this null scored a load-cell mass error at
+    z 84 (and a force drift at 8.3); the filter read must be in the JSON."""
+    db = make_campaign(tmp_path, "mpacs_c", seed=43, shots=SIX, block_kpa=BLOCKS, encoder_mm=0.08, anti_alias=0.1,
+                       rig_extra={"sampling_rate_hz": 60000.0, "force_noise_n": 2.0})
+    api.tare_runs(db, ["all"])
+    api.subtract_inertia_runs(db, ["all"])
+    result = api.diagnose(db, ["all"])
+    assert result.verdict == "none", (result.verdict, [(e.name, e.z) for e in result.effects[:3]])
+    read = [n["anti_alias"] for n in result.decision["noise_model"]]
+    assert all(r is not None and r["corner_hz"] == pytest.approx(6000.0, rel=0.12) for r in read), read

@@ -422,3 +422,23 @@ def test_sidewall_pressure_rise_is_the_pressure_added_at_100_mm():
         described = effect.describe(member, np.array([2.0]), {"p_kpa": 4.0, "cs_mean": 1.0})
         assert described["added_kpa_at_100mm"] == pytest.approx(2.0 * at_tip, rel=1e-6), member.params
         assert described["rise_at_100mm"] == pytest.approx(2.0 * at_tip / 4.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("corner,rate,correlated", [(0.1, 60000.0, 0.0), (0.2, 30000.0, 2.0), (0.4, 60000.0, 2.0),
+                                                    (None, 30000.0, 0.0), (None, 60000.0, 3.0)])
+def test_the_anti_alias_filter_is_read_from_the_pre_trigger_noise(corner, rate, correlated):
+    """The simulated rig's 4th-order Butterworth anti-alias filter (or none) read from the noise before the
+    release: order 4 (or 5) and its corner within 12 %, and no filter where the rig has none, with white or
+    correlated noise."""
+    from pencli import api
+    from pencli.diagnose.null import fit_anti_alias
+
+    rig = {"kind": "rig", "name": "aa", "seed": 9, "force_noise_n": 2.0, "correlated_noise_n": correlated,
+           "correlated_noise_ms": 0.3, "sampling_rate_hz": rate, "anti_alias_hz": (corner or 0.0) * rate}
+    columns = api.acquire(springs=4, penetrator="al6061_1.5mm", material="mpacs_c", rig=rig).run.columns
+    found = fit_anti_alias(fit_noise(columns["fz_n"][columns["time_s"] < -0.01]))
+    if corner is None:
+        assert found is None, found
+    else:
+        assert found is not None and found.order in (4, 5), found
+        assert found.corner == pytest.approx(corner, rel=0.12)

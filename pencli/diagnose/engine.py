@@ -50,7 +50,7 @@ import numpy as np
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
-from pencli.diagnose.null import (NoiseModel, RunNull, fit_noise, gumbel_quantile, normal_quantile,
+from pencli.diagnose.null import (NoiseModel, RunNull, fit_anti_alias, fit_noise, gumbel_quantile, normal_quantile,
                                   replicate_campaign, student_quantile)
 from pencli.errors import FitError, ModelError
 from pencli.filter.tare import Events
@@ -469,8 +469,11 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
 
 
 # ----------------------------------------------------------------------------- the diagnosis
-def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted: np.ndarray, values: Mapping[str, float]) -> RunNull:
+def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted_ctx: np.ndarray, values: Mapping[str, float]
+             ) -> RunNull:
     """A run's null-replicate recipe on the span from its context start to just past its stop.
+
+    ``fitted_ctx``: the baseline resistance on the run's context span. [N]
 
     ``values``: the baseline's coefficients for this run (file units), whose dynamics give the replicates'
     motion in the material (:func:`_model_motion`).
@@ -492,9 +495,12 @@ def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted: np.ndarray, values:
     if noise.level_n == 0.0:
         noise = NoiseModel.white(max(run.noise_n, 1e-6))
     contact = run.seen_contact_s
-    return RunNull(ts, run.depth_m[span], run.acceleration_m_s2[span], at_rest, use, fitted, events,
+    baseline = np.zeros(ts.size)
+    baseline[:fitted_ctx.size] = fitted_ctx[:ts.size]  # the context starts the span; nothing is analysed past it
+    return RunNull(ts, run.depth_m[span], run.acceleration_m_s2[span], at_rest, use, fitted_ctx[use_ctx], events,
                    run.design.penetration_depth_m, run.encoder_step_m, run.load_cell_mass_kg, noise,
-                   run.derivative_method, contact, _model_motion(run, ts, contact, values))
+                   run.derivative_method, contact, _model_motion(run, ts, contact, values),
+                   anti_alias=fit_anti_alias(noise), baseline_n=baseline)
 
 
 def _model_motion(run: DiagnosisRun, ts: np.ndarray, contact_s: float, values: Mapping[str, float]):
@@ -614,9 +620,10 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
 
     # ---- null replicates through the campaign's own chain
     say("null replicates", 0.05)
-    fitted_y = [c * b.strength[u] + b.friction[u] * shared[0] + b.damping[u] * shared[1] + b.inertia[u] * shared[2]
-                for b, u, c in zip(bases, uses, cs)]
-    nulls = [_null_of(r, u, f, dict(values, strength_factor=float(c))) for r, u, f, c in zip(runs, uses, fitted_y, cs)]
+    fitted_ctx = [c * b.strength + b.friction * shared[0] + b.damping * shared[1] + b.inertia * shared[2]
+                  for b, c in zip(bases, cs)]
+    nulls = [_null_of(r, u, f, dict(values, strength_factor=float(c)))
+             for r, u, f, c in zip(runs, uses, fitted_ctx, cs)]
     replicates = replicate_campaign(nulls, bootstrap, seed, workers=workers)
 
     # ---- every candidate of every resistance-view effect (and the probes), one matrix per run
@@ -781,7 +788,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         "false_alarm": false_alarm, "bootstrap": bootstrap, "seed": seed,
         "effect_threshold_z": round(z_threshold, 3), "gap_threshold_z": round(gap_threshold, 3),
         "drive_threshold_t": round(drive_threshold, 3), "explain_share": EXPLAIN_SHARE,
-        "noise_model": [n.noise.to_dict() for n in nulls],
+        "noise_model": [{**n.noise.to_dict(), "anti_alias": n.anti_alias.to_dict(r.rate_hz) if n.anti_alias else None}
+                        for n, r in zip(nulls, runs)],
         "encoder_step_mm": [round(r.encoder_step_m * 1e3, 4) for r in runs],
         "seconds": round(time.perf_counter() - started, 2),
     }
