@@ -290,7 +290,7 @@ def test_replicates_carry_the_derivative_error_the_data_have_near_contact_and_st
         use = (run.flight | run.window)[run.context]
         values = {"strength_factor": 0.6, "sidewall_pressure_kpa": 31.6, "damping_kpa_s_m": 0.0,
                   "inertia_coefficient": 34.4}  # MPACS C's Table 1 values: the null needs a plausible baseline
-        null = engine._null_of(run, use, np.zeros(int(use.sum())), values)
+        null = engine._null_of(run, use, np.zeros(int(run.context.sum())), values)
         t = null.time_s[null.use]
         ends = (t > run.contact_s) & ((t < run.contact_s + 3e-3) | (t > run.stop_s - 3e-3))
         a_true = np.interp(t, truth.time_s, truth.acceleration_m_s2)
