@@ -12,6 +12,7 @@ from pathlib import Path
 import yaml
 
 from pencli import api
+from pencli.acquire.rig import RIG_KEYS
 from pencli.errors import DataError
 from pencli.params.load import load_preset
 
@@ -66,7 +67,8 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
         if rates_hz is not None:
             rig["sampling_rate_hz"] = float(rates_hz[i % len(rates_hz)])
         if anti_alias is not None:
-            rig["anti_alias_hz"] = float(anti_alias) * float(rig.get("sampling_rate_hz", 30000.0))
+            rate = float(rig.get("sampling_rate_hz", RIG_KEYS["sampling_rate_hz"][1]))
+            rig["anti_alias_hz"] = float(anti_alias) * rate
         rig_file = folder / f"rig-{i}.yaml"
         rig_file.write_text(yaml.safe_dump(rig))
         shot = api.acquire(springs=springs, penetrator=f"al6061_{blade}mm", material=str(material_file), rig=rig_file,

@@ -50,8 +50,8 @@ import numpy as np
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
-from pencli.diagnose.null import (NoiseModel, RunNull, fit_anti_alias, fit_noise, gumbel_quantile, normal_quantile,
-                                  replicate_campaign, student_quantile)
+from pencli.diagnose.null import (NoiseModel, RunNull, fit_anti_alias, fit_noise, gumbel_quantile,
+                                  normal_quantile, replicate_campaign, student_quantile)
 from pencli.errors import FitError, ModelError
 from pencli.filter.tare import Events
 from pencli.fit.resistance import with_coefficients
@@ -788,7 +788,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         "false_alarm": false_alarm, "bootstrap": bootstrap, "seed": seed,
         "effect_threshold_z": round(z_threshold, 3), "gap_threshold_z": round(gap_threshold, 3),
         "drive_threshold_t": round(drive_threshold, 3), "explain_share": EXPLAIN_SHARE,
-        "noise_model": [{**n.noise.to_dict(), "anti_alias": n.anti_alias.to_dict(r.rate_hz) if n.anti_alias else None}
+        "noise_model": [{**n.noise.to_dict(),
+                         "anti_alias": n.anti_alias.to_dict(r.rate_hz) if n.anti_alias else None}
                         for n, r in zip(nulls, runs)],
         "encoder_step_mm": [round(r.encoder_step_m * 1e3, 4) for r in runs],
         "seconds": round(time.perf_counter() - started, 2),
