@@ -104,7 +104,8 @@ RELEASE_COUNTS = 12
 """Encoder counts after the release whose times place it (:func:`release_time`). [–]"""
 
 
-def release_time(time_s: np.ndarray, depth_m: np.ndarray, changes: np.ndarray, end: int) -> float:
+def release_time(time_s: np.ndarray, depth_m: np.ndarray, changes: np.ndarray, end: int, rate_hz: float
+                 ) -> float:
     r"""When the motion started: the time the blade left rest, from the times of its first encoder counts. [s]
 
     The first count comes only once the blade has moved up to one count (a millisecond after the release at
@@ -119,11 +120,10 @@ def release_time(time_s: np.ndarray, depth_m: np.ndarray, changes: np.ndarray, e
     smoothed record do not have.
 
     ``changes``: indices where the record changes; ``end``: the first index not in free flight (at the
-    surface).  Falls back on the first count when fewer than 4 rising counts precede ``end`` or no
+    surface); ``rate_hz``: the record's sampling rate.  Falls back on the first count when fewer than 4 rising counts precede ``end`` or no
     straight line rises.
     """
     first = int(changes[0])
-    rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
     rest = float(depth_m[first - 1]) if first > 0 else float(depth_m[0])
     rising = [first]
     for k in changes[1:]:
@@ -133,7 +133,7 @@ def release_time(time_s: np.ndarray, depth_m: np.ndarray, changes: np.ndarray, e
     if len(rising) < 4 or depth_m[first] <= rest:
         return float(time_s[first])
     idx = np.asarray(rising)
-    edges = time_s[idx] - 0.5 / rate  # the edge lies between the sample before and the sample of the change
+    edges = time_s[idx] - 0.5 / rate_hz  # the edge lies between the sample before and the sample of the change
     heights = depth_m[idx] - rest
     offsets = heights[0] * np.arange(32)[:, None] / 32.0  # c on its grid (rows)
     s = np.sqrt(heights - offsets)  # (grid, counts): one straight line t = t_r + β·s per row
@@ -181,8 +181,8 @@ def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, 
         raise DataError(f"{where}: the tip never reaches the surface (max depth {depth_m.max() * 1e3:.2f} mm); "
                         f"check surface_offset_mm")
     first_in = int(inside[0])
-    motion_start = release_time(time_s, depth_m, changes, first_in)
     rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
+    motion_start = release_time(time_s, depth_m, changes, first_in, rate)
     # contact: quadratic through ~1.5 ms of flight ending at the first sample at or below the surface
     span = max(int(1.5e-3 * rate), 8)
     lo = max(first_in - span, int(changes[0]))
