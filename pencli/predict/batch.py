@@ -18,14 +18,17 @@ compiled by numba and release the GIL, so threads can share a sweep's chunks.
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from numba import njit
+from numba import njit, types
 
 from pencli.model.design import Design, beyond_limit, force_scales
-from pencli.model.resistance import eq9_coefficients, reduced
+from pencli.model.resistance import eq9_coefficients
 from pencli.predict import closed_form, damped
+from pencli.predict.damped import ARREST, FULL_DEPTH
 from pencli.predict.compiled import JIT as _JIT
 from pencli.predict.compiled import reach as _reach
 
@@ -67,93 +70,77 @@ class BatchResult:
         return {**self.figures, "end": self.end}
 
 
-def designs_from(arrays: dict[str, np.ndarray | float]) -> dict[str, np.ndarray]:
-    """Broadcast per-field values (SI, :class:`Design` field names) to equal-length float arrays."""
+def designs_from(arrays: dict[str, np.ndarray | float], *, equal_length: bool = True) -> dict[str, np.ndarray]:
+    """Per-field values (SI, :class:`Design` field names) as float arrays: broadcast to equal-length copies,
+    or with ``equal_length=False`` left as they are (0-d for a value every design shares), which
+    :func:`simulate_batch` broadcasts without copying."""
     names = [f.name for f in fields(Design)]
     missing = [n for n in names if n not in arrays]
     if missing:
         raise KeyError(f"missing design field {missing[0]!r}")
+    if not equal_length:
+        return {n: np.asarray(arrays[n], dtype=float) for n in names}
     shaped = np.broadcast_arrays(*[np.asarray(arrays[n], dtype=float) for n in names])
     return {n: np.ravel(a).copy() for n, a in zip(names, shaped)}
 
 
+_ROWS = tuple(name for name in FIGURES if name != "full_penetration")
+"""The float figures, in the order of the driver's output rows."""
+
+
 def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray | float | None = None) -> BatchResult:
-    """Simulate every design of ``d`` (see :func:`designs_from`); all four Eq. 9 terms on."""
-    n = d["blade_width_m"].size
+    """Simulate every design of ``d`` (see :func:`designs_from`; fields broadcast against each other, so a
+    value all designs share may be 0-d); all four Eq. 9 terms on."""
     design = Design(**d)  # one design per element: the design rules and Eq. 9 come from the model core
+    speed = None if speed_at_contact_m_s is None else np.asarray(speed_at_contact_m_s, dtype=float)
+    shape = np.broadcast_shapes(*(np.shape(v) for v in d.values()), *(() if speed is None else (speed.shape,)))
+    n = int(np.prod(shape))
+
+    def per_design(a) -> np.ndarray:  # a stride-0 view where every design shares the value: no copy
+        return np.broadcast_to(np.asarray(a, dtype=float).reshape(-1) if np.ndim(a) else a, (n,))
+
     m, kd, stroke = design.effective_mass_kg, design.drive_stiffness_n_m, design.stroke_m  # stroke 0: a drop
     s0, g = design.surface_offset_m, design.gravity_m_s2
     w, T = design.blade_width_m, design.blade_thickness_m
     with np.errstate(over="ignore", invalid="ignore"):  # absurd designs overflow here; marked 'overflow' below
         a0, a1, b, dd = eq9_coefficients(design)  # R = a0 + a1·x + b·v + dd·v² in contact
-    depth = design.penetration_depth_m
 
-    # ---- flight, closed form
-    if speed_at_contact_m_s is None:
-        v0 = _contact_speeds(np.ascontiguousarray(m), np.ascontiguousarray(kd), np.ascontiguousarray(stroke),
-                             np.ascontiguousarray(g), np.ascontiguousarray(s0))
+    # ---- flight, closed form (once when every design flies the same way)
+    if speed is None:
+        flight = (m, kd, stroke, g, s0)
+        size = n if any(np.size(a) > 1 for a in flight) else 1
+        v0 = _contact_speeds(*(np.broadcast_to(np.asarray(a, dtype=float).reshape(-1), (size,)) for a in flight))
+        v0 = per_design(v0 if size > 1 else v0[0])
         no_contact = np.isnan(v0)
-        u_start = np.zeros(n)
     else:
-        v0 = np.broadcast_to(np.asarray(speed_at_contact_m_s, dtype=float), (n,)).copy()
-        no_contact = np.zeros(n, dtype=bool)
-        u_start = s0.copy()
+        v0 = per_design(speed)
+        no_contact = np.zeros((), dtype=bool)
 
-    code = np.where(no_contact, _CODE["no_contact"], _CODE["arrest"]).astype(np.int8)
-    # designs the parameter rules forbid (CONTRACT §1 cross-checks) are not simulated
+    # designs not simulated: the parameter rules forbid them (CONTRACT §1 cross-checks), or a force is beyond
+    # what float64 integrates (pen predict refuses those in one line)
     invalid = (T >= w) | (d["load_cell_mass_kg"] > d["sprung_mass_kg"])
-    code[invalid] = _CODE["invalid"]
-    no_contact = no_contact | invalid
     with np.errstate(over="ignore", invalid="ignore"):
-        scales = force_scales(design, a0, a1, b, dd, np.where(no_contact, 0.0, v0))
-        too_large = ~no_contact & np.logical_or.reduce([beyond_limit(f) for f in np.broadcast_arrays(*scales.values())])
-    code[too_large] = _CODE["overflow"]
-    no_contact = no_contact | too_large
-    v0 = np.where(no_contact, 0.0, v0)
-    a0, a1, b, dd = (np.where(no_contact, 0.0, c) for c in (a0, a1, b, dd))  # designs not simulated book nothing
+        scales = force_scales(design, a0, a1, b, dd, np.where(no_contact | invalid, 0.0, v0))
+        too_large = ~no_contact & ~invalid & functools.reduce(np.logical_or, map(beyond_limit, scales.values()))
+    skip = np.zeros(n, dtype=np.int8)
+    for name, mask in (("no_contact", no_contact), ("invalid", invalid), ("overflow", too_large)):
+        skip[np.broadcast_to(mask, (n,))] = _CODE[name]
 
-    x, v, t = np.zeros(n), np.zeros(n), np.zeros(n)
-    e_damp, e_inert = np.zeros(n), np.zeros(n)
-    peak, peak_x = np.where(no_contact, 0.0, reduced(0.0, v0, a0, a1, b, dd)), np.zeros(n)
-    xk = stroke - s0  # depth at which the springs reach free length
-    mg = m * g
-    # C = 0 (every Table 1 material): closed form over depth
-    j = np.flatnonzero(~no_contact & (b == 0.0))
-    if j.size:
-        t[j], x[j], v[j], full, peak[j], peak_x[j], e_inert[j] = closed_form.penetrate(
-            v0[j], m[j], kd[j], xk[j], mg[j], a0[j], a1[j], dd[j], depth[j])
-        code[j[full]] = _CODE["full_depth"]
-    # C > 0: time steps, then the exact linear flow
-    j = np.flatnonzero(~no_contact & (b > 0.0))
-    if j.size:
-        t[j], x[j], v[j], e_damp[j], e_inert[j], peak[j], peak_x[j], ended = damped.penetrate(
-            v0[j], m[j], kd[j], xk[j], mg[j], a0[j], a1[j], b[j], dd[j], depth[j],
-            _time_estimate(v0[j], m[j], kd[j], xk[j], mg[j], a0[j], a1[j], b[j], dd[j], depth[j]))
-        code[j] = ended  # damped's codes are those of ENDS
-
-    x_final = np.where(no_contact, 0.0, x)
-    full = code == _CODE["full_depth"]
-    v_final = np.where(full, v, 0.0)
-    u_end = x_final + s0
-    spring_j = 0.5 * kd * (np.maximum(stroke - u_start, 0.0) ** 2 - np.maximum(stroke - u_end, 0.0) ** 2)
-    figures = {
-        "contact_speed_m_s": v0,
-        "penetration_time_s": np.where(no_contact, 0.0, t),
-        "final_depth_mm": x_final * 1e3,
-        "full_penetration": full,
-        "peak_resistance_n": np.where(no_contact, 0.0, peak),
-        "peak_resistance_depth_mm": peak_x * 1e3,
-        "residual_ke_j": 0.5 * m * v_final ** 2,
-        "spring_energy_j": spring_j,
-        "energy_strength_j": a0 * x_final,
-        "energy_friction_j": 0.5 * a1 * x_final ** 2,
-        "energy_damping_j": e_damp,
-        "energy_inertia_j": e_inert,
-    }
-    return BatchResult(figures, code)
+    out = np.empty((len(_ROWS), n))
+    code = np.empty(n, dtype=np.int8)
+    _simulate_all(v0, *(per_design(a) for a in (m, kd, stroke, s0, g, a0, a1, b, dd, design.penetration_depth_m)),
+                  speed is not None, skip, out, code)  # compiled; releases the GIL
+    figures = dict(zip(_ROWS, out))
+    figures["full_penetration"] = code == _CODE["full_depth"]
+    return BatchResult({name: figures[name] for name in FIGURES}, code)
 
 
-@njit(**_JIT)
+_IN = types.Array(types.float64, 1, "A", readonly=True)
+"""The kernels' inputs: any 1-d float array, a stride-0 view of one shared value included (an explicit type, so
+one compiled version serves every mix of varied and shared fields)."""
+
+
+@njit(types.float64[::1](_IN, _IN, _IN, _IN, _IN), **_JIT)
 def _contact_speeds(m, kd, stroke, g, s0):
     """Speed at contact of each design's flight; nan where the blade never reaches the surface. [m/s]"""
     v = np.empty(m.size)
@@ -164,15 +151,56 @@ def _contact_speeds(m, kd, stroke, g, s0):
     return v
 
 
+@njit(**_JIT)
 def _time_estimate(v0, m, kd, xk, mg, a0, a1, b, dd, depth):
-    """Rough penetration time under a constant mean net force (sets the first step size). [s]"""
-    drive0 = np.where(xk > 0, kd * xk, 0.0) + mg
+    """Rough penetration time under a constant mean net force (sets the damped path's first step). [s]"""
+    drive0 = (kd * xk if xk > 0 else 0.0) + mg
     decel = (a0 + 0.5 * a1 * depth + 0.5 * (b + dd * v0) * v0 - drive0) / m  # > 0: slows down on average
-    t_stop = np.where(decel > 0, v0 / np.maximum(decel, 1e-12), np.inf)
-    push = np.maximum(-decel, 0.0)  # speeding up: time to full depth under that push
-    t_full = np.where(push > 0, (np.sqrt(v0 * v0 + 2 * push * depth) - v0) / np.maximum(push, 1e-12),
-                      depth / np.maximum(v0, 1e-6))
-    return np.clip(np.minimum(t_stop, t_full), 1e-6, 10.0)
+    t_stop = v0 / max(decel, 1e-12) if decel > 0 else np.inf
+    push = max(-decel, 0.0)  # speeding up: time to full depth under that push
+    t_full = (math.sqrt(v0 * v0 + 2 * push * depth) - v0) / max(push, 1e-12) if push > 0 else depth / max(v0, 1e-6)
+    return min(max(min(t_stop, t_full), 1e-6), 10.0)
+
+
+@njit(types.void(*[_IN] * 11, types.boolean, types.Array(types.int8, 1, "C", readonly=True),
+                 types.float64[:, ::1], types.int8[::1]), **_JIT)
+def _simulate_all(v0, m, kd, stroke, s0, g, a0, a1, b, dd, depth, speed_given, skip, out, code):
+    """Each design from contact to its end, its figures into the rows of ``out`` (:data:`_ROWS`) and its end
+    into ``code``: the closed form at C = 0, the damped path otherwise; a design with a ``skip`` code is not
+    simulated and books no motion (its launcher still books the spring energy up to the surface)."""
+    for i in range(v0.size):
+        u_start = s0[i] if speed_given else 0.0  # a given speed at contact starts the books at the surface
+        t = x = v = e_damp = e_inert = peak = peak_x = 0.0
+        c0 = c1 = 0.0
+        if skip[i] != 0:
+            code[i] = skip[i]
+            speed = 0.0
+        else:
+            speed = v0[i]
+            c0, c1 = a0[i], a1[i]
+            xk = stroke[i] - s0[i]  # depth at which the springs reach free length
+            mg = m[i] * g[i]
+            if b[i] == 0.0:  # C = 0 (every Table 1 material): closed form over depth
+                t, x, v, full, peak, peak_x, e_inert = closed_form.penetrate_one(
+                    speed, m[i], kd[i], xk, mg, c0, c1, dd[i], depth[i])
+                code[i] = FULL_DEPTH if full else ARREST
+            else:  # C > 0: time steps, then the exact linear flow
+                t_est = _time_estimate(speed, m[i], kd[i], xk, mg, c0, c1, b[i], dd[i], depth[i])
+                t, x, v, e_damp, e_inert, peak, peak_x, code[i] = damped.run_one(
+                    speed, m[i], kd[i], xk, mg, c0, c1, b[i], dd[i], depth[i], t_est)
+        v_final = v if code[i] == FULL_DEPTH else 0.0
+        u_end = x + s0[i]
+        out[0, i] = speed
+        out[1, i] = t
+        out[2, i] = x * 1e3
+        out[3, i] = peak
+        out[4, i] = peak_x * 1e3
+        out[5, i] = 0.5 * m[i] * v_final * v_final
+        out[6, i] = 0.5 * kd[i] * (max(stroke[i] - u_start, 0.0) ** 2 - max(stroke[i] - u_end, 0.0) ** 2)
+        out[7, i] = c0 * x
+        out[8, i] = 0.5 * c1 * x * x
+        out[9, i] = e_damp
+        out[10, i] = e_inert
 
 
 def design_arrays(design: Design, count: int = 1) -> dict[str, np.ndarray]:
