@@ -26,6 +26,13 @@ def run_chunk(base: dict, columns: dict) -> dict:
     return {**result.figures, "end": result.code}
 
 
+def _take_and_run(base: dict, columns, start: int, stop: int) -> tuple[dict, dict]:
+    """Designs ``start`` to ``stop`` of ``columns`` made and simulated in the worker: the caller's thread
+    only writes."""
+    chunk = columns.take(start, stop)
+    return chunk, run_chunk(base, chunk)
+
+
 def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: str | None = None,
                      workers: int = 2, progress: Callable[[int, int], None] | None = None):
     """Yield (chunk columns, results) in order; local threads or a dask cluster do the work.
@@ -75,14 +82,12 @@ def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: s
     # copied between processes; the caller writes each finished chunk while the next ones run
     with ThreadPoolExecutor(max_workers=workers) as pool:
         pending: deque = deque()  # at most 2 × workers chunks in flight
-        for chunk in chunks:
-            pending.append((chunk, pool.submit(run_chunk, base, chunk)))
+        for start in range(0, n, CHUNK):
+            pending.append(pool.submit(_take_and_run, base, columns, start, min(start + CHUNK, n)))
             if len(pending) >= 2 * workers:
-                chunk, future = pending.popleft()
-                yield emit(chunk, future.result())
+                yield emit(*pending.popleft().result())
         while pending:
-            chunk, future = pending.popleft()
-            yield emit(chunk, future.result())
+            yield emit(*pending.popleft().result())
 
 
 __all__ = ["CHUNK", "evaluate_columns", "run_chunk"]
