@@ -824,7 +824,8 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
              "final_depth_mm": [np.inf, -np.inf]}
     meta = {"pen:version": __import__("pencli").__version__, "pen:base": json.dumps(base),
             "pen:variables": json.dumps([v.key for v in variables])}
-    with (StreamedTable(target, meta, categories={"end": ENDS}) if target is not None
+    with (StreamedTable(target, meta, categories={"end": ENDS}, compression="none",
+                        nullable=False) if target is not None
           else contextlib.nullcontext()) as table:
         for chunk, result in evaluate_columns(base, columns, engine=engine, scheduler=scheduler, workers=workers,
                                               progress=progress):

@@ -18,13 +18,19 @@ class StreamedTable:
     """``with StreamedTable(path, metadata) as out: out.write(columns)`` for each chunk, in order.
 
     Floats are written plain (dictionary encoding of floats costs 3.5× the time for nothing) and
-    compressed with lz4 (1.7× faster than zstd for 7 % more bytes).  ``categories`` names columns given
-    as integer codes and their labels: they are stored as dictionary-encoded strings.
+    compressed with lz4 (1.7× faster than zstd for 7 % more bytes), or not at all (``compression="none"``:
+    the sweep's 10⁶ rows in half the time of lz4, for 18 % more bytes).  ``categories`` names columns given
+    as integer codes and their labels: they are stored as dictionary-encoded strings.  ``nullable=False``
+    declares every column required (no nulls): Parquet then stores no definition levels (a third less
+    writing time for the sweep's table).
     """
 
     def __init__(self, path: str | Path, metadata: Mapping[str, str] | None = None, *,
-                 categories: Mapping[str, Sequence[str]] | None = None):
+                 categories: Mapping[str, Sequence[str]] | None = None, compression: str = "lz4",
+                 nullable: bool = True):
         self.path = Path(path)
+        self.compression = compression
+        self.nullable = nullable
         self.metadata = {k.encode(): v.encode() for k, v in (metadata or {}).items()}
         self.categories = {k: pa.array(list(v), type=pa.string()) for k, v in (categories or {}).items()}
         self._tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
@@ -39,9 +45,10 @@ class StreamedTable:
         table = pa.table({k: pa.DictionaryArray.from_arrays(v, self.categories[k]) if k in self.categories else v
                           for k, v in columns.items()})
         if self._writer is None:
-            self._writer = pq.ParquetWriter(self._tmp, table.schema.with_metadata(self.metadata), compression="lz4",
+            schema = table.schema if self.nullable else pa.schema([f.with_nullable(False) for f in table.schema])
+            self._writer = pq.ParquetWriter(self._tmp, schema.with_metadata(self.metadata), compression=self.compression,
                                             use_dictionary=[c for c in self.categories if c in table.column_names])
-        self._writer.write_table(table)
+        self._writer.write_table(table if self.nullable else table.cast(self._writer.schema))
 
     def __exit__(self, kind, value, traceback) -> None:
         try:
