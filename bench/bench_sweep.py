@@ -69,6 +69,7 @@ def main() -> None:
     cols = {c: table.column(c).to_numpy()[idx] for c in table.column_names if c in base_values or c == SPEED}
     si, _ = si_designs(base_values, cols)
     batch = simulate_batch(si).figures
+    si = {k: np.broadcast_to(v, (idx.size,)) for k, v in si.items()}  # shared values are 0-d
     err_t = err_x = 0.0
     for j in range(idx.size):
         design = Design(**{f.name: (int(si[f.name][j]) if f.name == "spring_count" else float(si[f.name][j]))

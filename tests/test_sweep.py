@@ -137,6 +137,56 @@ def test_latin_hypercube_is_stratified(tmp_path):
         assert sorted(bins) == list(range(50))
 
 
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 64, 65, 1000, 100_003])
+def test_hypercube_permutation_is_a_bijection_evaluated_in_any_chunks(n):
+    from pencli.predict.sweep import permuted
+
+    keys = np.random.default_rng(n).integers(0, 2 ** 63, 4, dtype=np.uint64)
+    whole = permuted(0, n, n, keys)
+    assert np.array_equal(np.sort(whole), np.arange(n))  # every stratum exactly once
+    cuts = sorted({0, n, *np.random.default_rng(1).integers(0, n + 1, 5)})
+    assert np.array_equal(np.concatenate([permuted(a, b, n, keys) for a, b in zip(cuts, cuts[1:])]), whole)
+
+
+@pytest.mark.parametrize("method", ["lhs", "random"])
+def test_sample_is_the_same_in_any_chunks_and_its_keys_are_independent(method):
+    from pencli.predict.sweep import Sample
+
+    n = 100_003
+    s = Sample({"a": (0.0, 1.0), "b": (-5.0, 5.0), "c": np.array([1.0, 2.0, 3.0])}, n, method, seed=4)
+    whole = s.take(0, n)
+    parts = [s.take(a, b) for a, b in ((0, 17), (17, 50_000), (50_000, n))]
+    for key in whole:
+        assert np.array_equal(np.concatenate([p[key] for p in parts]), whole[key])
+    a, b = whole["a"], (whole["b"] + 5.0) / 10.0
+    assert 0.0 <= a.min() and a.max() < 1.0 and 0.0 <= b.min() and b.max() < 1.0
+    limit = 5 / np.sqrt(n)  # a correlation of independent uniforms has sd 1/√n
+    assert abs(np.corrcoef(a, b)[0, 1]) < limit
+    assert abs(np.corrcoef(a[:-1], a[1:])[0, 1]) < limit  # neighbours in the table are not related
+    counts = np.histogram(a, bins=20, range=(0, 1))[0]
+    if method == "lhs":
+        assert np.array_equal(np.sort(np.floor(a * n).astype(int)), np.arange(n))
+        assert counts.max() - counts.min() <= 2  # a stratum may straddle a bin edge
+    else:  # 20 bins of about 5,000: chi-squared with 19 degrees of freedom, 99.99 % quantile 52
+        assert ((counts - n / 20) ** 2 / (n / 20)).sum() < 52
+    assert set(np.unique(whole["c"])) == {1.0, 2.0, 3.0}
+
+
+def test_batch_reads_values_all_designs_share_without_copies():
+    """A field given once (0-d) for every design gives bit for bit what the same value repeated gives."""
+    d = random_designs(3000, 12)
+    lean = {k: (v if k in ("blade_width_m", "spring_stiffness_n_m", "damping_pa_s_m") else np.asarray(v[7]))
+            for k, v in d.items()}
+    full = {k: np.broadcast_to(v, (3000,)).copy() for k, v in lean.items()}
+    for speed in (None, np.random.default_rng(2).uniform(0, 12, 3000)):
+        got, want = simulate_batch(lean, speed_at_contact_m_s=speed), simulate_batch(full, speed_at_contact_m_s=speed)
+        assert np.array_equal(got.code, want.code)
+        for key, values in want.figures.items():
+            assert np.array_equal(got.figures[key], values), key
+    one = simulate_batch({k: np.asarray(v[0]) for k, v in d.items()})  # every field shared: one design
+    assert len(one) == 1
+
+
 def test_chunks_do_not_change_results(tmp_path, monkeypatch):
     args = dict(vary=["blade_width_mm=100:200", "friction_coefficient=0.2:0.8"], resolution=40)
     one = api.sweep("appendix_c", "mpacs_c", "appendix_c", out=tmp_path / "one.parquet", workers=1, **args)

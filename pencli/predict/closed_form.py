@@ -234,7 +234,9 @@ def peak_on(xs, qs, fs, beta, lam, xe, qe, a0, a1, d):
 
 @njit(**_JIT)
 def penetrate_one(v0, m, kd, xk, mg, a0, a1, d, depth):
-    """One design entering at speed ``v0`` (SI); see :func:`penetrate`."""
+    """One design entering the material at speed ``v0`` (SI): time [s], final depth [m], final speed [m/s],
+    full depth reached, peak R [N] and its depth [m], inertia energy [J].  ``xk``: depth at which the springs
+    reach free length (≤ 0: already spent at contact)."""
     lam = 2.0 * d / m
     t = 0.0
     peak, peak_x = _reduced(0.0, v0, a0, a1, 0.0, d), 0.0
@@ -276,25 +278,4 @@ def penetrate_one(v0, m, kd, xk, mg, a0, a1, d, depth):
     return t, x_end, math.sqrt(max(q_end, 0.0)), full, peak, peak_x, work - 0.5 * m * (q_end - v0 * v0)
 
 
-@njit(**_JIT)
-def _penetrate_all(v0, m, kd, xk, mg, a0, a1, d, depth, t, x_end, v_end, full, peak, peak_x, e_inertia):
-    for i in range(v0.size):
-        t[i], x_end[i], v_end[i], full[i], peak[i], peak_x[i], e_inertia[i] = penetrate_one(
-            v0[i], m[i], kd[i], xk[i], mg[i], a0[i], a1[i], d[i], depth[i])
-
-
-def penetrate(v0, m, kd, xk, mg, a0, a1, d, depth):
-    """Penetration at C = 0 of designs entering at speed ``v0`` (equal-length float arrays, SI).
-
-    ``xk``: depth at which the springs reach free length (≤ 0: already spent at contact).
-    Returns (time [s], final depth [m], final speed [m/s], full depth reached, peak R [N], its depth [m],
-    inertia energy [J]).
-    """
-    args = [np.ascontiguousarray(a, dtype=float) for a in (v0, m, kd, xk, mg, a0, a1, d, depth)]
-    n = args[0].size
-    out = [np.empty(n) for _ in range(3)] + [np.empty(n, dtype=np.bool_)] + [np.empty(n) for _ in range(3)]
-    _penetrate_all(*args, *out)  # releases the GIL: threads may run chunks side by side
-    return tuple(out)
-
-
-__all__ = ["GAUSS_NODES", "penetrate", "penetrate_one", "peak_on", "q_at", "slope_at", "travel_time"]
+__all__ = ["GAUSS_NODES", "penetrate_one", "peak_on", "q_at", "slope_at", "travel_time"]

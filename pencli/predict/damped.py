@@ -359,27 +359,5 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
     return t, x, v, e_damp, e_inert, peak, peak_x, STALLED
 
 
-@njit(**_JIT)
-def _run_all(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est, t, x, v, e_damp, e_inert, peak, peak_x, code):
-    for i in range(v0.size):
-        t[i], x[i], v[i], e_damp[i], e_inert[i], peak[i], peak_x[i], code[i] = run_one(
-            v0[i], m[i], kd[i], xk[i], mg[i], a0[i], a1[i], b[i], d[i], depth[i], t_est[i])
-
-
-def penetrate(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
-    """Penetration with damping of designs entering at speed ``v0`` (equal-length float arrays, SI);
-    ``t_est``: a rough penetration time per design (sets the first step).
-
-    Returns (time [s], final depth [m], final speed [m/s], damping energy [J], inertia energy [J],
-    peak R [N], its depth [m], end code: :data:`ARREST`, :data:`FULL_DEPTH`, :data:`CREEP` or
-    :data:`STALLED`).
-    """
-    args = [np.ascontiguousarray(a, dtype=float) for a in (v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est)]
-    n = args[0].size
-    out = [np.empty(n) for _ in range(7)] + [np.empty(n, dtype=np.int8)]
-    _run_all(*args, *out)  # releases the GIL: threads may run chunks side by side
-    return tuple(out)
-
-
-__all__ = ["ARREST", "CREEP", "FULL_DEPTH", "LINEAR_TOL", "MAX_STEPS", "STALLED", "STEPS", "penetrate",
-           "rest_depth", "run_one"]
+__all__ = ["ARREST", "CREEP", "FULL_DEPTH", "LINEAR_TOL", "MAX_STEPS", "STALLED", "STEPS", "rest_depth",
+           "run_one"]

@@ -106,13 +106,11 @@ class Sample:
 
     Each key's domain is a (low, high) range, sampled continuously, or an array of values (a list given
     to ``--vary``, or a whole-number key), from which each design takes one value: the strata of the
-    hypercube map onto the values in equal shares.  The random numbers come in fixed blocks of
-    :data:`BLOCK` designs, each from its own stream of the seed, so a design does not depend on how the
-    sweep is chunked; the hypercube's strata are one pseudo-random permutation of the designs per key
-    (:func:`permuted`), evaluated for the designs a chunk takes, so no memory grows with ``n``.
+    hypercube map onto the values in equal shares.  Every random number is a function of the seed, the
+    key and the design's index (:func:`drawn`: a counter-based generator), so a design does not depend on
+    how the sweep is chunked and nothing is drawn up front; the hypercube's strata are one pseudo-random
+    permutation of the designs per key (:func:`permuted`).
     """
-
-    BLOCK = 10_000
 
     def __init__(self, domains: Mapping[str, tuple[float, float] | np.ndarray], n: int, method: str,
                  seed: int = 0, fixed: Mapping[str, float] | None = None):
@@ -121,28 +119,18 @@ class Sample:
         self.domains = {k: (v if isinstance(v, tuple) else np.asarray(v, dtype=float)) for k, v in domains.items()}
         self.size, self.method, self.seed = int(n), method, int(seed)
         self.fixed = {k: float(v) for k, v in (fixed or {}).items() if k not in self.domains}
-        # the hypercube's strata: one pseudo-random permutation of range(n) per key, evaluated a chunk at a
-        # time (nothing drawn up front: a 10⁶-design sample started 47 ms late with numpy's permutations)
-        keys = np.random.default_rng([self.seed, 0]).integers(0, 2 ** 63, (len(self.domains), _ROUNDS),
-                                                               dtype=np.uint64)
-        self.strata = keys if method == "lhs" else None
+        # per key: the stream of its uniforms, then the permutation's round keys
+        self.keys = np.random.default_rng([self.seed, 0]).integers(0, 2 ** 63, (len(self.domains), 1 + _ROUNDS),
+                                                                    dtype=np.uint64)
 
     def take(self, start: int, stop: int) -> dict[str, np.ndarray]:
         """Designs ``start`` to ``stop`` (exclusive) of the sample, as columns."""
-        first, last = start // self.BLOCK, (stop - 1) // self.BLOCK + 1
-        blocks = [np.random.default_rng([self.seed, 1, b]).random(
-            (min(self.BLOCK, self.size - b * self.BLOCK), len(self.domains))) for b in range(first, last)]
-        offset = first * self.BLOCK
-        u = np.concatenate(blocks)[start - offset:stop - offset]
         out = {}
         for i, (key, domain) in enumerate(self.domains.items()):
-            ui = u[:, i]
-            if self.strata is not None:
-                ui = (permuted(np.arange(start, stop, dtype=np.uint64), self.size, self.strata[i]) + ui) / self.size
-            if isinstance(domain, tuple):
-                out[key] = domain[0] + ui * (domain[1] - domain[0])
-            else:
-                out[key] = domain[np.minimum((ui * domain.size).astype(int), domain.size - 1)]
+            lo, span = (domain[0], domain[1] - domain[0]) if isinstance(domain, tuple) else (0.0, 1.0)
+            value = drawn(start, stop, self.size, self.keys[i], self.method == "lhs", lo, span)
+            out[key] = value if isinstance(domain, tuple) else domain[
+                np.minimum((value * domain.size).astype(int), domain.size - 1)]
         out.update({key: np.full(stop - start, value) for key, value in self.fixed.items()})
         return out
 
@@ -151,39 +139,62 @@ _ROUNDS = 4
 """Feistel rounds of :func:`permuted` (four make a pseudo-random permutation from a pseudo-random round
 function: Luby and Rackoff)."""
 
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+
 
 @njit(cache=True, nogil=True)
 def _mix(value: np.uint64) -> np.uint64:
-    """splitmix64's finaliser, the round function: a 64-bit hash whose every output bit depends on every
-    input bit (a single multiply left visible structure: lag-1 correlation 0.006 over 10⁶ designs)."""
+    """splitmix64's finaliser: a 64-bit hash whose every output bit depends on every input bit (a single
+    multiply, as a Feistel round, left visible structure: lag-1 correlation 0.006 over 10⁶ designs)."""
     value = (value ^ (value >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
     value = (value ^ (value >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
     return value ^ (value >> np.uint64(31))
 
 
 @njit(cache=True, nogil=True)
-def permuted(index: np.ndarray, n: int, keys: np.ndarray) -> np.ndarray:
-    """Where a pseudo-random permutation of range(n), drawn by ``keys`` (one uint64 a round), sends each of
-    ``index`` (uint64 values below n): a balanced Feistel network on the smallest even number of bits
-    that holds n, walked again while it lands at n or beyond (a bijection of the larger domain restricted
-    to range(n) by cycle walking, so every value below n is hit once).  Any chunk of indices can be
-    evaluated alone. [–]"""
+def _feistel(value, keys, low, shift):
+    """One pass of the balanced Feistel network over 2·``shift`` bits (``low``: the half's mask)."""
+    left, right = value >> shift, value & low
+    for r in range(_ROUNDS):
+        left, right = right, left ^ (_mix(right ^ keys[r]) & low)
+    return (left << shift) | right
+
+
+@njit(cache=True, nogil=True)
+def permuted(start: int, stop: int, n: int, keys: np.ndarray) -> np.ndarray:
+    """Where a pseudo-random permutation of range(n), drawn by ``keys`` (:data:`_ROUNDS` uint64), sends each
+    of start … stop − 1: a balanced Feistel network on the smallest even number of bits that holds n,
+    walked again while it lands at n or beyond (a bijection of the larger domain restricted to range(n) by
+    cycle walking, so every value below n is hit once).  Any chunk can be evaluated alone. [–]"""
     half = 1
     while (1 << (2 * half)) < n:
         half += 1
     low = np.uint64((1 << half) - 1)
     shift = np.uint64(half)
-    out = np.empty(index.size, dtype=np.int64)
-    for i in range(index.size):
-        value = index[i]
-        while True:
-            left, right = value >> shift, value & low
-            for r in range(keys.size):
-                left, right = right, left ^ (_mix(right ^ keys[r]) & low)
-            value = (left << shift) | right
-            if value < np.uint64(n):
-                break
-        out[i] = np.int64(value)
+    out = np.empty(stop - start, dtype=np.uint64)
+    for i in range(out.size):  # no branch: the compiler runs several indices side by side
+        out[i] = _feistel(np.uint64(start + i), keys, low, shift)
+    for i in range(out.size):  # the few that landed outside range(n) (under 3 in 4 at worst) walk on
+        while out[i] >= np.uint64(n):
+            out[i] = _feistel(out[i], keys, low, shift)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def drawn(start: int, stop: int, n: int, keys: np.ndarray, latin: bool, low: float, span: float) -> np.ndarray:
+    """One key's values of designs start … stop − 1 of n, in [low, low + span): uniform (``latin`` false), or
+    a Latin hypercube, where design i takes stratum :func:`permuted` (i) of n at a uniform place within it.
+    The uniforms are SplitMix64 (the hash :func:`_mix` of ``keys[0]`` + (i + 1)·golden ratio, its top 53
+    bits), so each is a function of the design's index alone. [unit of the key]"""
+    out = np.empty(stop - start)
+    for i in range(out.size):
+        out[i] = (_mix(keys[0] + np.uint64(start + i + 1) * _GOLDEN) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+    if latin:
+        strata = permuted(start, stop, n, keys[1:])
+        for i in range(out.size):
+            out[i] = (strata[i] + out[i]) / n
+    for i in range(out.size):
+        out[i] = low + out[i] * span
     return out
 
 
