@@ -293,3 +293,28 @@ def test_sweep_accepts_out_of_range_base_values_when_asked(runner, tmp_path):
         r = invoke(runner, "sweep", "-p", "appendix_c", "-m", "mpacs_c", "-e", "appendix_c", "--set",
                    "density_kg_m3=5000", "--allow-out-of-range", "--json", *extra)
         assert r.exit_code == 0, (extra, r.output)
+
+
+def test_cached_kernels_are_dropped_when_any_kernel_source_changes(tmp_path):
+    """numba checks a cached kernel against its own file only; a change to a module it calls must drop it."""
+    from pencli.predict.compiled import drop_stale_kernels
+
+    folders = [tmp_path / "predict", tmp_path / "model"]
+    for folder in folders:
+        (folder / "__pycache__").mkdir(parents=True)
+        (folder / "kernel.py").write_text("x = 1\n")
+    stamp = tmp_path / "predict" / "__pycache__" / "kernels.sha256"
+
+    def cached() -> set[str]:
+        for folder in folders:  # what numba would have written since
+            (folder / "__pycache__" / "kernel.f-1.py311.nbi").write_text("")
+            (folder / "__pycache__" / "kernel.f-1.py311.1.nbc").write_text("")
+        return {p.name for folder in folders for p in (folder / "__pycache__").iterdir()}
+
+    assert drop_stale_kernels(folders, stamp)  # no stamp yet: nothing is known about the caches
+    before = cached()
+    assert not drop_stale_kernels(folders, stamp)  # nothing changed: the caches stay
+    assert {p.name for f in folders for p in (f / "__pycache__").iterdir()} == before
+    (tmp_path / "model" / "kernel.py").write_text("x = 2\n")  # a callee changes in another folder
+    assert drop_stale_kernels(folders, stamp)
+    assert {p.name for f in folders for p in (f / "__pycache__").iterdir()} == {"kernels.sha256"}

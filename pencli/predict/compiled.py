@@ -4,7 +4,42 @@ exceptions)."""
 
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
+
 from numba import njit
+
+
+def drop_stale_kernels(source_dirs, stamp: Path) -> bool:
+    """Delete numba's cached kernels (``*.nbi``, ``*.nbc`` in each source folder's ``__pycache__``) when the
+    sources there changed since ``stamp`` was written; True if it deleted.
+
+    numba checks a cached function against its own file only, so a kernel that calls a function from
+    another module (the batch driver calls the closed form, which calls the model core) ran the old callee
+    after an edit or a ``git pull`` of an editable install: found when the batch kept giving bit-identical
+    results after the closed form changed.  A read-only install is left alone (its files are never changed
+    in place; a reinstall rewrites them all, which numba does notice).
+    """
+    sources = sorted(p for d in source_dirs for p in Path(d).glob("*.py"))
+    digest = hashlib.sha256(b"".join(p.name.encode() + p.read_bytes() for p in sources)).hexdigest()
+    try:
+        if stamp.read_text() == digest:
+            return False
+    except OSError:
+        pass
+    try:
+        for folder in source_dirs:
+            for cached in (Path(folder) / "__pycache__").glob("*.nb[ic]"):
+                cached.unlink()
+        stamp.parent.mkdir(parents=True, exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:
+        return False
+    return True
+
+
+_HERE = Path(__file__).resolve().parent
+drop_stale_kernels([_HERE, _HERE.parent / "model"], _HERE / "__pycache__" / "kernels.sha256")
 
 from pencli.model.design import static_work as _static_work
 from pencli.model.flight import reach as _reach
@@ -19,4 +54,4 @@ static_work = njit(**JIT)(_static_work)
 reach = njit(**JIT)(_reach)
 """The flight's closed form (:func:`pencli.model.flight.reach`)."""
 
-__all__ = ["JIT", "reach", "reduced", "static_work"]
+__all__ = ["JIT", "drop_stale_kernels", "reach", "reduced", "static_work"]
