@@ -189,3 +189,32 @@ def test_energy_balances_on_random_designs(design, override):
     assert min(s.energy_strength_j, s.energy_friction_j, s.energy_damping_j, s.energy_inertia_j) >= 0.0
     zero_damping = simulate(replace(design, damping_pa_s_m=0.0), speed_at_contact_m_s=override)
     assert zero_damping.summary.energy_damping_j == 0.0
+
+
+def test_closed_form_slope_root_against_a_numerical_integration():
+    """Where dq/dx reaches a value on a C = 0 segment (the batch's peak of R and the top of q from rest):
+    checked against dq/dx = 2F/m − λq integrated by DOP853 with an event, not against the closed form."""
+    from scipy.integrate import solve_ivp
+
+    from pencli.predict.closed_form import slope_root
+
+    rng = np.random.default_rng(5)
+    checked = 0
+    while checked < 40:
+        qs, fs = rng.uniform(0, 100), rng.uniform(-200, 400)
+        beta, lam = -rng.uniform(10, 1e5), rng.choice([0.0, rng.uniform(0, 50)])
+        length = rng.uniform(0.001, 0.2)
+
+        def rhs(x, y):  # y = (q, q'); q' = fs + beta·x − λq, q'' = beta − λq'
+            return [y[1], beta - lam * y[1]]
+
+        start = fs - lam * qs
+        end = solve_ivp(rhs, (0, length), [qs, start], method="DOP853", rtol=1e-12, atol=1e-12).y[1, -1]
+        if not start > 0 > end:
+            continue
+        target = rng.uniform(end, start)
+        event = lambda x, y: y[1] - target  # noqa: E731
+        ref = solve_ivp(rhs, (0, length), [qs, start], method="DOP853", rtol=1e-12, atol=1e-12, events=event)
+        got = slope_root(target, 0.0, qs, fs, beta, lam, 0.0, length)
+        assert got == pytest.approx(ref.t_events[0][0], rel=1e-8, abs=1e-12 * length)
+        checked += 1

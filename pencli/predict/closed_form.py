@@ -118,6 +118,22 @@ def _target(kind, c, x, xs, qs, fs, beta, lam):
 
 
 @njit(**_JIT)
+def slope_root(c, xs, qs, fs, beta, lam, lo, hi):
+    """Where q' = c on the segment, within [lo, hi] (the caller knows q' − c changes sign there). [m]
+
+    q' obeys q'' = β − λq', so q'(xs + Δ) = q'_s + (β − λq'_s)(1 − e^{−λΔ})/λ: the root is
+    Δ = −log1p(−λr)/λ with r = (c − q'_s)/(β − λq'_s), or Δ = r where λ = 0 (one log instead of a Halley
+    search of q and q').
+    """
+    slope_s = fs - lam * qs
+    rate = beta - lam * slope_s
+    r = (c - slope_s) / rate if rate != 0.0 else 0.0
+    z = lam * r
+    step = r if abs(z) < 1e-300 else (-math.log1p(-z) / lam if z < 1.0 else hi - xs)
+    return min(max(xs + step, lo), hi)
+
+
+@njit(**_JIT)
 def _root(kind, c, xs, qs, fs, beta, lam, lo, hi):
     """Root in [lo, hi] of :func:`_target`'s f, the ends of opposite sign (or zero at one).
 
@@ -225,7 +241,7 @@ def peak_on(xs, qs, fs, beta, lam, xe, qe, a0, a1, d):
     rise_s = a1 + d * slope_at(xs, qs, xs, fs, beta, lam)  # R' = a1 + d·q', monotone on the segment
     rise_e = a1 + d * slope_at(xe, qe, xs, fs, beta, lam)
     if rise_s > 0.0 and rise_e < 0.0 and xe > xs:
-        x_top = _root(1, -a1 / d, xs, qs, fs, beta, lam, xs, xe)
+        x_top = slope_root(-a1 / d, xs, qs, fs, beta, lam, xs, xe)
         r_top = _reduced(x_top, math.sqrt(max(q_at(x_top, xs, qs, fs, beta, lam), 0.0)), a0, a1, 0.0, d)
         if r_top > best:
             best, where = r_top, x_top
@@ -260,7 +276,7 @@ def penetrate_one(v0, m, kd, xk, mg, a0, a1, d, depth):
         if stops:
             lo = xs
             if qs <= 0.0:  # from rest: the zero sought is past the maximum of q
-                lo = _root(1, 0.0, xs, qs, fs, beta, lam, xs, xe)
+                lo = slope_root(0.0, xs, qs, fs, beta, lam, xs, xe)
             x_stop = _root(0, 0.0, xs, qs, fs, beta, lam, lo, xe)
         ended = blocked or stops
         q_stop = 0.0 if ended else qe
@@ -278,4 +294,4 @@ def penetrate_one(v0, m, kd, xk, mg, a0, a1, d, depth):
     return t, x_end, math.sqrt(max(q_end, 0.0)), full, peak, peak_x, work - 0.5 * m * (q_end - v0 * v0)
 
 
-__all__ = ["GAUSS_NODES", "penetrate_one", "peak_on", "q_at", "slope_at", "travel_time"]
+__all__ = ["GAUSS_NODES", "penetrate_one", "peak_on", "q_at", "slope_at", "slope_root", "travel_time"]
