@@ -218,3 +218,25 @@ def test_closed_form_slope_root_against_a_numerical_integration():
         got = slope_root(target, 0.0, qs, fs, beta, lam, 0.0, length)
         assert got == pytest.approx(ref.t_events[0][0], rel=1e-8, abs=1e-12 * length)
         checked += 1
+
+
+@pytest.mark.parametrize("qs, fs, beta, lam, hi", [
+    (3.2233481361027567, 45.289243137432344, -33047.776635727096, 2.1336160930243953, 0.1942006885334626),
+    (4.7851919979948585, 98.33687452692861, -44026.38167922343, 5.535424193193389, 0.1862337314194746),
+    (2.2771909884024373, 42.33959859589626, -83511.54798024883, 4.230303831702758, 0.1768719582702341),
+    (0.40643994773860437, 11.863880639728253, -47274.79639755647, 9.802875920967628, 0.16635494914008675)])
+def test_arrest_root_is_not_fooled_by_the_top_of_q(qs, fs, beta, lam, hi):
+    """q rises to its top, where q' = 0, then falls to the arrest.  Halley's step is tiny near that top,
+    far from the root; the search used to take it for convergence and stopped at 0.2-1.6 mm (found by a
+    random search of 2·10⁷ segments).  Reference: dq/dx = fs + β·x − λq integrated by DOP853 to q = 0."""
+    from scipy.integrate import solve_ivp
+
+    from pencli.predict.closed_form import _root
+
+    def rhs(x, y):
+        return [fs + beta * x - lam * y[0]]
+
+    event = lambda x, y: y[0]  # noqa: E731
+    event.terminal = True
+    ref = solve_ivp(rhs, (0, hi), [qs], method="DOP853", rtol=1e-12, atol=1e-14, events=event).t_events[0][0]
+    assert _root(0, 0.0, 0.0, qs, fs, beta, lam, 0.0, hi) == pytest.approx(ref, rel=1e-9)

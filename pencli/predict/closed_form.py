@@ -139,7 +139,9 @@ def _root(kind, c, xs, qs, fs, beta, lam, lo, hi):
 
     Halley steps (f'' costs nothing more here), the first taken at ``lo``, with bisection whenever a step
     leaves the bracket.  Halley converges cubically, so once a step is below 1e-7 of the scale the point it
-    lands on is the root to round-off (the next step would be of order 1e-21 of it).
+    lands on is the root to round-off (the next step would be of order 1e-21 of it) -- provided Newton's
+    step f/f' is that small too: where f' nearly vanishes (near the top of q) Halley's step is tiny far from
+    the root, and the search bisects instead.
     """
     f_lo, d_lo, c_lo = _target(kind, c, lo, xs, qs, fs, beta, lam)
     if f_lo == 0.0:
@@ -165,8 +167,11 @@ def _root(kind, c, xs, qs, fs, beta, lam, lo, hi):
         den = 2.0 * dfx * dfx - fx * cfx
         step = 2.0 * fx * dfx / den if den != 0.0 else math.nan
         x_new = x - step
-        if lo < x_new < hi:
-            if abs(step) <= 1e-7 * max(abs(x), hi - lo):
+        tol = 1e-7 * max(abs(x), hi - lo)
+        if lo < x_new < hi and abs(step) <= tol and not abs(fx) <= 2.0 * tol * abs(dfx):
+            x_new = 0.5 * (lo + hi)  # a tiny step where f' is nearly 0 is a flat spot, not the root: bisect
+        elif lo < x_new < hi:
+            if abs(step) <= tol:
                 return x_new
         else:
             x_new = 0.5 * (lo + hi)
