@@ -231,7 +231,7 @@ def test_arrest_root_is_not_fooled_by_the_top_of_q(qs, fs, beta, lam, hi):
     random search of 2·10⁷ segments).  Reference: dq/dx = fs + β·x − λq integrated by DOP853 to q = 0."""
     from scipy.integrate import solve_ivp
 
-    from pencli.predict.closed_form import _root
+    from pencli.predict.closed_form import arrest_root
 
     def rhs(x, y):
         return [fs + beta * x - lam * y[0]]
@@ -239,4 +239,4 @@ def test_arrest_root_is_not_fooled_by_the_top_of_q(qs, fs, beta, lam, hi):
     event = lambda x, y: y[0]  # noqa: E731
     event.terminal = True
     ref = solve_ivp(rhs, (0, hi), [qs], method="DOP853", rtol=1e-12, atol=1e-14, events=event).t_events[0][0]
-    assert _root(0, 0.0, 0.0, qs, fs, beta, lam, 0.0, hi) == pytest.approx(ref, rel=1e-9)
+    assert arrest_root(0.0, qs, fs, beta, lam, 0.0, hi) == pytest.approx(ref, rel=1e-9)

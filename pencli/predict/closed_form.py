@@ -109,12 +109,11 @@ def slope_at(x, q, xs, fs, beta, lam):
 
 
 @njit(**_JIT)
-def _target(kind, c, x, xs, qs, fs, beta, lam):
-    """(f, f', f'') at x for a root search: q (kind 0), or q' − c (kind 1); q'' = β − λq' on a segment."""
+def _q_and_slopes(x, xs, qs, fs, beta, lam):
+    """(q, q', q'') at x for the arrest search; q'' = β − λq' on a segment."""
     q = q_at(x, xs, qs, fs, beta, lam)
     s = slope_at(x, q, xs, fs, beta, lam)
-    s2 = beta - lam * s
-    return (q, s, s2) if kind == 0 else (s - c, s2, -lam * s2)
+    return q, s, beta - lam * s
 
 
 @njit(**_JIT)
@@ -123,7 +122,7 @@ def slope_root(c, xs, qs, fs, beta, lam, lo, hi):
 
     q' obeys q'' = β − λq', so q'(xs + Δ) = q'_s + (β − λq'_s)(1 − e^{−λΔ})/λ: the root is
     Δ = −log1p(−λr)/λ with r = (c − q'_s)/(β − λq'_s), or Δ = r where λ = 0 (one log instead of a Halley
-    search of q and q').
+    search).
     """
     slope_s = fs - lam * qs
     rate = beta - lam * slope_s
@@ -134,8 +133,8 @@ def slope_root(c, xs, qs, fs, beta, lam, lo, hi):
 
 
 @njit(**_JIT)
-def _root(kind, c, xs, qs, fs, beta, lam, lo, hi):
-    """Root in [lo, hi] of :func:`_target`'s f, the ends of opposite sign (or zero at one).
+def arrest_root(xs, qs, fs, beta, lam, lo, hi):
+    """Where q = v² reaches 0 in [lo, hi] on the segment, q of opposite signs at the ends (or zero at one). [m]
 
     Halley steps (f'' costs nothing more here), the first taken at ``lo``, with bisection whenever a step
     leaves the bracket.  Halley converges cubically, so once a step is below 1e-7 of the scale the point it
@@ -143,21 +142,21 @@ def _root(kind, c, xs, qs, fs, beta, lam, lo, hi):
     step f/f' is that small too: where f' nearly vanishes (near the top of q) Halley's step is tiny far from
     the root, and the search bisects instead.
     """
-    f_lo, d_lo, c_lo = _target(kind, c, lo, xs, qs, fs, beta, lam)
+    f_lo, d_lo, c_lo = _q_and_slopes(lo, xs, qs, fs, beta, lam)
     if f_lo == 0.0:
         return lo
     up = f_lo > 0.0
     den = 2.0 * d_lo * d_lo - f_lo * c_lo
     x = lo - 2.0 * f_lo * d_lo / den if den != 0.0 else math.nan
     if not (lo < x < hi):  # the secant across the bracket, else its middle
-        f_hi = _target(kind, c, hi, xs, qs, fs, beta, lam)[0]
+        f_hi = _q_and_slopes(hi, xs, qs, fs, beta, lam)[0]
         if f_hi == 0.0:
             return hi
         x = lo - f_lo * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else math.nan
         if not (lo < x < hi):
             x = 0.5 * (lo + hi)
     for _ in range(_MAX_NEWTON):
-        fx, dfx, cfx = _target(kind, c, x, xs, qs, fs, beta, lam)
+        fx, dfx, cfx = _q_and_slopes(x, xs, qs, fs, beta, lam)
         if fx == 0.0:
             return x
         if (fx > 0.0) == up:
@@ -282,7 +281,7 @@ def penetrate_one(v0, m, kd, xk, mg, a0, a1, d, depth):
             lo = xs
             if qs <= 0.0:  # from rest: the zero sought is past the maximum of q
                 lo = slope_root(0.0, xs, qs, fs, beta, lam, xs, xe)
-            x_stop = _root(0, 0.0, xs, qs, fs, beta, lam, lo, xe)
+            x_stop = arrest_root(xs, qs, fs, beta, lam, lo, xe)
         ended = blocked or stops
         q_stop = 0.0 if ended else qe
         if not blocked:
@@ -299,4 +298,5 @@ def penetrate_one(v0, m, kd, xk, mg, a0, a1, d, depth):
     return t, x_end, math.sqrt(max(q_end, 0.0)), full, peak, peak_x, work - 0.5 * m * (q_end - v0 * v0)
 
 
-__all__ = ["GAUSS_NODES", "penetrate_one", "peak_on", "q_at", "slope_at", "slope_root", "travel_time"]
+__all__ = ["GAUSS_NODES", "arrest_root", "penetrate_one", "peak_on", "q_at", "slope_at", "slope_root",
+           "travel_time"]
