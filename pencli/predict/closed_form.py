@@ -69,7 +69,8 @@ e^z = 1 + zφ1 to 1e-15 (checked against 40-digit arithmetic)."""
 @njit(**_JIT)
 def _q_series(dx, qs, fs, beta, lam):
     """v² at ``dx`` past the segment's start from the φ2 series (no call to exp); only where
-    −1 ≤ −λ·dx ≤ 0.  φ2 by Estrin's scheme (five dependent multiply-adds where Horner takes fifteen). [m²/s²]"""
+    −1 ≤ −λ·dx ≤ 0.  φ2 by Estrin's scheme (five dependent multiply-adds where Horner takes fifteen).
+    [m²/s²]"""
     z = -lam * dx
     c = _PHI2
     z2 = z * z

@@ -46,7 +46,8 @@ class StreamedTable:
                           for k, v in columns.items()})
         if self._writer is None:
             schema = table.schema if self.nullable else pa.schema([f.with_nullable(False) for f in table.schema])
-            self._writer = pq.ParquetWriter(self._tmp, schema.with_metadata(self.metadata), compression=self.compression,
+            self._writer = pq.ParquetWriter(self._tmp, schema.with_metadata(self.metadata),
+                                            compression=self.compression,
                                             use_dictionary=[c for c in self.categories if c in table.column_names])
         self._writer.write_table(table if self.nullable else table.cast(self._writer.schema))
 
