@@ -145,7 +145,7 @@ def _contact_speeds(m, kd, stroke, g, s0):
     """Speed at contact of each design's flight; nan where the blade never reaches the surface. [m/s]"""
     v = np.empty(m.size)
     for i in range(m.size):
-        t, v[i] = _reach(s0[i], m[i], kd[i], stroke[i], g[i])
+        t, v[i] = _reach(s0[i], m[i], kd[i], stroke[i], g[i], False)  # the speed only
         if not t < np.inf:
             v[i] = np.nan
     return v
