@@ -211,30 +211,36 @@ def travel_time(xs, qs, fs, beta, lam, xe, qe, at_root):
     if not length > 0.0:
         return 0.0
     half = 0.5 * length
-    xm = xs + half
-    slope_s = slope_at(xs, qs, xs, fs, beta, lam)
-    slope_e = slope_at(xe, qe, xs, fs, beta, lam)
-    a_left = xs - (min(qs / slope_s, half) if slope_s > 0.0 else half)
-    a_right = xe if at_root else xe + (min(qe / -slope_e, half) if slope_e < 0.0 else half)
-    series = lam * length <= 1.0
-    spans = (xm - a_left, a_right - xm)  # > 0, or 0 where a half has no length left
-    s_lo = (math.sqrt(min(max((xs - a_left) / spans[0], 0.0), 1.0)) if spans[0] > 0.0 else 1.0,
-            math.sqrt(min(max((a_right - xe) / spans[1], 0.0), 1.0)) if spans[1] > 0.0 else 1.0)
-    if series:
-        acc = _halves_sum(a_left, spans[0], s_lo[0], a_right, spans[1], s_lo[1], xs, qs, fs, beta, lam)
+    # each half as x = anchor ± span·s², s from s_lo to 1, anchored g beyond its end: g = q/q' where the
+    # tangent's zero lies within half a segment (q < q'·half), else half; span = half + g and
+    # s_lo² = g/span = q/(q'·half + q), one division each
+    reach_s = slope_at(xs, qs, xs, fs, beta, lam) * half
+    if reach_s > qs:
+        g_left, s_left = qs * half / reach_s, math.sqrt(qs / (reach_s + qs))
     else:
+        g_left, s_left = half, math.sqrt(0.5)
+    reach_e = -slope_at(xe, qe, xs, fs, beta, lam) * half
+    if at_root:
+        g_right, s_right = 0.0, 0.0
+    elif reach_e > qe:
+        g_right, s_right = qe * half / reach_e, math.sqrt(qe / (reach_e + qe))
+    else:
+        g_right, s_right = half, math.sqrt(0.5)
+    span_left, span_right = half + g_left, half + g_right
+    if lam * length <= 1.0:
+        acc = _halves_sum(xs - g_left, span_left, s_left, xe + g_right, span_right, s_right, xs, qs, fs, beta, lam)
+    else:  # q from its exponential form
         acc = (0.0, 0.0)
         for side in range(2):
             sign = 1.0 if side == 0 else -1.0
-            anchor = a_left if side == 0 else a_right
+            anchor, span, s_lo = (xs - g_left, span_left, s_left) if side == 0 else (xe + g_right, span_right, s_right)
             part = 0.0
             for i in range(GAUSS_NODES):
-                s = s_lo[side] + (1.0 - s_lo[side]) * _UNIT[i]
-                q = max(q_at(anchor + sign * spans[side] * s * s, xs, qs, fs, beta, lam), _TINY)
+                s = s_lo + (1.0 - s_lo) * _UNIT[i]
+                q = max(q_at(anchor + sign * span * s * s, xs, qs, fs, beta, lam), _TINY)
                 part += _UNIT_W[i] * s / math.sqrt(q)
             acc = (part, acc[1]) if side == 0 else (acc[0], part)
-    # a half of no length has s_lo = 1: its weight (1 − s_lo) is 0 whatever its nodes gave
-    return (1.0 - s_lo[0]) * 2.0 * spans[0] * acc[0] + (1.0 - s_lo[1]) * 2.0 * spans[1] * acc[1]
+    return (1.0 - s_left) * 2.0 * span_left * acc[0] + (1.0 - s_right) * 2.0 * span_right * acc[1]
 
 
 @njit(**_JIT)
