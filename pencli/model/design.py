@@ -114,19 +114,29 @@ FORCE_LIMIT_N = 1e30
 """Forces beyond this are outside what float64 integrates meaningfully. [N]"""
 
 
+FORCE_NAMES = ("strength", "friction", "damping", "inertia", "drive", "weight")
+"""The forces :func:`force_sizes` gives, in its order."""
+
+
+def force_sizes(a0, a1, b, d, speed, depth, drive_stiffness, stroke, effective_mass, gravity) -> tuple:
+    """The largest size of each force of the model (:data:`FORCE_NAMES`: Eq. 9 at full depth and the contact
+    speed, the drive at release, the weight), to compare with :data:`FORCE_LIMIT_N`.  Plain arithmetic on
+    floats or arrays, so the batch's compiled kernel uses it as it is. [N]"""
+    return (a0, a1 * depth, b * speed, d * speed * speed, drive_stiffness * stroke, effective_mass * gravity)
+
+
 def force_scales(design: Design, a0, a1, b, d, speed) -> dict:
-    """The largest size of each force of the model (Eq. 9 at full depth and the contact speed, the drive at
-    release, the weight), to compare with :data:`FORCE_LIMIT_N`.  ``a0…d``: Eq. 9's coefficients; floats, or
-    arrays for the batch's designs. [N]"""
-    return {"strength": a0, "friction": a1 * design.penetration_depth_m, "damping": b * speed,
-            "inertia": d * speed * speed, "drive": design.drive_stiffness_n_m * design.stroke_m,
-            "weight": design.effective_mass_kg * design.gravity_m_s2}
+    """:func:`force_sizes` of ``design`` by name.  ``a0…d``: Eq. 9's coefficients; floats, or arrays for the
+    batch's designs. [N]"""
+    return dict(zip(FORCE_NAMES, force_sizes(a0, a1, b, d, speed, design.penetration_depth_m,
+                                             design.drive_stiffness_n_m, design.stroke_m,
+                                             design.effective_mass_kg, design.gravity_m_s2)))
 
 
 def beyond_limit(force):
-    """True where a force (float or array) is not finite or exceeds :data:`FORCE_LIMIT_N` in size."""
-    force = np.asarray(force, dtype=float)
-    return ~np.isfinite(force) | (np.abs(force) > FORCE_LIMIT_N)
+    """True where a force (float or array) is not finite or exceeds :data:`FORCE_LIMIT_N` in size (nan
+    compares false, so it is beyond too)."""
+    return np.logical_not(np.abs(force) <= FORCE_LIMIT_N)
 
 
 DESIGN_FIELDS: tuple[str, ...] = tuple(f.name for f in fields(Design))

@@ -18,18 +18,19 @@ compiled by numba and release the GIL, so threads can share a sweep's chunks.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, fields
 
 import numpy as np
 from numba import njit, types
 
-from pencli.model.design import Design, beyond_limit, force_scales
+from pencli.model.design import Design
 from pencli.model.resistance import eq9_coefficients
 from pencli.predict import closed_form, damped
 from pencli.predict.damped import ARREST, FULL_DEPTH
 from pencli.predict.compiled import JIT as _JIT
+from pencli.predict.compiled import beyond_limit as _beyond_limit
+from pencli.predict.compiled import force_sizes as _force_sizes
 from pencli.predict.compiled import reach as _reach
 
 
@@ -46,6 +47,7 @@ assert ENDS[:4] == tuple(name for name, code in sorted(
     {"arrest": damped.ARREST, "full_depth": damped.FULL_DEPTH, "creep": damped.CREEP,
      "stalled": damped.STALLED}.items(), key=lambda item: item[1]))
 _CODE = {name: np.int8(i) for i, name in enumerate(ENDS)}
+OVERFLOW = ENDS.index("overflow")
 
 
 @dataclass(frozen=True)
@@ -102,7 +104,7 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
     m, kd, stroke = design.effective_mass_kg, design.drive_stiffness_n_m, design.stroke_m  # stroke 0: a drop
     s0, g = design.surface_offset_m, design.gravity_m_s2
     w, T = design.blade_width_m, design.blade_thickness_m
-    with np.errstate(over="ignore", invalid="ignore"):  # absurd designs overflow here; marked 'overflow' below
+    with np.errstate(over="ignore", invalid="ignore"):  # absurd designs overflow here; the kernel marks them
         a0, a1, b, dd = eq9_coefficients(design)  # R = a0 + a1·x + b·v + dd·v² in contact
 
     # ---- flight, closed form (once when every design flies the same way)
@@ -116,14 +118,11 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
         v0 = per_design(speed)
         no_contact = np.zeros((), dtype=bool)
 
-    # designs not simulated: the parameter rules forbid them (CONTRACT §1 cross-checks), or a force is beyond
-    # what float64 integrates (pen predict refuses those in one line)
+    # designs not simulated: the parameter rules forbid them (CONTRACT §1 cross-checks); a force beyond what
+    # float64 integrates (pen predict refuses those in one line) is found by the kernel, design by design
     invalid = (T >= w) | (d["load_cell_mass_kg"] > d["sprung_mass_kg"])
-    with np.errstate(over="ignore", invalid="ignore"):
-        scales = force_scales(design, a0, a1, b, dd, np.where(no_contact | invalid, 0.0, v0))
-        too_large = ~no_contact & ~invalid & functools.reduce(np.logical_or, map(beyond_limit, scales.values()))
     skip = np.zeros(n, dtype=np.int8)
-    for name, mask in (("no_contact", no_contact), ("invalid", invalid), ("overflow", too_large)):
+    for name, mask in (("no_contact", no_contact), ("invalid", invalid)):
         skip[np.broadcast_to(mask, (n,))] = _CODE[name]
 
     out = np.empty((len(_ROWS), n))
@@ -167,13 +166,18 @@ def _time_estimate(v0, m, kd, xk, mg, a0, a1, b, dd, depth):
 def _simulate_all(v0, m, kd, stroke, s0, g, a0, a1, b, dd, depth, speed_given, skip, out, code):
     """Each design from contact to its end, its figures into the rows of ``out`` (:data:`_ROWS`) and its end
     into ``code``: the closed form at C = 0, the damped path otherwise; a design with a ``skip`` code is not
-    simulated and books no motion (its launcher still books the spring energy up to the surface)."""
+    simulated and books no motion (its launcher still books the spring energy up to the surface), nor is one
+    whose forces are beyond float64's useful range (``overflow``)."""
     for i in range(v0.size):
         u_start = s0[i] if speed_given else 0.0  # a given speed at contact starts the books at the surface
         t = x = v = e_damp = e_inert = peak = peak_x = 0.0
         c0 = c1 = 0.0
-        if skip[i] != 0:
-            code[i] = skip[i]
+        code[i] = skip[i]
+        if code[i] == 0:
+            for force in _force_sizes(a0[i], a1[i], b[i], dd[i], v0[i], depth[i], kd[i], stroke[i], m[i], g[i]):
+                if _beyond_limit(force):
+                    code[i] = OVERFLOW
+        if code[i] != 0:
             speed = 0.0
         else:
             speed = v0[i]

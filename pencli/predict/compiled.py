@@ -41,6 +41,8 @@ def drop_stale_kernels(source_dirs, stamp: Path) -> bool:
 _HERE = Path(__file__).resolve().parent
 drop_stale_kernels([_HERE, _HERE.parent / "model"], _HERE / "__pycache__" / "kernels.sha256")
 
+from pencli.model.design import beyond_limit as _beyond_limit
+from pencli.model.design import force_sizes as _force_sizes
 from pencli.model.design import static_work as _static_work
 from pencli.model.flight import reach as _reach
 from pencli.model.resistance import reduced as _reduced
@@ -53,5 +55,9 @@ static_work = njit(**JIT)(_static_work)
 """Work of the speed-independent force over depth (:func:`pencli.model.design.static_work`)."""
 reach = njit(**JIT)(_reach)
 """The flight's closed form (:func:`pencli.model.flight.reach`)."""
+force_sizes = njit(**JIT)(_force_sizes)
+"""The model's force scales (:func:`pencli.model.design.force_sizes`)."""
+beyond_limit = njit(**JIT)(_beyond_limit)
+"""A force beyond float64's useful range (:func:`pencli.model.design.beyond_limit`)."""
 
-__all__ = ["JIT", "drop_stale_kernels", "reach", "reduced", "static_work"]
+__all__ = ["JIT", "beyond_limit", "drop_stale_kernels", "force_sizes", "reach", "reduced", "static_work"]
