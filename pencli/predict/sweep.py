@@ -228,6 +228,10 @@ def si_designs(base: Mapping[str, float], columns: Mapping[str, np.ndarray]) -> 
 
 def _check(param, values: np.ndarray) -> None:
     values = np.atleast_1d(np.asarray(values, dtype=float))
+    # the allowed values form an interval: when the smallest and the largest pass, all do (a nan makes
+    # both nan, which fails); only then is every value looked at, to name the first that fails
+    if not (param.hard_violation(float(np.min(values))) or param.hard_violation(float(np.max(values)))):
+        return
     bad = param.hard_violation(values)
     if bad.any():
         raise ParameterError(f"sweep: {param.key} takes {values[np.argmax(bad)]:g} {param.unit}; it must be "
