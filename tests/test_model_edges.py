@@ -272,3 +272,44 @@ def test_batch_marks_designs_the_scalar_simulator_refuses_as_overflow(fields):
     assert got.figures["penetration_time_s"][0] == 0.0 and not got.figures["full_penetration"][0]
     ordinary = simulate_batch(design_arrays(base))
     assert ordinary.end[0] in ("arrest", "full_depth")
+
+
+_STEEP_INERTIA = {  # within every documented range; found by bench/bench_batch_fuzz.py (seed 1)
+    "light_wide_blade_c0": ({"blade_width_mm": 945.439, "blade_thickness_mm": 0.551867, "sprung_mass_kg": 0.0879361,
+                             "load_cell_mass_kg": 0.0879361},
+                            {"density_kg_m3": 2911.81, "microstructure_strength_kpa": 344.691,
+                             "sidewall_pressure_kpa": 52.1692, "damping_kpa_s_m": 0.0, "inertia_coefficient": 867.12},
+                            {"spring_stiffness_kn_m": 190.382, "surface_offset_mm": 11.6679}),
+    "light_thick_blade_damped": ({"blade_width_mm": 101.571, "blade_thickness_mm": 25.4304,
+                                  "sprung_mass_kg": 0.286045, "load_cell_mass_kg": 0.286045},
+                                 {"density_kg_m3": 1604.15, "microstructure_strength_kpa": 130.817,
+                                  "sidewall_pressure_kpa": 0.811162, "damping_kpa_s_m": 5.00656,
+                                  "inertia_coefficient": 702.272},
+                                 {"spring_stiffness_kn_m": 8.42079, "surface_offset_mm": 41.0301}),
+}
+
+
+@pytest.mark.parametrize("case", sorted(_STEEP_INERTIA))
+def test_steep_inertia_in_the_batch_matches_the_oracle(case):
+    """λ = 2wTKρ/m of several hundred per depth travelled: v² falls as e^{−λx} and 1/√v² grows as steeply.
+    One 8+8-node Gauss rule over the segment was 1.7e-3 off in penetration time (C = 0), and RK4 at half the
+    damping time 1.3e-4 (C > 0); the batch now cuts the C = 0 segment where q changes by about e, and the
+    damped path steps at a quarter of the damping time."""
+    from pencli.model.design import design_from_sets
+    from pencli.params.validate import validate_mapping
+    from pencli.predict.batch import design_arrays, simulate_batch
+
+    pen, mat, ene = _STEEP_INERTIA[case]
+    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", **ene)
+    p.update(pen)
+    coefficients = {k: v for k, v in mat.items() if k in ("sidewall_pressure_kpa", "damping_kpa_s_m",
+                                                          "inertia_coefficient")}
+    m.update({k: v for k, v in mat.items() if k not in coefficients})
+    m["coefficients"] = {**m["coefficients"], **coefficients}
+    want = reference_run(p, m, e)
+    sets = [validate_mapping(x, case, expected_kind=kind) for x, kind in
+            ((p, "penetrator"), (m, "material"), (e, "energizing"))]  # no range override: documented designs
+    got = simulate_batch(design_arrays(design_from_sets(*sets)))
+    assert got.end[0] == want["end"]
+    for key in ("penetration_time_s", "final_depth_mm", "peak_resistance_n", "residual_ke_j"):
+        assert got.figures[key][0] == pytest.approx(want[key], rel=1e-4, abs=1e-9), key
