@@ -313,3 +313,59 @@ def test_steep_inertia_in_the_batch_matches_the_oracle(case):
     assert got.end[0] == want["end"]
     for key in ("penetration_time_s", "final_depth_mm", "peak_resistance_n", "residual_ke_j"):
         assert got.figures[key][0] == pytest.approx(want[key], rel=1e-4, abs=1e-9), key
+
+
+_CREEPS = {  # heavily damped designs of bench/bench_batch_fuzz.py (seed 7); K of the third is above its range
+    "creep_while_rk4": ({"blade_width_mm": 420.118, "blade_thickness_mm": 6.46963, "sprung_mass_kg": 0.397962},
+                        {"density_kg_m3": 449.415, "microstructure_strength_kpa": 182.211,
+                         "sidewall_pressure_kpa": 32.8132, "damping_kpa_s_m": 243.328, "inertia_coefficient": 382.201},
+                        {"spring_stiffness_kn_m": 11.3142, "surface_offset_mm": 10.692}),
+    "creep_while_rk4_b": ({"blade_width_mm": 677.752, "blade_thickness_mm": 8.68321, "sprung_mass_kg": 0.338822,
+                           "load_cell_mass_kg": 0.338822},
+                          {"density_kg_m3": 389.928, "microstructure_strength_kpa": 238.631,
+                           "sidewall_pressure_kpa": 5.2444, "damping_kpa_s_m": 109.138,
+                           "inertia_coefficient": 989.928},
+                          {"spring_stiffness_kn_m": 34.3601, "surface_offset_mm": 5.34714}),
+    "stiff_creep_50s": ({"blade_width_mm": 273.842, "blade_thickness_mm": 22.1797, "sprung_mass_kg": 0.582058},
+                        {"density_kg_m3": 756.728, "microstructure_strength_kpa": 288.277,
+                         "sidewall_pressure_kpa": 0.327764, "damping_kpa_s_m": 42473.3, "inertia_coefficient": 1036.24},
+                        {"spring_stiffness_kn_m": 57.0217, "surface_offset_mm": 86.6839}),
+    "creep_170s": ({"blade_width_mm": 302.616, "blade_thickness_mm": 9.4629, "sprung_mass_kg": 0.31555,
+                    "load_cell_mass_kg": 0.31555},
+                   {"density_kg_m3": 7.5797, "microstructure_strength_kpa": 127.7, "sidewall_pressure_kpa": 8.98089,
+                    "damping_kpa_s_m": 84679.0, "inertia_coefficient": 60.2715},
+                   {"spring_stiffness_kn_m": 12.2882, "surface_offset_mm": 31.7807}),
+}
+
+
+@pytest.mark.parametrize("case", sorted(_CREEPS))
+def test_creeping_designs_end_alike_in_both_simulators(case):
+    """Creep is one rule (model.design.creep_point) in both simulators.  Before: the batch checked it only
+    once its exact linear flow had taken over, so a tip that reached x* − δ slowly while RK4 still ran was
+    called an arrest seconds later (first two cases); RK4 ran out of steps on a stiff 50-s creep (now the
+    exact flow takes over after 20,000 RK4 steps); and pen predict gave up after 60 s of simulated time on
+    a 170-s creep (now 3,600 s)."""
+    from pencli.model.design import design_from_sets
+    from pencli.model.dynamics import simulate
+    from pencli.params.validate import validate_mapping
+    from pencli.predict.batch import design_arrays, simulate_batch
+
+    pen, mat, ene = _CREEPS[case]
+    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", **ene)
+    p.update(pen)
+    coefficients = {k: v for k, v in mat.items() if k in ("sidewall_pressure_kpa", "damping_kpa_s_m",
+                                                          "inertia_coefficient")}
+    m.update({k: v for k, v in mat.items() if k not in coefficients})
+    m["coefficients"] = {**m["coefficients"], **coefficients}
+    sets = [validate_mapping(x, case, expected_kind=kind, allow_out_of_range=True)
+            for x, kind in ((p, "penetrator"), (m, "material"), (e, "energizing"))]
+    design = design_from_sets(*sets)
+    scalar = simulate(design, output_rate_hz=100.0).summary
+    got = simulate_batch(design_arrays(design))
+    assert scalar.end == got.end[0] == "creep"
+    for key in ("penetration_time_s", "final_depth_mm", "peak_resistance_n"):
+        assert got.figures[key][0] == pytest.approx(getattr(scalar, key), rel=1e-4), key
+    if case != "creep_170s":  # the oracle's own time limit is shorter
+        want = reference_run(p, m, e)
+        assert want["end"] == "creep"
+        assert got.figures["penetration_time_s"][0] == pytest.approx(want["penetration_time_s"], rel=1e-4)

@@ -102,6 +102,33 @@ CREEP_DISTANCE_M = 1e-6
 """δ: a run that creeps towards its rest depth (overdamped there) ends when its tip comes this close, on
 the slow mode; both simulators use this rule (README, "Creep"). [m]"""
 
+def creep_point(m, kd, xk, mg, a0, a1, b, depth):
+    """(x* − δ [m], speed limit ω0·δ [m/s], x* [m]) of a design that can creep, else (nan, nan, nan).
+
+    The rest depth x* is where drive and weight equal strength and friction,
+    kd·max(xk − x, 0) + mg = a0 + a1·x (``xk``: depth where the springs reach free length).  With damping
+    heavy enough that the motion is overdamped there (b² ≥ 4·m·k, k = the force's slope at x*), the tip
+    approaches x* along the slow mode and never reaches it: the penetration time is then *defined* as the
+    moment the tip comes within :data:`CREEP_DISTANCE_M` (δ) of x* at a speed at most ω0·δ (ω0 = √(k/m);
+    a faster approach is on the fast mode and overshoots x*, then arrests).  The final depth is x*.
+    Plain arithmetic on floats: both simulators use this one rule (the batch's compiled kernel as it is).
+    """
+    nothing = (math.nan, math.nan, math.nan)
+    if not b > 0.0:
+        return nothing
+    if xk > 0.0 and mg - a0 - a1 * xk <= 0.0:
+        k = kd + a1
+        rest = (kd * xk + mg - a0) / k
+    elif a1 > 0.0:
+        k = a1
+        rest = (mg - a0) / a1
+    else:
+        return nothing
+    if not (CREEP_DISTANCE_M < rest < depth) or b * b < 4.0 * m * k:
+        return nothing
+    return rest - CREEP_DISTANCE_M, math.sqrt(k / m) * CREEP_DISTANCE_M * (1.0 + 1e-9), rest
+
+
 def static_work(x0, x1, xk, kd, mg, a0, a1):
     """∫ F dx from depth x0 to x1 of the force that does not depend on speed, F = kd·max(xk − x, 0) + mg −
     a0 − a1·x (drive while the springs push, weight, Eq. 9's strength and friction).  ``xk``: depth where

@@ -42,6 +42,7 @@ _HERE = Path(__file__).resolve().parent
 drop_stale_kernels([_HERE, _HERE.parent / "model"], _HERE / "__pycache__" / "kernels.sha256")
 
 from pencli.model.design import beyond_limit as _beyond_limit
+from pencli.model.design import creep_point as _creep_point
 from pencli.model.design import force_sizes as _force_sizes
 from pencli.model.design import static_work as _static_work
 from pencli.model.flight import reach as _reach
@@ -57,7 +58,9 @@ reach = njit(**JIT)(_reach)
 """The flight's closed form (:func:`pencli.model.flight.reach`)."""
 force_sizes = njit(**JIT)(_force_sizes)
 """The model's force scales (:func:`pencli.model.design.force_sizes`)."""
+creep_point = njit(**JIT)(_creep_point)
+"""Where a heavily damped run is said to creep (:func:`pencli.model.design.creep_point`)."""
 beyond_limit = njit(**JIT)(_beyond_limit)
 """A force beyond float64's useful range (:func:`pencli.model.design.beyond_limit`)."""
 
-__all__ = ["JIT", "beyond_limit", "drop_stale_kernels", "force_sizes", "reach", "reduced", "static_work"]
+__all__ = ["JIT", "beyond_limit", "creep_point", "drop_stale_kernels", "force_sizes", "reach", "reduced", "static_work"]

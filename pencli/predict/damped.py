@@ -32,8 +32,8 @@ import math
 import numpy as np
 from numba import njit
 
-from pencli.model.design import CREEP_DISTANCE_M
 from pencli.predict.compiled import JIT as _JIT
+from pencli.predict.compiled import creep_point as _creep_point
 from pencli.predict.compiled import reduced as _reduced
 from pencli.predict.compiled import static_work as _static_work
 
@@ -48,9 +48,14 @@ LINEAR_TOL = 1e-5
 LINEARISE_TOL = 1e-9
 """Linear-flow steps are limited so that the linearised v² term errs by at most this fraction of the
 damping force: d·Δv² ≤ LINEARISE_TOL·b·v. [–]"""
+HANDOVER_STEPS = 20_000
+"""RK4 steps after which the exact linear flow takes over even while d·v > LINEAR_TOL·b (its steps are then
+capped so that the linearised v² term stays within LINEARISE_TOL): RK4 at a quarter of the damping time
+m/b ran out of 2·10⁶ steps 1.8 s into a 50-s creep at C = 42,000 kPa·s/m.  Designs that hand over by
+LINEAR_TOL take a few hundred steps."""
 MAX_STEPS = 2_000_000
-"""RK4 steps per design at most, and as many linear-flow steps; a design still moving after them ends as
-``stalled`` (none of a 4,000-design fuzz over the documented ranges and beyond does)."""
+"""Linear-flow steps per design at most; a design still moving after them ends as ``stalled`` (one of 2,000
+damped designs of bench_batch_fuzz, seed 7, C up to 10⁸ Pa·s/m, did before RK4 handed over by step count)."""
 _BISECT = 60
 _G5_NODES, _G5_WEIGHTS = np.polynomial.legendre.leggauss(5)
 _G5_NODES = 0.5 * (_G5_NODES + 1.0)
@@ -210,6 +215,7 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
     if v <= 0.0 and start <= 0.0:
         return t, x, v, e_damp, e_inert, peak, peak_x, ARREST
     h = min(max(t_est, 1e-9), 10.0) / STEPS
+    creep_at, creep_speed, creep_rest = _creep_point(m, kd, xk, mg, a0, a1, b, depth)  # nan: cannot creep
 
     # ---- 1. RK4 until the design ends or reaches the linear regime
     linear = _linear_ready(x, v, m, kd, xk, mg, a0, a1, b, d)
@@ -217,8 +223,8 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
     h_plan = h
     while not linear:
         count += 1
-        if count > MAX_STEPS:
-            return t, x, v, e_damp, e_inert, peak, peak_x, STALLED
+        if count > HANDOVER_STEPS:  # stiff: the linear flow, whose steps bound the linearisation's error
+            break
         h = min(h_plan, STIFF_STEP * m / (b + 2.0 * d * max(v, 0.0)))
         xs, vs = x, v
         xn, vn, ed, ei, a_s, an = _step(xs, vs, h, m, kd, xk, mg, a0, a1, b, d)
@@ -230,6 +236,17 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
             s = _bisect(False, 0, 0.0, 1.0, (xs, vs, a_s, xn, vn, an, h, 0.0, 0.0, 0.0, a1, b, d, 0.0, 0.0, 0.0, 0.0))
         x_reach = _hermite_xv(xs, vs, a_s, xn, vn, an, h, s)[0] if stop_v else xn
         kink = xs < xk < depth and x_reach >= xk
+        # creep (the rule pen predict uses): the tip passes x* − δ, before any other event of the step, slowly
+        if xs < creep_at <= x_reach and not (kink and xk <= creep_at):
+            s_c = _bisect(False, 1, creep_at, s, (xs, vs, a_s, xn, vn, an, h, 0.0, 0.0, 0.0, a1, b, d, 0.0, 0.0, 0.0,
+                                                   0.0))
+            if _hermite_xv(xs, vs, a_s, xn, vn, an, h, s_c)[1] <= creep_speed:
+                x_c, v_c, ed, ei, _, _ = _step(xs, vs, s_c * h, m, kd, xk, mg, a0, a1, b, d)
+                r_c = _reduced(x_c, max(v_c, 0.0), a0, a1, b, d)
+                if r_c > peak:
+                    peak, peak_x = r_c, x_c
+                e_damp += ed + _static_work(x_c, creep_rest, xk, kd, mg, a0, a1) + 0.5 * m * v_c * v_c
+                return t + s_c * h, creep_rest, 0.0, e_damp, e_inert + ei, peak, peak_x, CREEP
         stop_x = not kink and x_reach >= depth  # maybe passed before v = 0 in the same step
         cut = kink or stop_x
         if cut:
@@ -317,14 +334,12 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
             elif event == 1:
                 name, target, applies = _KINK, xk, in_spring and xk < depth
             else:
-                name, target = CREEP, x_star - CREEP_DISTANCE_M
-                applies = mu2 > 0.0 and x_star < depth and (not in_spring or x_star < xk)
+                name, target, applies = CREEP, creep_at, creep_at == creep_at  # not nan: the design can creep
             if not (applies and target > x and x_far >= target):
                 continue
             s_hit = _bisect(True, 1, target, s_end, flow)
             if name == CREEP:  # only a slow approach creeps; a fast one overshoots and arrests
-                v_hit = _at(True, s_hit, flow)[1]
-                if not (shifted and v_hit <= math.sqrt(w2) * CREEP_DISTANCE_M * (1.0 + 1e-9)):
+                if not _at(True, s_hit, flow)[1] <= creep_speed:
                     continue
             if s_hit <= s_end:
                 s_end, kind, x_far = s_hit, name, target
@@ -353,13 +368,12 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
         x = xk if kind == _KINK else x_new
         v = v_new
         if kind == CREEP:  # the run is booked at its rest depth, where the motion tends
-            x_rest = rest_depth(F0, k)
-            e_damp += _static_work(x, x_rest, xk, kd, mg, a0, a1) + 0.5 * m * v * v
-            return t, x_rest, 0.0, e_damp, e_inert, peak, peak_x, CREEP
+            e_damp += _static_work(x, creep_rest, xk, kd, mg, a0, a1) + 0.5 * m * v * v
+            return t, creep_rest, 0.0, e_damp, e_inert, peak, peak_x, CREEP
         if kind == ARREST or kind == FULL_DEPTH:
             return t, x, v, e_damp, e_inert, peak, peak_x, kind
     return t, x, v, e_damp, e_inert, peak, peak_x, STALLED
 
 
-__all__ = ["ARREST", "CREEP", "FULL_DEPTH", "LINEAR_TOL", "MAX_STEPS", "STALLED", "STEPS", "rest_depth",
+__all__ = ["ARREST", "CREEP", "FULL_DEPTH", "HANDOVER_STEPS", "LINEAR_TOL", "MAX_STEPS", "STALLED", "STEPS", "rest_depth",
            "run_one"]
