@@ -190,6 +190,18 @@ def test_damped_design_without_inertia_term_runs_on_the_linear_flow_from_contact
         assert got.figures[key][0] == pytest.approx(want[key], rel=1e-4), key
 
 
+def _case(pen: dict, mat: dict, ene: dict) -> list[dict]:
+    """Appendix C in grill brick with a table's penetrator, material (coefficients by their short key) and
+    energizing values replaced: the three mappings, in file units."""
+    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", **ene)
+    p.update(pen)
+    coefficients = {k: v for k, v in mat.items() if k in ("sidewall_pressure_kpa", "damping_kpa_s_m",
+                                                          "inertia_coefficient")}
+    m.update({k: v for k, v in mat.items() if k not in coefficients})
+    m["coefficients"] = {**m["coefficients"], **coefficients}
+    return [p, m, e]
+
+
 _STALLED_BEFORE = {  # two of the 24 designs (of a 4,000-design fuzz) that the lock-step numpy batch left 'stalled'
     "slow_drop": ({"blade_width_mm": 14.2682, "blade_thickness_mm": 2.06123, "sprung_mass_kg": 2.58484},
                   {"density_kg_m3": 1388.15, "microstructure_strength_kpa": 404.284, "sidewall_pressure_kpa": 0.255869,
@@ -211,13 +223,7 @@ def test_heavily_damped_designs_end_in_the_batch_as_in_the_oracle(case):
     from pencli.params.validate import validate_mapping
     from pencli.predict.batch import design_arrays, simulate_batch
 
-    pen, mat, ene = _STALLED_BEFORE[case]
-    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", **ene)
-    p.update(pen)
-    coefficients = {k: v for k, v in mat.items() if k in ("sidewall_pressure_kpa", "damping_kpa_s_m",
-                                                          "inertia_coefficient")}
-    m.update({k: v for k, v in mat.items() if k not in coefficients})
-    m["coefficients"] = {**m["coefficients"], **coefficients}
+    p, m, e = _case(*_STALLED_BEFORE[case])
     want = reference_run(p, m, e)
     sets = [validate_mapping(x, case, expected_kind=kind, allow_out_of_range=True)
             for x, kind in ((p, "penetrator"), (m, "material"), (e, "energizing"))]
@@ -299,13 +305,7 @@ def test_steep_inertia_in_the_batch_matches_the_oracle(case):
     from pencli.params.validate import validate_mapping
     from pencli.predict.batch import design_arrays, simulate_batch
 
-    pen, mat, ene = _STEEP_INERTIA[case]
-    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", **ene)
-    p.update(pen)
-    coefficients = {k: v for k, v in mat.items() if k in ("sidewall_pressure_kpa", "damping_kpa_s_m",
-                                                          "inertia_coefficient")}
-    m.update({k: v for k, v in mat.items() if k not in coefficients})
-    m["coefficients"] = {**m["coefficients"], **coefficients}
+    p, m, e = _case(*_STEEP_INERTIA[case])
     want = reference_run(p, m, e)
     sets = [validate_mapping(x, case, expected_kind=kind) for x, kind in
             ((p, "penetrator"), (m, "material"), (e, "energizing"))]  # no range override: documented designs
@@ -350,13 +350,7 @@ def test_creeping_designs_end_alike_in_both_simulators(case):
     from pencli.params.validate import validate_mapping
     from pencli.predict.batch import design_arrays, simulate_batch
 
-    pen, mat, ene = _CREEPS[case]
-    p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", **ene)
-    p.update(pen)
-    coefficients = {k: v for k, v in mat.items() if k in ("sidewall_pressure_kpa", "damping_kpa_s_m",
-                                                          "inertia_coefficient")}
-    m.update({k: v for k, v in mat.items() if k not in coefficients})
-    m["coefficients"] = {**m["coefficients"], **coefficients}
+    p, m, e = _case(*_CREEPS[case])
     sets = [validate_mapping(x, case, expected_kind=kind, allow_out_of_range=True)
             for x, kind in ((p, "penetrator"), (m, "material"), (e, "energizing"))]
     design = design_from_sets(*sets)
