@@ -1,8 +1,9 @@
 """The batch simulator against the scalar one on a wide random fuzz: how every run ends, and the figures.
 
-Run: python -m bench.bench_batch_fuzz [--designs N] [--seed S]
+Run: python -m bench.bench_batch_fuzz [--designs N] [--seed S] [--spread F] [--documented]
 Designs around the Appendix C blade in grill brick with w, T, S, P, K, ρ, k, stand-off and sprung mass each
-spread log-uniformly over 30× either way, half of them damped (C log-uniform over 10³ … 10⁸ Pa·s/m).  The
+spread log-uniformly over F× either way (default 30), half of them damped (C log-uniform over
+10³ … 10⁸ Pa·s/m); ``--documented`` clips every value to its documented range (``pen params keys``).  The
 scalar simulator (:func:`pencli.model.dynamics.simulate`, DOP853 at rtol 1e-10, events) is the reference;
 designs it refuses (a force beyond 10³⁰ N, a CONTRACT §1 rule) must end ``overflow`` / ``invalid`` in the
 batch.  Prints the count of ends that differ and the largest relative difference per figure (the sweep's
@@ -20,6 +21,7 @@ import numpy as np
 from pencli.errors import PenError
 from pencli.model.design import Design, design_from_sets
 from pencli.model.dynamics import simulate
+from pencli.params.definitions import PARAMETERS
 from pencli.params.load import load_preset
 from pencli.predict.batch import design_arrays, simulate_batch
 
@@ -31,13 +33,19 @@ FIGURES = ("penetration_time_s", "final_depth_mm", "peak_resistance_n", "residua
 def main() -> None:
     n = int(sys.argv[sys.argv.index("--designs") + 1]) if "--designs" in sys.argv else 4000
     seed = int(sys.argv[sys.argv.index("--seed") + 1]) if "--seed" in sys.argv else 1
+    spread = float(sys.argv[sys.argv.index("--spread") + 1]) if "--spread" in sys.argv else 30.0
+    ranges = {p.si_name: ((p.range_min if p.range_min is not None else -np.inf) * p.si_scale,
+                          (p.range_max if p.range_max is not None else np.inf) * p.si_scale)
+              for p in PARAMETERS if p.si_name} if "--documented" in sys.argv else {}
     base = design_from_sets(load_preset("appendix_c", "penetrator"), load_preset("grill_brick", "material"),
                             load_preset("appendix_c", "energizing"))
     rng = np.random.default_rng(seed)
     designs = []
     for i in range(n):
-        values = {name: getattr(base, name) * 30.0 ** rng.uniform(-1, 1) for name in SPREAD}
+        values = {name: getattr(base, name) * spread ** rng.uniform(-1, 1) for name in SPREAD}
         values["damping_pa_s_m"] = 10 ** rng.uniform(3, 8) if i % 2 else 0.0
+        values = {name: float(np.clip(value, *ranges[name])) if name in ranges else value
+                  for name, value in values.items()}
         values["load_cell_mass_kg"] = min(base.load_cell_mass_kg, values["sprung_mass_kg"])
         if values["blade_thickness_m"] >= values["blade_width_m"]:  # CONTRACT §1 forbids it: draw again
             values["blade_thickness_m"] = values["blade_width_m"] * rng.uniform(0.005, 0.5)
@@ -68,7 +76,8 @@ def main() -> None:
             if (want or have) and abs(have - want) / max(abs(want), 1e-12) > worst[key]:
                 worst[key], where[key] = abs(have - want) / max(abs(want), 1e-12), (i, ref_end)
     scalar_s = time.perf_counter() - t0
-    print(f"{n:,} designs (seed {seed}): batch {batch_s:.2f} s, scalar simulator {scalar_s:.1f} s")
+    print(f"{n:,} designs (seed {seed}, spread {spread:g}x{', clipped to the documented ranges' if ranges else ''}): "
+          f"batch {batch_s:.2f} s, scalar simulator {scalar_s:.1f} s")
     print("ends in the batch: " + ", ".join(f"{k} {v}" for k, v in sorted(ends.items())))
     print(f"ends that differ from the scalar simulator: {len(mismatched)}" +
           "".join(f"; design {i}: scalar {ref}, batch {got}" for i, ref, got in mismatched[:10]))
