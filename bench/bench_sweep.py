@@ -5,7 +5,7 @@ Run: python -m bench.bench_sweep [--designs N] [--rounds R]
   the Appendix C design in MPACS C), chunked over 2 threads (the compiled kernels
   release the GIL), streamed to Parquet.
 - baseline: scipy solve_ivp (RK45, rtol 1e-6) per design, as a MATLAB ode45 loop would do (60 designs).
-- the two take turns, ``--rounds`` times (default 5), and the medians are compared: one round of each moved
+- the two take turns, ``--rounds`` times (default 7), and the medians are compared: one round of each moved
   the ratio between 2,800x and 9,600x on this shared machine, most of it in the baseline.
 - accuracy: 300 of pen's designs against the scalar simulator (DOP853 rtol 1e-10).
 Target (issue 12): ≥ 1,000,000 designs/s end to end and ≥ 8,000× the solve_ivp loop, penetration time
@@ -39,7 +39,7 @@ VARY = ["blade_width_mm=+50%,-50%", "blade_thickness_mm=+50%,-50%", "spring_stif
 
 def main() -> None:
     n = int(sys.argv[sys.argv.index("--designs") + 1]) if "--designs" in sys.argv else 1_000_000
-    rounds = int(sys.argv[sys.argv.index("--rounds") + 1]) if "--rounds" in sys.argv else 5
+    rounds = int(sys.argv[sys.argv.index("--rounds") + 1]) if "--rounds" in sys.argv else 7
     base = design_from_sets(load_preset("appendix_c", "penetrator"), load_preset("mpacs_c", "material"),
                             load_preset("appendix_c", "energizing"))
     rng = np.random.default_rng(2)

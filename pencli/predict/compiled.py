@@ -9,6 +9,13 @@ from pathlib import Path
 
 from numba import njit
 
+from pencli.model.design import beyond_limit as _beyond_limit
+from pencli.model.design import creep_point as _creep_point
+from pencli.model.design import force_sizes as _force_sizes
+from pencli.model.design import static_work as _static_work
+from pencli.model.flight import reach as _reach
+from pencli.model.resistance import reduced as _reduced
+
 
 def drop_stale_kernels(source_dirs, stamp: Path) -> bool:
     """Delete numba's cached kernels (``*.nbi``, ``*.nbc`` in each source folder's ``__pycache__``) when the
@@ -39,14 +46,8 @@ def drop_stale_kernels(source_dirs, stamp: Path) -> bool:
 
 
 _HERE = Path(__file__).resolve().parent
-drop_stale_kernels([_HERE, _HERE.parent / "model"], _HERE / "__pycache__" / "kernels.sha256")
+drop_stale_kernels([_HERE, _HERE.parent / "model"], _HERE / "__pycache__" / "kernels.sha256")  # before any njit
 
-from pencli.model.design import beyond_limit as _beyond_limit
-from pencli.model.design import creep_point as _creep_point
-from pencli.model.design import force_sizes as _force_sizes
-from pencli.model.design import static_work as _static_work
-from pencli.model.flight import reach as _reach
-from pencli.model.resistance import reduced as _reduced
 
 JIT = dict(cache=True, nogil=True, error_model="numpy")
 
@@ -63,4 +64,5 @@ creep_point = njit(**JIT)(_creep_point)
 beyond_limit = njit(**JIT)(_beyond_limit)
 """A force beyond float64's useful range (:func:`pencli.model.design.beyond_limit`)."""
 
-__all__ = ["JIT", "beyond_limit", "creep_point", "drop_stale_kernels", "force_sizes", "reach", "reduced", "static_work"]
+__all__ = ["JIT", "beyond_limit", "creep_point", "drop_stale_kernels", "force_sizes", "reach", "reduced",
+           "static_work"]

@@ -22,6 +22,7 @@ from numba import njit
 from pencli.errors import ParameterError
 from pencli.params.definitions import BY_KEY
 from pencli.predict.batch import designs_from
+from pencli.predict.compiled import JIT as _JIT
 
 SPEED = "speed_at_contact"
 """The extra sweep variable: speed at contact [m/s]."""
@@ -142,7 +143,7 @@ function: Luby and Rackoff)."""
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 
 
-@njit(cache=True, nogil=True)
+@njit(**_JIT)
 def _mix(value: np.uint64) -> np.uint64:
     """splitmix64's finaliser: a 64-bit hash whose every output bit depends on every input bit (a single
     multiply, as a Feistel round, left visible structure: lag-1 correlation 0.006 over 10⁶ designs)."""
@@ -151,7 +152,7 @@ def _mix(value: np.uint64) -> np.uint64:
     return value ^ (value >> np.uint64(31))
 
 
-@njit(cache=True, nogil=True)
+@njit(**_JIT)
 def _feistel(value, keys, low, shift):
     """One pass of the balanced Feistel network over 2·``shift`` bits (``low``: the half's mask)."""
     left, right = value >> shift, value & low
@@ -160,7 +161,7 @@ def _feistel(value, keys, low, shift):
     return (left << shift) | right
 
 
-@njit(cache=True, nogil=True)
+@njit(**_JIT)
 def permuted(start: int, stop: int, n: int, keys: np.ndarray) -> np.ndarray:
     """Where a pseudo-random permutation of range(n), drawn by ``keys`` (:data:`_ROUNDS` uint64), sends each
     of start … stop − 1: a balanced Feistel network on the smallest even number of bits that holds n,
@@ -180,21 +181,17 @@ def permuted(start: int, stop: int, n: int, keys: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(**_JIT)
 def drawn(start: int, stop: int, n: int, keys: np.ndarray, latin: bool, low: float, span: float) -> np.ndarray:
     """One key's values of designs start … stop − 1 of n, in [low, low + span): uniform (``latin`` false), or
     a Latin hypercube, where design i takes stratum :func:`permuted` (i) of n at a uniform place within it.
     The uniforms are SplitMix64 (the hash :func:`_mix` of ``keys[0]`` + (i + 1)·golden ratio, its top 53
     bits), so each is a function of the design's index alone. [unit of the key]"""
+    strata = permuted(start, stop, n, keys[1:]) if latin else np.zeros(0, dtype=np.uint64)
     out = np.empty(stop - start)
     for i in range(out.size):
-        out[i] = (_mix(keys[0] + np.uint64(start + i + 1) * _GOLDEN) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
-    if latin:
-        strata = permuted(start, stop, n, keys[1:])
-        for i in range(out.size):
-            out[i] = (strata[i] + out[i]) / n
-    for i in range(out.size):
-        out[i] = low + out[i] * span
+        u = (_mix(keys[0] + np.uint64(start + i + 1) * _GOLDEN) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+        out[i] = low + ((strata[i] + u) / n if latin else u) * span
     return out
 
 
