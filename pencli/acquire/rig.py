@@ -35,6 +35,9 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
     "encoder_phase": ("where the blade rests within one encoder count, as a fraction of a count: the counter "
                       "is zeroed there and steps when the motion crosses count edges (0: the rest position "
                       "is at the middle of a count) [–]", 0.0),
+    "position_noise_um": ("the encoder's position error before it is quantised (string vibration, scale "
+                          "interpolation error), standard deviation [µm]", 0.0),
+    "position_noise_ms": ("correlation time of that error (0: white) [ms]", 0.0),
     "effects": ("hidden effects of the true world (CONTRACT §4 names) with parameters", []),
     "seed": ("seed of the sensor noise (default: fresh each shot)", None),
     "device": ("nidaq: device name", "Dev1"),
@@ -95,6 +98,8 @@ def validate_rig(data: Any, where: str) -> RigConfig:
     for key in ("force_noise_n", "torque_noise_nm", "correlated_noise_n", "lateral_fraction"):
         _number(where, key, values[key], minimum=0)
     _number(where, "correlated_noise_ms", values["correlated_noise_ms"], positive=True)
+    _number(where, "position_noise_um", values["position_noise_um"], minimum=0)
+    _number(where, "position_noise_ms", values["position_noise_ms"], minimum=0)
     corner = _number(where, "anti_alias_hz", values["anti_alias_hz"], minimum=0)
     if corner >= 0.5 * float(values["sampling_rate_hz"]):
         raise ParameterError(f"{where}: key 'anti_alias_hz': got {values['anti_alias_hz']!r}; expected 0 (none) or "

@@ -137,6 +137,13 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
 
         sos = butter(4, corner, fs=rate, output="sos")
         forces = sosfilt(sos, forces, axis=0, zi=sosfilt_zi(sos)[:, :, None] * forces[0][None, None, :])[0]
+    jitter = float(rig["position_noise_um"]) * 1e-6
+    if jitter > 0:  # drawn last, so a seed's other draws are what they were without it
+        from scipy.signal import lfilter
+
+        memory = float(rig["position_noise_ms"]) * 1e-3 * rate
+        a = math.exp(-1.0 / memory) if memory > 0 else 0.0
+        u = u + lfilter([1.0], [1.0, -a], rng.normal(0, jitter * math.sqrt(1 - a * a), n_total))
     phase = float(rig["encoder_phase"])  # the counter is zeroed at rest, wherever the count edges lie
     counts = (np.round(u * 1e3 * position_cal.counts_per_mm + phase) - round(phase)).astype(np.int64)
     return counts, forces

@@ -789,8 +789,9 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         "effect_threshold_z": round(z_threshold, 3), "gap_threshold_z": round(gap_threshold, 3),
         "drive_threshold_t": round(drive_threshold, 3), "explain_share": EXPLAIN_SHARE,
         "noise_model": [{**n.noise.to_dict(),
-                         "anti_alias": n.anti_alias.to_dict(r.rate_hz) if n.anti_alias else None}
-                        for n, r in zip(nulls, runs)],
+                         "anti_alias": n.anti_alias.to_dict(r.rate_hz) if n.anti_alias else None,
+                         "position_noise_um": round(rep.position_noise_m * 1e6, 3)}
+                        for n, r, rep in zip(nulls, runs, replicates)],
         "encoder_step_mm": [round(r.encoder_step_m * 1e3, 4) for r in runs],
         "seconds": round(time.perf_counter() - started, 2),
     }

@@ -9,7 +9,8 @@ chain, as read from its data:
   which the encoder cannot resolve and the spline does not reproduce);
 - the encoder quantises it to the record's own step, each run at its own
   phase as read from its record (:func:`encoder_phase`) shifted by one
-  random amount per replicate, and the same derivative method re-derives
+  random amount per replicate, after adding the position error the record
+  shows beyond its quantisation (:func:`position_noise`), and the same derivative method re-derives
   velocity and acceleration from it, so derivative errors are the
   pipeline's own;
 - the force channel adds noise of the colour and level measured on the
@@ -219,6 +220,9 @@ class Replicates:
     """(span samples, replicates): the acceleration each replicate *measures* (its true acceleration plus its
     own derivative error, the error its resistance carries through R = F − m·a), on the whole span, so that a
     causal filter of it (a sensor lag's offset) starts where the data's does. [m/s²]"""
+    position_noise_m: float = 0.0
+    """The record's position error beyond its quantisation, as read from its flight (:func:`position_noise`),
+    which every replicate's encoder adds before it quantises. [m]"""
 
 
 PHASE_GRID = 64
@@ -241,6 +245,50 @@ def encoder_phase(record_m: np.ndarray, smooth_m: np.ndarray, span: np.ndarray, 
     mismatch = np.sum(np.abs(q - record_m[span][:, None]) > 0.5 * step_m, axis=0)
     best = 2.0 * np.pi * f[mismatch == mismatch.min()]
     return float(np.arctan2(np.sin(best).mean(), np.cos(best).mean()) / (2.0 * np.pi)) % 1.0
+
+
+POSITION_NOISE_GRID = np.array([0.0, 0.025, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0])
+"""Position errors (standard deviation, in counts) :func:`position_noise` tries. [counts]"""
+POSITION_NOISE_DRAWS = 16
+"""Noise draws per position error tried by :func:`position_noise`. [–]"""
+
+
+def _roughness(x: np.ndarray) -> np.ndarray:
+    """Mean squared third difference along the first axis: 20 σ² for white noise of σ, next to nothing for a
+    smooth motion sampled at 30–60 kHz. [m²]"""
+    d = np.diff(x, 3, axis=0)
+    return np.mean(d * d, axis=0)
+
+
+def position_noise(record_m: np.ndarray, smooth_m: np.ndarray, span: np.ndarray, step_m: float,
+                   phase: float, seed: int) -> float:
+    """The record's position error beyond its quantisation (string vibration, an encoder's interpolation
+    error), white, as a standard deviation. [m]
+
+    The roughness (:func:`_roughness`) of the record over ``span`` (the flight) against that of the smoothed
+    motion re-quantised at the record's own phase with white position errors of each size on
+    :data:`POSITION_NOISE_GRID` (mean of :data:`POSITION_NOISE_DRAWS` draws): the size whose roughness the
+    record's matches, interpolated; 0 where the record is no rougher than its quantisation alone makes it.
+    A pure quantiser of a smooth motion makes the record about as rough as the error-free re-quantisation,
+    so an encoder without such error reads near 0 (and a small positive reading only widens the null, which
+    errs towards ``none``).
+    """
+    x = smooth_m[span]
+    if x.size < 32:
+        return 0.0
+    rng = np.random.default_rng(seed)
+    shift = phase * step_m
+    noise = rng.standard_normal((x.size, POSITION_NOISE_DRAWS))
+    target = float(_roughness(record_m[span]))
+    sizes = POSITION_NOISE_GRID * step_m
+    rough = np.array([float(np.mean(_roughness(step_m * np.round((x[:, None] + shift + s * noise) / step_m))))
+                      for s in sizes])
+    rough = np.maximum.accumulate(rough)  # a sampling wobble must not make it fold back
+    if target <= rough[0]:
+        return 0.0
+    if target >= rough[-1]:
+        return float(sizes[-1])
+    return float(np.interp(target, rough, sizes))
 
 
 def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | None = None) -> Replicates:
@@ -275,13 +323,18 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
     if null.model is not None:
         reference = np.where(inside, model_accel, reference)
     noise = null.noise.simulate(t.size, rng, count)
+    flight = ~null.at_rest & (t < null.events.contact_s)
+    own = encoder_phase(null.depth_m, smooth, flight, step)
     if phases is None:
         fractions = rng.uniform(0.0, 1.0, count)
     else:
-        flight = ~null.at_rest & (t < null.events.contact_s)
-        fractions = (np.asarray(phases, dtype=float) + encoder_phase(null.depth_m, smooth, flight, step)) % 1.0
+        fractions = (np.asarray(phases, dtype=float) + own) % 1.0
+    jitter = position_noise(null.depth_m, smooth, flight, step, own, seed + 1)
     phases = step * fractions
-    depth = step * np.round((smooth[:, None] + phases) / step) - phases
+    moved = smooth[:, None] + phases
+    if jitter > 0.0:  # the encoder's own position error, where the blade moves (at rest the record is its own)
+        moved = moved + np.where(null.at_rest, 0.0, jitter)[:, None] * rng.standard_normal(moved.shape)
+    depth = step * np.round(moved / step) - phases
     depth -= depth[:1] - null.depth_m[0]  # the encoder is zeroed at rest, as the data's
     speeds = np.full(count, np.nan)
     for b in range(count):
@@ -301,7 +354,7 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
         if null.baseline_n is not None:
             force = force + null.baseline_n
         out += (null.anti_alias.apply(force) - force)[null.use][:, None]
-    return Replicates(out, speeds, true_contact, reference[:, None] + error)
+    return Replicates(out, speeds, true_contact, reference[:, None] + error, jitter)
 
 
 def _replicate_job(args) -> Replicates:

@@ -69,6 +69,12 @@ def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
         if n < 8:
             out.append((lo, hi, None))
             continue
+        seg = x[lo:hi]
+        if np.ptp(seg) <= count_m * (1.0 + 1e-9):
+            # at rest, flickering between two counts at most (an edge under the read head): its mean; a
+            # spline held to the quantisation budget would chase the flicker with hundreds of knots
+            out.append((lo, hi, float(np.mean(seg))))
+            continue
         with warnings.catch_warnings():
             # FITPACK may return its closest approximation when s is tight for quantised data; that is fine here
             warnings.simplefilter("ignore", RuntimeWarning)
@@ -85,6 +91,9 @@ def smooth_motion(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m:
     position, v, a = x.copy(), np.zeros_like(x), np.zeros_like(x)
     t, pieces = _spline_pieces(x, rate_hz, breaks, count_m)
     for lo, hi, spl in pieces:
+        if isinstance(spl, float):  # at rest
+            position[lo:hi] = spl
+            continue
         if spl is None:
             if hi - lo >= 3:
                 v[lo:hi] = np.gradient(x[lo:hi], t[lo:hi])

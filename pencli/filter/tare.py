@@ -147,6 +147,48 @@ def release_time(time_s: np.ndarray, depth_m: np.ndarray, changes: np.ndarray, e
     return float(np.clip(t_r[int(np.argmin(sse))], time_s[0], time_s[first]))
 
 
+REST_TAIL = 0.05
+"""Share of the record, at its end, whose commonest level is the blade's rest after the stop (at least 16
+samples). [–]"""
+
+
+def _rest_levels(values: np.ndarray, step_m: float) -> tuple[float, float, float]:
+    """(commonest level, lowest and highest level within a count of it) of a record at rest. [m]"""
+    levels, counts = np.unique(values, return_counts=True)
+    mode = float(levels[np.argmax(counts)])
+    near = levels[np.abs(levels - mode) < 1.5 * step_m]
+    return mode, float(near.min()), float(near.max())
+
+
+def moving_span(depth_m: np.ndarray, before: np.ndarray, step_m: float) -> tuple[int, int]:
+    """(first, last): the first sample of the motion and the first sample of the rest after it, in a record
+    whose encoder may flicker by a count at rest (string vibration, an edge under the read head).
+
+    A rest is the record's commonest level over ``before`` (the blade at rest before the release, e.g. the
+    pre-trigger span) or over its last :data:`REST_TAIL`, with the neighbouring counts it flickers to
+    there.  A flicker moves the record by one count and back; the motion moves it further.  So the motion
+    starts after the record was last at the first rest's lowest level before it first rose two counts above
+    it, and ends where it first entered the final rest's levels after it was last two counts from them.  On a
+    record that does not flicker these are its first and last changes.  ``(-1, -1)`` when the record never
+    moves two counts.
+    """
+    x = np.asarray(depth_m, dtype=float)
+    tol = 1.5 * step_m
+    lead = x[before] if np.any(before) else x[:1]
+    start, start_lo, _ = _rest_levels(lead, step_m)
+    final, final_lo, final_hi = _rest_levels(x[x.size - max(16, int(REST_TAIL * x.size)):], step_m)
+    risen = np.flatnonzero(x - start > tol)
+    away = np.flatnonzero(np.abs(x - final) > tol)
+    if risen.size == 0 or away.size == 0:
+        return -1, -1
+    resting = np.flatnonzero(x[:risen[0]] < start_lo + 0.5 * step_m)
+    first = int(resting[-1]) + 1 if resting.size else 0
+    after = x[away[-1]:]
+    arrived = np.flatnonzero((after > final_lo - 0.5 * step_m) & (after < final_hi + 0.5 * step_m))
+    last = int(away[-1] + arrived[0]) if arrived.size else x.size - 1
+    return first, last
+
+
 def _fit_crossing(t: np.ndarray, x: np.ndarray, level: float, degree: int = 2) -> tuple[float, float]:
     """Time where a polynomial fit of x(t) crosses ``level``, and dx/dt there."""
     t0 = t.mean()
@@ -173,7 +215,14 @@ def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, 
     depth_m : tip depth x, quantised by the encoder. [m]
     full_depth_m : the penetrator's full penetration depth. [m]
     """
+    from pencli.filter.derivatives import encoder_step_m
+
     changes = np.flatnonzero(np.diff(depth_m)) + 1
+    if changes.size < 4:
+        raise DataError(f"{where}: the position barely changes; no motion to analyse")
+    # a flickering encoder at rest changes count before the release and after the stop: keep the motion's
+    first_move, rest_again = moving_span(depth_m, time_s < 0.0, encoder_step_m(depth_m))
+    changes = changes[(changes >= first_move) & (changes <= rest_again)]
     if changes.size < 4:
         raise DataError(f"{where}: the position barely changes; no motion to analyse")
     inside = np.flatnonzero(depth_m >= 0.0)
