@@ -184,3 +184,23 @@ def test_a_null_behind_an_anti_alias_filter_is_none(tmp_path):
     assert result.verdict == "none", (result.verdict, [(e.name, e.z) for e in result.effects[:3]])
     read = [n["anti_alias"] for n in result.decision["noise_model"]]
     assert all(r is not None and r["corner_hz"] == pytest.approx(6000.0, rel=0.12) for r in read), read
+
+
+def test_a_null_read_by_a_flickering_encoder_is_none_and_its_position_error_is_read(tmp_path):
+    """A 0.08 mm encoder whose reading carries 10 µm of white position error (a vibrating string): it flickers
+    between counts at rest and is rougher than its quantisation in motion.  Before the rest levels and the
+    replicates' position error, the stop was booked at the last flicker (up to 0.45 s late) and nulls were called
+    rate strength at z 10⁴.  The error read must be in the JSON.  (Replicates quantising an error-free motion
+    also call this campaign `none`; on the unrounded nuisances it was drawn from they called it a sensor lag at
+    z 3.0 against 2.8, the load-cell mass column at z −117; with the error, −31.)"""
+    db = make_campaign(tmp_path, "mpacs_c", seed=507, shots=[("1", 4), ("1", 6), ("2", 2), ("2", 4), ("2", 6)],
+                       strength_scale=[1.013, 0.971, 1.029, 0.932, 0.981], standoff_mm=[-0.97, 1.74, -2.66, 1.22, -0.12],
+                       encoder_mm=0.08, encoder_phase=[0.95, 0.14, 0.39, 0.75, 0.66], anti_alias=0.2,
+                       rates_hz=[30000.0, 60000.0, 60000.0, 60000.0, 30000.0],
+                       rig_extra={"force_noise_n": 0.7, "position_noise_um": 10.0})
+    api.tare_runs(db, ["all"])
+    api.subtract_inertia_runs(db, ["all"])
+    result = api.diagnose(db, ["all"])
+    assert result.verdict == "none", (result.verdict, [(e.name, e.z) for e in result.effects[:3]])
+    read = [n["position_noise_um"] for n in result.decision["noise_model"]]
+    assert all(5.0 <= r <= 15.0 for r in read), read

@@ -442,3 +442,58 @@ def test_the_anti_alias_filter_is_read_from_the_pre_trigger_noise(corner, rate, 
     else:
         assert found is not None and found.order in (4, 5), found
         assert found.corner == pytest.approx(corner, rel=0.12)
+
+
+def _flight_and_arrest(t, rate):
+    """Depth of a blade released at t = 0, in flight for 20 ms, then decelerating at 800 m/s² to rest. [m]"""
+    x = np.full(t.size, -0.148)
+    flight = (t >= 0) & (t < 0.02)
+    x[flight] = -0.148 + 0.148 * (t[flight] / 0.02) ** 2
+    inside = t >= 0.02
+    tc = np.minimum(t[inside] - 0.02, 14.8 / 800.0)
+    x[inside] = 14.8 * tc - 400.0 * tc * tc
+    return x
+
+
+@pytest.mark.parametrize("flicker_before", [False, True])
+def test_a_flickering_encoder_at_rest_does_not_move_the_events(flicker_before):
+    """An encoder that flickers by a count at rest (the blade resting on a count edge): a third of the samples
+    after the arrest read a count more or less, and, in one case, a third of those before the release a count
+    more.  The release, contact and stop are those of the same record without flicker, to a sample or two
+    (the arrest within the span of its parabola); before, the stop was the last flicker, 0.15 s late."""
+    from pencli.filter.tare import detect_events
+
+    rate, step = 30000.0, 0.08e-3
+    t = np.arange(-0.05, 0.2, 1 / rate)
+    x = _flight_and_arrest(t, rate)
+    clean = step * np.floor((x - x[0]) / step + 0.5)
+    rng = np.random.default_rng(3)
+    noisy = clean.copy()
+    after = t > 0.05  # at rest since 38.5 ms
+    noisy[after] += step * rng.choice([-1.0, 0.0, 1.0], after.sum(), p=[0.15, 0.7, 0.15])
+    if flicker_before:
+        before = t < 0
+        noisy[before] += step * rng.choice([0.0, 1.0], before.sum(), p=[0.7, 0.3])
+    a = detect_events(t, clean + x[0], 0.2)
+    b = detect_events(t, noisy + x[0], 0.2)
+    assert abs(b.motion_start_s - a.motion_start_s) < 3 / rate
+    assert abs(b.contact_s - a.contact_s) < 1 / rate
+    assert abs(b.stop_s - a.stop_s) < 3e-3
+    assert b.stop_s < 0.05 and b.end == a.end == "arrest"
+
+
+def test_the_position_error_beyond_quantisation_is_read_from_the_flight():
+    """White position error of 0, 5 and 10 µm on a 0.08 mm encoder, a parabolic flight at 30 kHz: read within
+    3 µm, against the record's own smoothing spline (as the replicates are made)."""
+    from pencli.diagnose.null import position_noise
+    from pencli.filter.derivatives import smooth_motion
+
+    rate, step = 30000.0, 0.08e-3
+    t = np.arange(0.0, 0.025, 1 / rate)
+    x = 0.2 * (t / 0.025) ** 2
+    rng = np.random.default_rng(5)
+    for sigma in (0.0, 5e-6, 10e-6):
+        record = step * np.round((x + 0.3 * step + rng.normal(0.0, sigma, t.size)) / step) - 0.3 * step
+        smooth = smooth_motion(record, rate, [], step)[0]
+        span = t > 1e-3
+        assert abs(position_noise(record, smooth, span, step, 0.3, 1) - sigma) < 3e-6, sigma
