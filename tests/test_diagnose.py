@@ -22,8 +22,12 @@ BLOCKS = [5600, 6000, 6400, 7200, 8200, 5900]
 
 
 def campaign(tmp_path, effects, seed, material="mpacs_c"):
-    db = make_campaign(tmp_path, material, seed=seed, shots=SIX, effects=effects,
-                       block_kpa=BLOCKS if material == "mpacs_c" else None)
+    return conditioned(make_campaign(tmp_path, material, seed=seed, shots=SIX, effects=effects,
+                                     block_kpa=BLOCKS if material == "mpacs_c" else None))
+
+
+def conditioned(db):
+    """The campaign tared and inertia-subtracted, as the README's diagnosis needs it."""
     api.tare_runs(db, ["all"])
     api.subtract_inertia_runs(db, ["all"])
     return db
@@ -178,9 +182,7 @@ def test_a_null_behind_an_anti_alias_filter_is_none(tmp_path):
     z 84 (and a force drift at 8.3); the filter read must be in the JSON."""
     db = make_campaign(tmp_path, "mpacs_c", seed=43, shots=SIX, block_kpa=BLOCKS, encoder_mm=0.08, anti_alias=0.1,
                        rig_extra={"sampling_rate_hz": 60000.0, "force_noise_n": 2.0})
-    api.tare_runs(db, ["all"])
-    api.subtract_inertia_runs(db, ["all"])
-    result = api.diagnose(db, ["all"])
+    result = api.diagnose(conditioned(db), ["all"])
     assert result.verdict == "none", (result.verdict, [(e.name, e.z) for e in result.effects[:3]])
     read = [n["anti_alias"] for n in result.decision["noise_model"]]
     assert all(r is not None and r["corner_hz"] == pytest.approx(6000.0, rel=0.12) for r in read), read
@@ -198,9 +200,7 @@ def test_a_null_read_by_a_flickering_encoder_is_none_and_its_position_error_is_r
                        encoder_mm=0.08, encoder_phase=[0.95, 0.14, 0.39, 0.75, 0.66], anti_alias=0.2,
                        rates_hz=[30000.0, 60000.0, 60000.0, 60000.0, 30000.0],
                        rig_extra={"force_noise_n": 0.7, "position_noise_um": 10.0})
-    api.tare_runs(db, ["all"])
-    api.subtract_inertia_runs(db, ["all"])
-    result = api.diagnose(db, ["all"])
+    result = api.diagnose(conditioned(db), ["all"])
     assert result.verdict == "none", (result.verdict, [(e.name, e.z) for e in result.effects[:3]])
     read = [n["position_noise_um"] for n in result.decision["noise_model"]]
     assert all(5.0 <= r <= 15.0 for r in read), read

@@ -15,6 +15,7 @@ import numpy as np
 from pencli.acquire.calibration import ForceCalibration, PositionCalibration
 from pencli.acquire.drivers import RigDriver, ShotSetup
 from pencli.errors import RigError
+from pencli.filter.tare import moving_span
 from pencli.store.rundata import RAW_COLUMNS
 
 TARE_S = 0.1
@@ -67,7 +68,9 @@ def run_shot(driver: RigDriver, setup: ShotSetup, position_cal: PositionCalibrat
     warnings: list[str] = []
     if changes.size == 0:
         raise RigError("the encoder never moved: the blade did not launch (check the latch and the encoder)")
-    start, stop = int(changes[0]), int(changes[-1])
+    start, stop = moving_span(counts.astype(float), np.arange(counts.size) < n_pre, 1.0)  # flicker at rest is not motion
+    if start < 0:
+        start, stop = int(changes[0]), int(changes[-1])
     end = stop + int(round(post_motion_s * rate)) + 1
     if end > counts.size:
         warnings.append(f"the motion had not stopped {post_motion_s:g} s before the recording ended; "
