@@ -10,9 +10,9 @@ chain, as read from its data:
 - the encoder quantises it to the record's own step, each run at its own
   phase as read from its record (:func:`encoder_phase`) shifted by one
   random amount per replicate, after adding the position error the record
-  shows beyond its quantisation (:func:`position_noise`), and the same derivative method re-derives
-  velocity and acceleration from it, so derivative errors are the
-  pipeline's own;
+  shows beyond its quantisation (:func:`position_noise`), and the same
+  derivative method re-derives velocity and acceleration from it, so
+  derivative errors are the pipeline's own;
 - the force channel adds noise of the colour and level measured on the
   pre-trigger span (its spectrum, :class:`NoiseModel`), and where that
   spectrum shows an anti-alias low-pass (:func:`fit_anti_alias`), the

@@ -58,7 +58,8 @@ SMOOTHING = 2.0
 
 
 def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float):
-    """(lo, hi, spline or None) per segment: quintic smoothing splines, smoothing set by the quantisation."""
+    """(lo, hi, piece) per segment: a quintic smoothing spline, smoothing set by the quantisation; the
+    segment's mean (a float) where it is at rest, moving a count at most; None where it is too short."""
     from scipy.interpolate import make_splrep
 
     t = np.arange(x.size) / rate_hz
