@@ -35,16 +35,15 @@ STANDOFF_TOLERANCE_M = 5e-3
 full depth in file coordinates; there an abrupt stop still counts as the hard stops. [m]"""
 
 
-def _abrupt_stop(time_s: np.ndarray, depth_m: np.ndarray, last_change: int) -> bool:
+def _abrupt_stop(time_s: np.ndarray, depth_m: np.ndarray, last_change: int, step_m: float) -> bool:
     """The motion ends at speed (the hard stops), not decelerating to rest (arrest).
 
     A parabola through the last 3 ms before the final encoder change gives the
     speed there and the deceleration.  In an arrest the tip has less than one
     encoder count to travel after its last count; at the stops it is cut off
-    with more than that still to go (1.5 counts here), or is not decelerating.
+    with more than that still to go (1.5 counts here), or is not decelerating.  ``step_m``: the encoder's
+    count (:func:`pencli.filter.derivatives.encoder_step_m`). [m]
     """
-    from pencli.filter.derivatives import encoder_step_m
-
     rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
     lo = max(last_change - max(int(3e-3 * rate), 12), 0)
     seg_t, seg_x = time_s[lo:last_change + 1], depth_m[lo:last_change + 1]
@@ -58,7 +57,7 @@ def _abrupt_stop(time_s: np.ndarray, depth_m: np.ndarray, last_change: int) -> b
     if a >= 0:  # not decelerating at all
         return True
     travel_left = speed * speed / (4 * -a)  # v² / (2 |x''|), x'' = 2a
-    return bool(travel_left > 1.5 * encoder_step_m(depth_m))
+    return bool(travel_left > 1.5 * step_m)
 
 
 @dataclass(frozen=True)
@@ -217,11 +216,10 @@ def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, 
     """
     from pencli.filter.derivatives import encoder_step_m
 
+    step = encoder_step_m(depth_m)
     changes = np.flatnonzero(np.diff(depth_m)) + 1
-    if changes.size < 4:
-        raise DataError(f"{where}: the position barely changes; no motion to analyse")
     # a flickering encoder at rest changes count before the release and after the stop: keep the motion's
-    first_move, rest_again = moving_span(depth_m, time_s < 0.0, encoder_step_m(depth_m))
+    first_move, rest_again = moving_span(depth_m, time_s < 0.0, step)
     changes = changes[(changes >= first_move) & (changes <= rest_again)]
     if changes.size < 4:
         raise DataError(f"{where}: the position barely changes; no motion to analyse")
@@ -242,7 +240,7 @@ def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, 
     last_change = int(changes[-1])
     final_depth = float(depth_m[last_change])
     if final_depth >= full_depth_m - FULL_DEPTH_TOLERANCE_M or (
-            final_depth >= full_depth_m - STANDOFF_TOLERANCE_M and _abrupt_stop(time_s, depth_m, last_change)):
+            final_depth >= full_depth_m - STANDOFF_TOLERANCE_M and _abrupt_stop(time_s, depth_m, last_change, step)):
         end = "full_depth"
         stop = float(time_s[last_change])
     else:
