@@ -30,7 +30,8 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
                   rig_extra=None, record_material: dict | None = None, standoff_mm: list | None = None,
                   strength_scale: list | None = None, encoder_mm: float | None = None,
                   encoder_phase: list | None = None, rates_hz: list | None = None,
-                  anti_alias: float | None = None, position_noise_um: float | None = None) -> Path:
+                  anti_alias: float | None = None, position_noise_um: float | None = None,
+                  converter_noise: float | None = None) -> Path:
     """Fire a campaign into ``folder/runs.duckdb``; returns the catalog path.
 
     ``standoff_mm``: per shot, the true stand-off minus the file's (stand-off scatter).
@@ -40,6 +41,8 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
     ``rates_hz``: per shot, the sampling rate (default: the rig's, every shot alike).
     ``anti_alias``: the force channels' anti-alias corner as a fraction of each shot's sampling rate (default none).
     ``position_noise_um``: the encoder's white position error before it quantises (default none). [µm]
+    ``converter_noise``: white noise the converter adds after the anti-alias filter, as a fraction of the gauge's
+    white force noise (default none).
     """
     folder.mkdir(parents=True, exist_ok=True)
     db = folder / "runs.duckdb"
@@ -72,6 +75,9 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
             rig["anti_alias_hz"] = float(anti_alias) * rate
         if position_noise_um is not None:
             rig["position_noise_um"] = float(position_noise_um)
+        if converter_noise is not None:
+            gauge = float(rig.get("force_noise_n", RIG_KEYS["force_noise_n"][1]))
+            rig["converter_noise_n"] = float(converter_noise) * gauge
         rig_file = folder / f"rig-{i}.yaml"
         rig_file.write_text(yaml.safe_dump(rig))
         shot = api.acquire(springs=springs, penetrator=f"al6061_{blade}mm", material=str(material_file), rig=rig_file,
@@ -184,7 +190,8 @@ def random_nuisances(rng) -> dict:
 def _acquisition(rng, n_shots: int) -> dict:
     """Half the campaigns' force channels behind an anti-alias low-pass (corner 0.1–0.4 of the rate); a third
     of them with runs at mixed rates (30 and 60 kHz drawn per run); a third read by an encoder with 1–10 µm of
-    white position error on top of its quantisation.  Drawn from a stream of their own, so the
+    white position error on top of its quantisation; half with a converter adding white noise of 2–20 % of the
+    gauge's after the filter.  Drawn from a stream of their own, so the
     rest of a seed's campaign is what it was before these nuisances were added."""
     import numpy as np
 
@@ -196,6 +203,8 @@ def _acquisition(rng, n_shots: int) -> dict:
         out["rates_hz"] = [float(r) for r in own.choice([30000.0, 60000.0], n_shots)]
     if own.uniform() < 1.0 / 3.0:  # drawn after the others, so they are what they were before it was added
         out["position_noise_um"] = float(own.uniform(1.0, 10.0))
+    if own.uniform() < 0.5:  # likewise: a converter's own noise after the filter, 2-20 % of the gauge's
+        out["converter_noise"] = float(own.uniform(0.02, 0.2))
     return out
 
 

@@ -119,6 +119,7 @@ def test_the_anti_alias_filter_passes_white_noise_in_its_noise_bandwidth():
     ({"kind": "rig", "name": "x", "driver": "labview"}, "driver"),
     ({"kind": "rig", "name": "x", "encoder_phase": 1.0}, "encoder_phase"),
     ({"kind": "rig", "name": "x", "anti_alias_hz": 15000.0}, "anti_alias_hz"),
+    ({"kind": "rig", "name": "x", "converter_noise_n": -0.1}, "converter_noise_n"),
 ])
 def test_bad_rig_file_is_one_line(workspace, runner, content, words):
     rig = workspace / "rig.yaml"

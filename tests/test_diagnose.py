@@ -188,6 +188,18 @@ def test_a_null_behind_an_anti_alias_filter_is_none(tmp_path):
     assert all(r is not None and r["corner_hz"] == pytest.approx(6000.0, rel=0.12) for r in read), read
 
 
+def test_a_null_behind_an_anti_alias_filter_and_a_converter_floor_is_none(tmp_path):
+    """As above, with the converter adding white noise after the filter at 5 % of the gauge's (26 dB under it):
+    the roll-off ends on that floor, the filter had been read as none, and this null was called a load-cell mass
+    error at z 82 (seeds 44 and 45: 60 and 85)."""
+    db = make_campaign(tmp_path, "mpacs_c", seed=43, shots=SIX, block_kpa=BLOCKS, encoder_mm=0.08, anti_alias=0.1,
+                       converter_noise=0.05, rig_extra={"sampling_rate_hz": 60000.0, "force_noise_n": 2.0})
+    result = api.diagnose(conditioned(db), ["all"])
+    assert result.verdict == "none", (result.verdict, [(e.name, e.z) for e in result.effects[:3]])
+    read = [n["anti_alias"] for n in result.decision["noise_model"]]
+    assert all(r is not None and r["corner_hz"] == pytest.approx(6000.0, rel=0.12) for r in read), read
+
+
 def test_a_null_read_by_a_flickering_encoder_is_none_and_its_position_error_is_read(tmp_path):
     """A 0.08 mm encoder whose reading carries 10 µm of white position error (a vibrating string): it flickers
     between counts at rest and is rougher than its quantisation in motion.  Before the rest levels and the

@@ -424,17 +424,21 @@ def test_sidewall_pressure_rise_is_the_pressure_added_at_100_mm():
         assert described["rise_at_100mm"] == pytest.approx(2.0 * at_tip / 4.0, rel=1e-6)
 
 
-@pytest.mark.parametrize("corner,rate,correlated", [(0.1, 60000.0, 0.0), (0.2, 30000.0, 2.0), (0.4, 60000.0, 2.0),
-                                                    (None, 30000.0, 0.0), (None, 60000.0, 3.0)])
-def test_the_anti_alias_filter_is_read_from_the_pre_trigger_noise(corner, rate, correlated):
+@pytest.mark.parametrize("corner,rate,correlated,floor", [
+    (0.1, 60000.0, 0.0, 0.0), (0.2, 30000.0, 2.0, 0.0), (0.4, 60000.0, 2.0, 0.0), (None, 30000.0, 0.0, 0.0),
+    (None, 60000.0, 3.0, 0.0), (0.1, 60000.0, 0.0, 0.1), (0.2, 30000.0, 2.0, 0.1), (0.1, 30000.0, 1.0, 0.04),
+    (None, 30000.0, 2.0, 0.4), (None, 60000.0, 1.0, 1.0)])
+def test_the_anti_alias_filter_is_read_from_the_pre_trigger_noise(corner, rate, correlated, floor):
     """The simulated rig's 4th-order Butterworth anti-alias filter (or none) read from the noise before the
     release: order 4 (or 5) and its corner within 12 %, and no filter where the rig has none, with white or
-    correlated noise."""
+    correlated noise, and with or without a converter adding white noise after the filter (``floor`` N; the
+    gauge's white noise is 2 N).  Read as a power law under a Butterworth, the floor hid every filter."""
     from pencli import api
     from pencli.diagnose.null import fit_anti_alias
 
     rig = {"kind": "rig", "name": "aa", "seed": 9, "force_noise_n": 2.0, "correlated_noise_n": correlated,
-           "correlated_noise_ms": 0.3, "sampling_rate_hz": rate, "anti_alias_hz": (corner or 0.0) * rate}
+           "correlated_noise_ms": 0.3, "sampling_rate_hz": rate, "anti_alias_hz": (corner or 0.0) * rate,
+           "converter_noise_n": floor}
     columns = api.acquire(springs=4, penetrator="al6061_1.5mm", material="mpacs_c", rig=rig).run.columns
     found = fit_anti_alias(fit_noise(columns["fz_n"][columns["time_s"] < -0.01]))
     if corner is None:

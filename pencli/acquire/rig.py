@@ -25,6 +25,8 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
     "correlated_noise_ms": ("correlation time of that noise [ms]", 2.0),
     "anti_alias_hz": ("corner of the force and torque channels' anti-alias low-pass, a 4th-order Butterworth "
                       "acting on signal and noise alike (0: none) [Hz]", 0.0),
+    "converter_noise_n": ("white noise each force channel's converter adds after the anti-alias filter "
+                          "(its own noise and quantisation), standard deviation [N]", 0.0),
     "force_offsets_n": ("untared offsets of fx, fy, fz [N]", [-13.2, -9.3, -0.8]),
     "torque_offsets_nm": ("untared offsets of tx, ty, tz [N·m]", [0.07, 0.04, 0.044]),
     "lateral_fraction": ("side force as a fraction of the axial resistance [–]", 0.02),
@@ -95,7 +97,7 @@ def validate_rig(data: Any, where: str) -> RigConfig:
         raise ParameterError(f"{where}: key 'driver': got {values['driver']!r}; expected one of "
                              f"{', '.join(DRIVER_NAMES)}")
     _number(where, "sampling_rate_hz", values["sampling_rate_hz"], minimum=1000)
-    for key in ("force_noise_n", "torque_noise_nm", "correlated_noise_n", "lateral_fraction"):
+    for key in ("force_noise_n", "torque_noise_nm", "correlated_noise_n", "lateral_fraction", "converter_noise_n"):
         _number(where, key, values[key], minimum=0)
     _number(where, "correlated_noise_ms", values["correlated_noise_ms"], positive=True)
     _number(where, "position_noise_um", values["position_noise_um"], minimum=0)

@@ -144,6 +144,9 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
         memory = float(rig["position_noise_ms"]) * 1e-3 * rate
         a = math.exp(-1.0 / memory) if memory > 0 else 0.0
         u = u + lfilter([1.0], [1.0, -a], rng.normal(0, jitter * math.sqrt(1 - a * a), n_total))
+    floor = float(rig["converter_noise_n"])
+    if floor > 0:  # after the filter, and drawn after everything else for the same reason
+        forces[:, :3] += rng.normal(0, floor, (n_total, 3))
     phase = float(rig["encoder_phase"])  # the counter is zeroed at rest, wherever the count edges lie
     counts = (np.round(u * 1e3 * position_cal.counts_per_mm + phase) - round(phase)).astype(np.int64)
     return counts, forces
