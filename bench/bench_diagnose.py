@@ -1,6 +1,6 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
-Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED]]
+Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]]
 Prints, per campaign, the truth and the verdict, then: the share of
 single-effect verdicts that name the true effect (the hold-out bench's rule),
 false-positive rate on null campaigns, median held-out shrink of the
@@ -38,12 +38,13 @@ def run_one(label, material, effects, seed, nuisances=None):
 
 def main() -> None:
     quick = "--quick" in sys.argv
-    option = next((o for o in ("--varied", "--nulls") if o in sys.argv), None)
-    if option:  # random forms and nuisances: python -m bench.bench_diagnose --varied|--nulls 28 [SEED]
+    option = next((o for o in ("--varied", "--nulls", "--pairs") if o in sys.argv), None)
+    if option:  # random forms and nuisances: python -m bench.bench_diagnose --varied|--nulls|--pairs 28 [SEED]
         at = sys.argv.index(option)
         count = int(sys.argv[at + 1])
         base_seed = int(sys.argv[at + 2]) if len(sys.argv) > at + 2 else 2000
-        campaigns = varied_campaigns(count, base_seed, nulls_only=option == "--nulls")
+        only = {"--nulls": "nulls", "--pairs": "pairs"}.get(option)
+        campaigns = varied_campaigns(count, base_seed, only=only)
     else:
         campaigns = [(*c, None) for c in diagnosis_campaigns(quick)]
         base_seed = 500

@@ -217,16 +217,16 @@ def _phases(rng, n_shots: int):
     return rng.uniform(0.0, 1.0, n_shots)
 
 
-def varied_campaigns(count: int, seed: int, *, nulls_only: bool = False):
+def varied_campaigns(count: int, seed: int, *, only: str | None = None):
     """(label, material, hidden effects, acceptable verdicts, nuisances) with random forms and nuisances:
-    nulls, every single effect and pairs in turn (or nulls alone)."""
+    nulls, every single effect and pairs in turn (or ``only`` "nulls" or "pairs")."""
     import numpy as np
 
     rng = np.random.default_rng(seed)
     names = list(RANDOM_FORMS)
     out = []
     for i in range(count):
-        kind = 0 if nulls_only else i % 14
+        kind = {"nulls": 0, "pairs": 13}.get(only, i % 14)
         material = str(rng.choice(["mpacs_c", "grill_brick"]))
         if kind < 2:
             label, effects, truth = f"null-{i}", [], {"none"}
