@@ -1,6 +1,6 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
-Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]]
+Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
 Prints, per campaign, the truth and the verdict, then: the share of
 single-effect verdicts that name the true effect (the hold-out bench's rule),
 false-positive rate on null campaigns, median held-out shrink of the
@@ -44,6 +44,8 @@ def main() -> None:
         count = int(sys.argv[at + 1])
         base_seed = int(sys.argv[at + 2]) if len(sys.argv) > at + 2 else 2000
         only = {"--nulls": "nulls", "--pairs": "pairs"}.get(option)
+        if "--only" in sys.argv:  # one effect alone: --varied 12 SEED --only strength_gradient
+            only = sys.argv[sys.argv.index("--only") + 1]
         campaigns = varied_campaigns(count, base_seed, only=only)
     else:
         campaigns = [(*c, None) for c in diagnosis_campaigns(quick)]

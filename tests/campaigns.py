@@ -219,14 +219,14 @@ def _phases(rng, n_shots: int):
 
 def varied_campaigns(count: int, seed: int, *, only: str | None = None):
     """(label, material, hidden effects, acceptable verdicts, nuisances) with random forms and nuisances:
-    nulls, every single effect and pairs in turn (or ``only`` "nulls" or "pairs")."""
+    nulls, every single effect and pairs in turn (or ``only`` "nulls", "pairs" or one effect's name)."""
     import numpy as np
 
     rng = np.random.default_rng(seed)
     names = list(RANDOM_FORMS)
     out = []
     for i in range(count):
-        kind = {"nulls": 0, "pairs": 13}.get(only, i % 14)
+        kind = {"nulls": 0, "pairs": 13, **{n: 2 + k for k, n in enumerate(names)}}.get(only, i % 14)
         material = str(rng.choice(["mpacs_c", "grill_brick"]))
         if kind < 2:
             label, effects, truth = f"null-{i}", [], {"none"}
