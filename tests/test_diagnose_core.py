@@ -501,3 +501,31 @@ def test_the_position_error_beyond_quantisation_is_read_from_the_flight():
         smooth = smooth_motion(record, rate, [], step)[0]
         span = t > 1e-3
         assert abs(position_noise(record, smooth, span, step, 0.3, 1) - sigma) < 3e-6, sigma
+
+
+@pytest.mark.parametrize("shape,member_shape", [(1.0, "first_order"), (0.0, "second_order")])
+def test_a_lag_members_known_force_is_what_the_lag_does_to_the_inertia_force_in_flight(tmp_path, shape, member_shape):
+    """A force channel that lags turns the inertia force m·a into H(m·a), so the resistance read through it in
+    free flight (R = 0) is H(m·a) − m·a: the lag member's known force (the target is the resistance minus it)
+    must leave nothing there but the derivative error.  The simulated rig's lag, 0.45 ms (on the member grid), on a
+    noiseless 0.08 mm record.  With the known force's sign flipped (as it was until 2026-11-25) the flight residual
+    doubled (4.3 → 8.1 N on a development campaign) and a one-pole lag lost to a strength layer."""
+    from pencli import api
+    from pencli.diagnose.effects import EFFECTS, basis_of
+    from tests.campaigns import make_campaign
+
+    db = make_campaign(tmp_path, "mpacs_c", seed=3, shots=[("1.5", 6)], encoder_mm=0.08,
+                       effects=[{"name": "sensor_lag", "tau_ms": 0.45, "shape": shape}],
+                       rig_extra={"force_noise_n": 0.0, "torque_noise_nm": 0.0})
+    api.tare_runs(db, ["all"])
+    api.subtract_inertia_runs(db, ["all"])
+    run = api.load_diagnosis_runs(db, ["all"])[0]
+    basis = basis_of(run)
+    member = next(m for m in EFFECTS["sensor_lag"].members
+                  if m.params.get("shape") == member_shape and m.params.get("tau_ms") == 0.45)
+    known = member.columns(run, basis).offset
+    flight = run.flight[run.context]
+    y = run.resistance_n[run.context][flight]
+    rms = lambda r: float(np.sqrt(np.mean(r ** 2)))  # noqa: E731
+    assert rms(y) > 1.0, rms(y)  # the lag shows in flight at all
+    assert rms(y - known[flight]) < 0.3 * rms(y), (rms(y), rms(y - known[flight]), rms(y + known[flight]))

@@ -397,7 +397,7 @@ def _mass(run: DiagnosisRun, b: Basis) -> Columns:
 def _filtered(run: DiagnosisRun, b: Basis, filt: Callable[[np.ndarray], np.ndarray]) -> Columns:
     """F_meas = H(R + m a); R_meas = F_meas − m a = H(R) + (H(m a) − m a)."""
     inertia_force = run.load_cell_mass_kg * b.a
-    return Columns(np.zeros((b.t.size, 0)), base=filt(b.matrix()), offset=-(filt(inertia_force) - inertia_force))
+    return Columns(np.zeros((b.t.size, 0)), base=filt(b.matrix()), offset=filt(inertia_force) - inertia_force)
 
 
 def _poles(tau_ms: float, order: int) -> Callable[[DiagnosisRun, Basis], Columns]:
