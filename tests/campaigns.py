@@ -224,9 +224,12 @@ def varied_campaigns(count: int, seed: int, *, only: str | None = None):
 
     rng = np.random.default_rng(seed)
     names = list(RANDOM_FORMS)
+    kinds = {"nulls": 0, "pairs": 13, **{n: 2 + k for k, n in enumerate(names)}}
+    if only is not None and only not in kinds:
+        raise ValueError(f"only: got {only!r}; expected one of {', '.join(kinds)}")
     out = []
     for i in range(count):
-        kind = {"nulls": 0, "pairs": 13, **{n: 2 + k for k, n in enumerate(names)}}.get(only, i % 14)
+        kind = kinds.get(only, i % 14)
         material = str(rng.choice(["mpacs_c", "grill_brick"]))
         if kind < 2:
             label, effects, truth = f"null-{i}", [], {"none"}
