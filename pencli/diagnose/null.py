@@ -137,13 +137,12 @@ class AntiAlias:
         return {"order": self.order, "corner_hz": round(self.corner * rate_hz, 1)}
 
 
-def _nonnegative_fits(gram: np.ndarray, rhs: np.ndarray, total: float) -> tuple[np.ndarray, np.ndarray]:
-    """Least squares with non-negative amplitudes for a batch of small problems given by their normal equations
-    (Gram matrices (..., K, K), right-hand sides (..., K), and the target's own sum of squares): every subset of
-    amplitudes is solved and the best one with none negative kept.  Returns (sum of squares, amplitudes (..., K))."""
+def _nonnegative_sse(gram: np.ndarray, rhs: np.ndarray, total: float) -> np.ndarray:
+    """Residual sum of squares of least squares with non-negative amplitudes, for a batch of small problems given
+    by their normal equations (Gram matrices (..., K, K), right-hand sides (..., K), and the target's own sum of
+    squares): every subset of amplitudes is solved and the best one with none negative kept."""
     k = gram.shape[-1]
     best = np.full(gram.shape[:-2], total)
-    coef = np.zeros(gram.shape[:-1])
     for mask in range(1, 2 ** k):
         idx = [i for i in range(k) if mask >> i & 1]
         g, b = gram[..., idx, :][..., :, idx], rhs[..., idx]
@@ -153,10 +152,7 @@ def _nonnegative_fits(gram: np.ndarray, rhs: np.ndarray, total: float) -> tuple[
             sse = total - np.sum(c * b, axis=-1)  # at the optimum, |t - Xc|² = |t|² - cᵀb
         ok = np.all(c >= 0, axis=-1) & np.isfinite(sse) & (sse < best)
         best = np.where(ok, sse, best)
-        full = np.zeros(coef.shape)
-        full[..., idx] = c
-        coef = np.where(ok[..., None], full, coef)
-    return best, coef
+    return best
 
 
 def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
@@ -204,7 +200,7 @@ def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
     gram[:, 0, 0], gram[:, 0, 1] = np.sum(base * base, axis=1), base @ w
     gram[:, 1, 0], gram[:, 1, 1] = gram[:, 0, 1], float(w @ w)
     rhs = np.column_stack([base @ t, np.full(base.shape[0], float(w @ t))])
-    plain = float(np.min(_nonnegative_fits(gram, rhs, total)[0]))
+    plain = float(np.min(_nonnegative_sse(gram, rhs, total)))
     # a filter: |H|²(A g + B) + F, over every corner of each order
     ratio = np.tan(np.pi * np.minimum(f, 0.4999))[None, :] / np.tan(np.pi * ANTI_ALIAS_CORNERS)[:, None]
     best = (math.inf, None)
@@ -222,7 +218,7 @@ def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
         rhs[..., 0] = (base * t) @ h2.T
         rhs[..., 1] = (hw @ t)[None, :]
         rhs[..., 2] = float(w @ t)
-        sse = _nonnegative_fits(gram, rhs, total)[0]  # (slopes × colours, corners)
+        sse = _nonnegative_sse(gram, rhs, total)  # (slopes × colours, corners)
         k = int(np.argmin(sse))
         if float(sse.flat[k]) < best[0]:
             best = (float(sse.flat[k]), AntiAlias(order, float(ANTI_ALIAS_CORNERS[k % h2.shape[0]])))
