@@ -127,6 +127,8 @@ class Basis:
     frontal: np.ndarray | None = None
     strength_factor: float | None = None
     """The baseline's strength factor of this run (with ``frontal``)."""
+    strength_factor_mean: float | None = None
+    """The baseline's strength factor, mean over the campaign's runs (with ``frontal``)."""
     """The baseline's frontal force (Cs·strength + C·damping + K·inertia) on this run, once fitted. [N]"""
 
     def matrix(self) -> np.ndarray:
@@ -176,6 +178,9 @@ class Member:
     chain: Callable[[DiagnosisRun, Basis], Columns] | None = None
     dynamic: Callable[[Sequence[float], Design, Mapping[str, float]], Callable[[float, float], float]] | None = None
     """For members with their own columns that still act on the motion: their extra force (see :meth:`force`)."""
+    strength_extra: tuple[int, ...] = ()
+    """For a member with its own columns (``chain``): which extra columns are shares of the run's strength
+    (:meth:`strength_columns`)."""
     nonnegative: bool = False
     """The coefficients are ≥ 0 by the effect's meaning (a plug widens, pressure grows): fitted with that bound,
     so that a family cannot mimic another's shape with the opposite, unphysical sign."""
@@ -184,6 +189,14 @@ class Member:
     (n, T) ``a`` (one measurement per column) as well as an (n,) one: the diagnosis then builds them again from
     each null replicate's own measured acceleration, whose derivative error that replicate's resistance carries
     (R = F − m·a)."""
+
+    def strength_columns(self, n_extra: int) -> tuple[int, ...]:
+        """Which of the member's ``n_extra`` extra columns are shares of the run's strength (a law on the
+        strength term): block scatter multiplies them as it multiplies the baseline's strength
+        (:attr:`pencli.diagnose.linear.Spec.scaled`)."""
+        if self.chain is None:
+            return tuple(range(n_extra)) if self.term == "strength" else ()
+        return self.strength_extra
 
     def columns(self, run: DiagnosisRun, basis: Basis) -> Columns:
         if self.chain is not None:
@@ -303,6 +316,12 @@ def _describe_gradient(m: Member, c, ctx) -> dict:
     return {"change_per_100mm": change / ctx["cs_mean"], **{k: v for k, v in m.params.items()}}
 
 
+_PLUG_LENGTHS_MM = tuple(round(5.0 * 2.0 ** (i / 2), 1) for i in range(11))
+"""Plug lengths, a factor √2 apart from 5 to 160 mm.  A factor 2 apart, a capped ramp between two of them lost
+to a strength layer, whose edges sit every 5 mm with three widths (dev plugs of seed 40000: the four capped
+ramps, lengths 16–30 mm, all named a layer once the layer rode on each block's strength)."""
+
+
 def _plug_members() -> tuple[Member, ...]:
     # a plug adds a width g·h(x) ≥ 0 to every blade, whatever its thickness: T_eff = T + g·h(x), so every frontal
     # term gains (its force / T) × g·h(x); h is dimensionless (1 at saturation), g in metres.  The strength
@@ -310,14 +329,15 @@ def _plug_members() -> tuple[Member, ...]:
     # itself biased by the plug, so one shared g would leave a misfit another family would take up.
     def member(h, **params):
         return Member(params, chain=lambda run, b, h=h: _plug_columns(run, b, h),
-                      dynamic=lambda c, design, values, h=h: _plug_force(c, design, values, h), nonnegative=True)
+                      dynamic=lambda c, design, values, h=h: _plug_force(c, design, values, h), nonnegative=True,
+                      strength_extra=(0,))
 
-    out = [member(lambda x, L=L * 1e-3: -np.expm1(-x / L), length_mm=L, shape="exponential") for L in _LENGTHS_MM]
+    out = [member(lambda x, L=L * 1e-3: -np.expm1(-x / L), length_mm=L, shape="exponential") for L in _PLUG_LENGTHS_MM]
     out += [member(lambda x, L=L * 1e-3: (x / L) / (1.0 + x / L), length_mm=L, shape="hyperbolic")
-            for L in _LENGTHS_MM]
+            for L in _PLUG_LENGTHS_MM]
     # a plug that grows at a steady rate until it reaches its final size, then stays (a ramp with a corner)
     out += [member(lambda x, L=L * 1e-3: np.minimum(x / L, 1.0), length_mm=L, shape="capped_ramp")
-            for L in _LENGTHS_MM]
+            for L in _PLUG_LENGTHS_MM]
     out.append(member(lambda x: x / 0.1, shape="linear"))
     return tuple(out)
 
@@ -328,7 +348,10 @@ def _plug_columns(run: DiagnosisRun, b: Basis, h: Callable[[np.ndarray], np.ndar
     strength_part = b.strength * (b.strength_factor if b.strength_factor is not None else 1.0)
     rate_part = frontal - strength_part
     profile = h(x) / b.blade_thickness_m
-    return Columns(np.column_stack([strength_part * profile, rate_part * profile]))
+    # the strength column at the campaign's mean strength factor: the diagnosis scales it per run by the run's
+    # own (a plug in a stronger block crushes stronger material), as it does every strength law
+    mean = b.strength_factor_mean if b.strength_factor_mean is not None else (b.strength_factor or 1.0)
+    return Columns(np.column_stack([b.strength * mean * profile, rate_part * profile]))
 
 
 def _plug_force(coefficients, design: Design, values: Mapping[str, float], h) -> Callable[[float, float], float]:

@@ -120,7 +120,8 @@ def _register(columns: _Columns, bases: Sequence[Basis], runs: Sequence[Diagnosi
     offset = base_spec.offset
     if built[0].offset is not None:
         offset = add([b.offset for b in built])
-    return _Candidate(member, Spec(tuple(base + extra), offset))
+    scaled = tuple(4 + j for j in member.strength_columns(len(extra)))
+    return _Candidate(member, Spec(tuple(base + extra), offset, scaled))
 
 
 def _measured_acceleration(basis: Basis, replicate: np.ndarray) -> np.ndarray:
@@ -140,7 +141,9 @@ def _combine(a: _Candidate, b: _Candidate, base_spec: Spec) -> Spec | None:
     if a_base and b_base:
         return None
     lead = a if a_base else b
-    return Spec(lead.spec.columns[:4] + a.spec.columns[4:] + b.spec.columns[4:], lead.spec.offset)
+    shift = len(a.spec.columns) - 4  # b's extra columns follow a's
+    return Spec(lead.spec.columns[:4] + a.spec.columns[4:] + b.spec.columns[4:], lead.spec.offset,
+                a.spec.scaled + tuple(q + shift for q in b.spec.scaled))
 
 
 # ----------------------------------------------------------------------------- scoring
@@ -614,7 +617,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     values = {"strength_factor": float(np.mean(cs)), "sidewall_pressure_kpa": float(shared[0]),
               "damping_kpa_s_m": float(shared[1]), "inertia_coefficient": float(shared[2])}
     bases = [replace(b, frontal=c * b.strength + shared[1] * b.damping + shared[2] * b.inertia,
-                     strength_factor=float(c)) for b, c in zip(bases, cs)]
+                     strength_factor=float(c), strength_factor_mean=values["strength_factor"])
+             for b, c in zip(bases, cs)]
     context = {"cs_mean": max(values["strength_factor"], 1e-9), "p_kpa": max(values["sidewall_pressure_kpa"], 1e-9),
                "load_cell_mass_kg": float(np.mean([r.load_cell_mass_kg for r in runs]))}
 
@@ -872,8 +876,8 @@ def _ambiguities(reports: Sequence[EffectReport], tested: Mapping[str, _Tested],
 
 def _residuals(stats: Statistics, matrices, ys, spec: Spec) -> list[np.ndarray]:
     """Each run's held-out residual under ``spec``, from the same fold fits as the scores (for figures). [N]"""
-    folds = stats.score([spec]).folds[0]
-    return heldout_residuals(matrices, ys, spec, folds)
+    scores = stats.score([spec])
+    return heldout_residuals(matrices, ys, spec, scores.folds[0], scores.run_scale[0])
 
 
 def _verdict_residuals(stats: Statistics, matrices, ys, candidates, tested: Mapping[str, _Tested],
