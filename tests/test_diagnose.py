@@ -216,3 +216,16 @@ def test_a_null_read_by_a_flickering_encoder_is_none_and_its_position_error_is_r
     assert result.verdict == "none", (result.verdict, [(e.name, e.z) for e in result.effects[:3]])
     read = [n["position_noise_um"] for n in result.decision["noise_model"]]
     assert all(5.0 <= r <= 15.0 for r in read), read
+
+
+def test_a_strong_gradient_in_scattered_blocks_is_a_gradient(tmp_path):
+    """Issue 11: the block's strength scatter multiplies a gradient as it multiplies the strength.  Fitted
+    as a shared column beside per-run strength factors, ±5 % of scatter on a gradient that more than doubles
+    the strength by 100 mm was a per-run misfit that a speed law took up (dev gradient-10 of seed 41000)."""
+    gradient = {"name": "strength_gradient", "change_per_100mm": 1.6, "shape": 1, "exponent": 1.6}
+    db = conditioned(make_campaign(tmp_path, "grill_brick", seed=47, shots=SIX, effects=[gradient],
+                                   strength_scale=[0.94, 1.05, 0.96, 1.03, 0.95, 1.04]))
+    result = api.diagnose(db, ["all"])
+    assert result.verdict == "strength_gradient", [(e.name, e.shrink_pct) for e in result.effects[:3]]
+    top = result.effects[0]
+    assert top.name == "strength_gradient" and top.shrink_pct > 75.0

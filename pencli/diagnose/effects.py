@@ -324,9 +324,11 @@ ramps, lengths 16–30 mm, all named a layer once the layer rode on each block's
 
 def _plug_members() -> tuple[Member, ...]:
     # a plug adds a width g·h(x) ≥ 0 to every blade, whatever its thickness: T_eff = T + g·h(x), so every frontal
-    # term gains (its force / T) × g·h(x); h is dimensionless (1 at saturation), g in metres.  The strength
-    # and the rate terms get a coefficient each: the baseline's split of the frontal force between them is
-    # itself biased by the plug, so one shared g would leave a misfit another family would take up.
+    # term gains (its force / T) × g·h(x); h is dimensionless (1 at saturation), g in metres.  The strength, damping
+    # and inertia terms get a coefficient each (g, g·C, g·K, all ≥ 0): the baseline's C and K are themselves
+    # biased by the plug, so a rate column built at their values has the wrong mix of v and v² (dev plug-3 of
+    # seed 40000, a capped ramp: 72.5 % shrink with one rate column built from them, named a layer at 78.3 %;
+    # 80.8 % with the two terms apart).
     def member(h, **params):
         return Member(params, chain=lambda run, b, h=h: _plug_columns(run, b, h),
                       dynamic=lambda c, design, values, h=h: _plug_force(c, design, values, h), nonnegative=True,
@@ -344,32 +346,36 @@ def _plug_members() -> tuple[Member, ...]:
 
 def _plug_columns(run: DiagnosisRun, b: Basis, h: Callable[[np.ndarray], np.ndarray]) -> Columns:
     x = np.where(b.inside, b.x, 0.0)
-    frontal = b.frontal if b.frontal is not None else b.strength
-    strength_part = b.strength * (b.strength_factor if b.strength_factor is not None else 1.0)
-    rate_part = frontal - strength_part
     profile = h(x) / b.blade_thickness_m
     # the strength column at the campaign's mean strength factor: the diagnosis scales it per run by the run's
     # own (a plug in a stronger block crushes stronger material), as it does every strength law
     mean = b.strength_factor_mean if b.strength_factor_mean is not None else (b.strength_factor or 1.0)
-    return Columns(np.column_stack([b.strength * mean * profile, rate_part * profile]))
+    return Columns(np.column_stack([b.strength * mean * profile, b.damping * profile, b.inertia * profile]))
 
 
 def _plug_force(coefficients, design: Design, values: Mapping[str, float], h) -> Callable[[float, float], float]:
-    """Extra frontal force of a plug: (strength term × g_s + rate terms × g_r) × h(x) / T. [N]"""
-    g_strength, g_rate = (float(c) for c in coefficients)
+    """Extra frontal force of a plug: (strength term × g + damping term × g·C + inertia term × g·K) × h(x) / T,
+    each product a fitted coefficient. [N]"""
+    g_strength, g_damping, g_inertia = (float(c) for c in coefficients)
 
     def extra(x: float, v: float) -> float:
         x, v = max(x, 0.0), max(v, 0.0)
         strength, _, damping, inertia = unit_terms(design, x, v)
-        rate = values["damping_kpa_s_m"] * damping + values["inertia_coefficient"] * inertia
+        rate = g_damping * damping + g_inertia * inertia
         profile = float(h(np.float64(x))) / design.blade_thickness_m
-        return float((values["strength_factor"] * strength * g_strength + rate * g_rate) * profile)
+        return float((values["strength_factor"] * strength * g_strength + rate) * profile)
 
     return extra
 
 
 def _describe_plug(m: Member, c, ctx) -> dict:
-    return {"growth_mm": float(c[0]) * 1e3, "growth_mm_rate_terms": float(c[1]) * 1e3, **dict(m.params)}
+    """The growth g of the strength term, and g·C and g·K of the rate terms over the baseline's C and K (None
+    where the baseline has that term at 0). [mm]"""
+    def over(value, reference):
+        return float(value) * 1e3 / reference if reference > 0 else None
+
+    return {"growth_mm": float(c[0]) * 1e3, "growth_mm_damping": over(c[1], ctx.get("c_kpa_s_m", 0.0)),
+            "growth_mm_inertia": over(c[2], ctx.get("k", 0.0)), **dict(m.params)}
 
 
 def _pressure_members() -> tuple[Member, ...]:
