@@ -125,11 +125,11 @@ class Basis:
     inside: np.ndarray
     blade_thickness_m: float
     frontal: np.ndarray | None = None
+    """The baseline's frontal force (Cs·strength + C·damping + K·inertia) on this run, once fitted. [N]"""
     strength_factor: float | None = None
     """The baseline's strength factor of this run (with ``frontal``)."""
     strength_factor_mean: float | None = None
     """The baseline's strength factor, mean over the campaign's runs (with ``frontal``)."""
-    """The baseline's frontal force (Cs·strength + C·damping + K·inertia) on this run, once fitted. [N]"""
 
     def matrix(self) -> np.ndarray:
         return np.column_stack([self.strength, self.friction, self.damping, self.inertia])
