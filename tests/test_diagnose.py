@@ -229,3 +229,17 @@ def test_a_strong_gradient_in_scattered_blocks_is_a_gradient(tmp_path):
     assert result.verdict == "strength_gradient", [(e.name, e.shrink_pct) for e in result.effects[:3]]
     top = result.effects[0]
     assert top.name == "strength_gradient" and top.shrink_pct > 75.0
+
+
+@pytest.mark.parametrize("effect, seed, key, truth, tolerance", [
+    ({"name": "plug_growth", "growth_mm": 2.0, "length_mm": 20.0, "shape": 1}, 52, "growth_mm", 2.0, 0.15),
+    ({"name": "strength_layer", "depth_mm": 30, "ratio": 1.8, "thickness_mm": 300}, 51, "ratio", 1.8, 0.08),
+])
+def test_a_strong_effects_size_is_stated_against_the_fit_that_has_it(tmp_path, effect, seed, key, truth, tolerance):
+    """Issue 11: an effect's size is stated against the strength factor of the fit with the effect in.  The
+    baseline's absorbs part of a strong effect: against it a 2.0 mm plug read 0.95 mm and a 1.8 × layer 1.52."""
+    db = conditioned(make_campaign(tmp_path, "mpacs_c", seed=seed, shots=SIX, effects=[effect], block_kpa=BLOCKS,
+                                   strength_scale=[0.95, 1.04, 0.97, 1.03, 0.96, 1.05]))
+    result = api.diagnose(db, ["all"])
+    assert result.verdict == effect["name"]
+    assert result.effects[0].params[key] == pytest.approx(truth, rel=tolerance)

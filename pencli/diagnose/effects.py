@@ -369,12 +369,14 @@ def _plug_force(coefficients, design: Design, values: Mapping[str, float], h) ->
 
 
 def _describe_plug(m: Member, c, ctx) -> dict:
-    """The growth g of the strength term, and g·C and g·K of the rate terms over the baseline's C and K (None
-    where the baseline has that term at 0). [mm]"""
+    """The growth g of the strength term (its column is built at the baseline's mean strength factor, the fit's
+    own is the block's), and g·C and g·K of the rate terms over the fit's C and K (None where the fit has that
+    term at 0). [mm]"""
     def over(value, reference):
         return float(value) * 1e3 / reference if reference > 0 else None
 
-    return {"growth_mm": float(c[0]) * 1e3, "growth_mm_damping": over(c[1], ctx.get("c_kpa_s_m", 0.0)),
+    growth = float(c[0]) * 1e3 * ctx.get("cs_baseline", ctx["cs_mean"]) / ctx["cs_mean"]
+    return {"growth_mm": growth, "growth_mm_damping": over(c[1], ctx.get("c_kpa_s_m", 0.0)),
             "growth_mm_inertia": over(c[2], ctx.get("k", 0.0)), **dict(m.params)}
 
 

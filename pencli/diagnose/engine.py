@@ -472,6 +472,19 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
 
 
 # ----------------------------------------------------------------------------- the diagnosis
+def _own_context(context: Mapping[str, float], fit: Mapping[str, np.ndarray]) -> dict:
+    """The reference values an effect's parameters are stated against, from the fit *with* that effect: its
+    mean strength factor, P, C and K.  The baseline's own absorb part of a strong effect (a layer 1.8 × as strong
+    over most of the depth raises every run's baseline strength factor, and the layer's ratio against that came
+    out 1.52); ``cs_baseline`` is the baseline's mean, at which a plug's strength column is built."""
+    strength, coefficients = fit["strength"][:, 0], fit["coefficients"][:, 0]
+    own = dict(context, cs_baseline=context["cs_mean"])
+    if float(np.mean(strength)) > 0:
+        own["cs_mean"] = float(np.mean(strength))
+    own.update(p_kpa=max(float(coefficients[0]), 1e-9), c_kpa_s_m=float(coefficients[1]), k=float(coefficients[2]))
+    return own
+
+
 def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted_ctx: np.ndarray, values: Mapping[str, float]
              ) -> RunNull:
     """A run's null-replicate recipe on the span from its context start to just past its stop.
@@ -682,7 +695,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         intervals = {"coefficients_95": [[float(c - 1.96 * s), float(c + 1.96 * s)] for c, s in zip(coefs, spread_c)],
                      "shapes_chosen_per_fold": _shape_spread(chosen)}
         reports[e.name] = EffectReport(
-            e.name, e.side, "resistance", e.describe(cand.member, coefs, context), intervals,
+            e.name, e.side, "resistance", e.describe(cand.member, coefs, _own_context(context, fit)), intervals,
             math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), bool(t.z > z_threshold), round(t.z, 2),
             (S0[0] - family.heldout[0]) / excess if excess > 0 else None,
             math.sqrt(max(t.centre + z_threshold * t.scale, 0.0)))
