@@ -633,8 +633,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                      strength_factor=float(c), strength_factor_mean=values["strength_factor"])
              for b, c in zip(bases, cs)]
     context = {"cs_mean": max(values["strength_factor"], 1e-9), "p_kpa": max(values["sidewall_pressure_kpa"], 1e-9),
-               "load_cell_mass_kg": float(np.mean([r.load_cell_mass_kg for r in runs])),
-               "c_kpa_s_m": values["damping_kpa_s_m"], "k": values["inertia_coefficient"]}
+               "load_cell_mass_kg": float(np.mean([r.load_cell_mass_kg for r in runs]))}
 
     # ---- null replicates through the campaign's own chain
     say("null replicates", 0.05)
