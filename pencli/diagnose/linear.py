@@ -149,7 +149,8 @@ class Statistics:
             G[:, :, q] = np.swapaxes(self._against[:, t], 1, 2)
             G[:, q[:, None], q[None, :]] = self._mutual[:, t]
             C[:, q, 0] = self._cross[:, t]
-            per_target.append(self._score([specs[i] for i in touched], G, C, self.square[:, t:t + 1], part(touched)))
+            per_target.append(self._score([specs[i] for i in touched], G, C, self.square[:, t:t + 1], part(touched),
+                                          profile=t == 0))
         # targets side by side; the folds and scales are the measured data's (target 0) alone
         parts.append((touched, Scores(**{f.name: getattr(per_target[0], f.name) if f.name in _DATA_ONLY else
                                          np.concatenate([getattr(s, f.name) for s in per_target], axis=-1)
@@ -159,7 +160,9 @@ class Statistics:
                          for f in fields(Scores)})
 
     def _score(self, specs: list[Spec], G: np.ndarray, C: np.ndarray, S: np.ndarray,
-               run_scale: np.ndarray | None = None) -> Scores:
+               run_scale: np.ndarray | None = None, profile: bool = True) -> Scores:
+        """Score ``specs`` on the targets of ``C``; the strength factors are profiled (:func:`_profiled_scale`)
+        only on a first, unscaled pass over the measured data (``profile``): the second pass's are not used."""
         J = np.array([s.columns for s in specs])  # (M, p)
         off = np.array([s.offset for s in specs])  # (M,)
         # per-run Gram of [columns], cross with the target t = y − w_off, and |t|²
@@ -195,7 +198,8 @@ class Statistics:
         total = _quadratic(A_all, b_all, t_all, theta) / R
         # strength factors: cs_i = (c_i0 − D_i0,rest · θ) / D_i00
         strength = (c[:, :, 0, :] - np.einsum("rmq,mqt->rmt", D[:, :, 0, 1:], theta)) / d00
-        profiled = _profiled_scale(D, c[..., 0], theta[..., 0], strength[..., 0], mask)
+        profiled = (_profiled_scale(D, c[..., 0], theta[..., 0], strength[..., 0], mask)
+                    if profile and run_scale is None else np.ones((len(specs), self.n_runs)))
         return Scores(heldout, train, total, theta, np.moveaxis(strength, 0, 1), folds, scale.T, profiled)
 
 
