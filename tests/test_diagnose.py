@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from pencli import api
@@ -243,3 +244,34 @@ def test_a_strong_effects_size_is_stated_against_the_fit_that_has_it(tmp_path, e
     result = api.diagnose(db, ["all"])
     assert result.verdict == effect["name"]
     assert result.effects[0].params[key] == pytest.approx(truth, rel=tolerance)
+
+
+@pytest.mark.parametrize("effect, seed, figure", [
+    ({"name": "plug_growth", "growth_mm": 2.0, "length_mm": 20.0, "shape": 1}, 52, "final_depth_mm"),
+    ({"name": "strength_gradient", "change_per_100mm": 1.0}, 53, "penetration_time_pct"),
+])
+def test_a_strong_effects_trajectory_change_leads_to_the_measured_run(tmp_path, effect, seed, figure):
+    """Issue 11: the trajectory with the effect is the fit *with* the effect (its own strength, P, C and K)
+    plus the effect's force.  On the baseline's coefficients, which absorb part of a strong effect, the force
+    was counted twice: a 2 mm plug's blade stopped at 84 mm against the 110 mm measured (the baseline's at
+    128 mm), a gradient's penetration took 15.3 ms against 13.2 ms measured (the baseline's 12.9 ms).
+    Blocks without scatter, so the median run's strength is the campaign's mean."""
+    from pencli.fit.resistance import with_coefficients
+    from pencli.model.dynamics import simulate
+
+    db = conditioned(make_campaign(tmp_path, "mpacs_c", seed=seed, shots=SIX, effects=[effect]))
+    runs = {r.run_id: r for r in api.load_diagnosis_runs(db, ["all"])}
+    result = api.diagnose(db, ["all"])
+    top = result.effects[0]
+    assert top.name == effect["name"]
+    change, run = top.trajectory_change, runs[top.trajectory_change["run"]]
+    before = simulate(with_coefficients(run.design, result.baseline["coefficients"]), rtol=1e-8).summary
+    stop = int(np.searchsorted(run.time_s, run.stop_s))
+    if figure == "final_depth_mm":  # the sim rig's blade stopped in the block
+        measured, baseline = 1e3 * float(run.depth_m[stop]), before.final_depth_mm
+        after = baseline + change["final_depth_mm"]
+    else:  # it went to full depth: the time it took
+        measured, baseline = run.stop_s - run.contact_s, before.penetration_time_s
+        after = baseline * (1.0 + change["penetration_time_pct"] / 100.0)
+    assert abs(baseline - measured) > 0.015 * measured  # the effect matters to the trajectory
+    assert abs(after - measured) < 0.3 * abs(baseline - measured), (measured, baseline, after)

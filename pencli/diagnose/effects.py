@@ -210,7 +210,9 @@ class Member:
               ) -> Callable[[float, float], float] | None:
         """Extra resistance f(x [m], v [m/s]) → N of this member in the dynamic model (law members only).
 
-        ``values`` are the baseline's fitted coefficients in file units (CONTRACT §1 names).
+        ``values`` are the fitted coefficients in file units (CONTRACT §1 names) of the model the force joins;
+        ``strength_factor_of_columns``, where given, is the mean strength factor at which the member's own
+        columns were built (the baseline's: :attr:`Basis.strength_factor_mean`), else ``strength_factor``.
         """
         if self.dynamic is not None:
             return self.dynamic(coefficients, design, values)
@@ -357,13 +359,14 @@ def _plug_force(coefficients, design: Design, values: Mapping[str, float], h) ->
     """Extra frontal force of a plug: (strength term × g + damping term × g·C + inertia term × g·K) × h(x) / T,
     each product a fitted coefficient. [N]"""
     g_strength, g_damping, g_inertia = (float(c) for c in coefficients)
+    mean = values.get("strength_factor_of_columns", values["strength_factor"])  # as in :func:`_plug_columns`
 
     def extra(x: float, v: float) -> float:
         x, v = max(x, 0.0), max(v, 0.0)
         strength, _, damping, inertia = unit_terms(design, x, v)
         rate = g_damping * damping + g_inertia * inertia
         profile = float(h(np.float64(x))) / design.blade_thickness_m
-        return float((values["strength_factor"] * strength * g_strength + rate) * profile)
+        return float((mean * strength * g_strength + rate) * profile)
 
     return extra
 

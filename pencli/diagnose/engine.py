@@ -446,8 +446,15 @@ def _dense_band(values: np.ndarray, weight: np.ndarray, share: float = 0.8) -> t
 
 
 def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs: Sequence[DiagnosisRun],
-                       values: Mapping[str, float], loss: float = 0.0) -> dict:
-    """Change of the CONTRACT §5 figures of the median-speed run once the effect is in the dynamic model."""
+                       values: Mapping[str, float], loss: float = 0.0,
+                       own_values: Mapping[str, float] | None = None) -> dict:
+    """Change of the CONTRACT §5 figures of the median-speed run from the baseline's dynamic model to the
+    effect's: the fit with the effect in (``own_values``: its mean strength factor, P, C and K) and the
+    effect's force.
+
+    The baseline's coefficients absorb part of a strong effect; with the effect's force added to them it is
+    counted twice (a 2 mm plug on the sim rig: the baseline stopped the blade 13 mm short of the measured
+    depth, and the plug's force on top of it 27 mm short)."""
     if effect.side == "chain":
         return {"note": "a measurement effect: the trajectory does not change"}
     run = sorted(runs, key=lambda r: r.contact_speed_m_s)[len(runs) // 2]
@@ -457,8 +464,10 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
         if effect.side == "drive":
             after = simulate(replace(base_design, efficiency=base_design.efficiency * (1 - loss)), rtol=1e-8).summary
         else:
-            after = simulate(base_design, rtol=1e-8,
-                             extra_resistance=member.force(coefficients, run.design, values)).summary
+            own = values if own_values is None else own_values
+            force = member.force(coefficients, run.design,
+                                 dict(own, strength_factor_of_columns=values["strength_factor"]))
+            after = simulate(with_coefficients(run.design, own), rtol=1e-8, extra_resistance=force).summary
     except ModelError as exc:  # the effect's fitted force can make the motion one the model cannot finish
         return {"run": run.run_id, "note": f"the dynamic model with this effect did not finish: {exc}"}
     return {
@@ -472,6 +481,14 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
 
 
 # ----------------------------------------------------------------------------- the diagnosis
+def _own_values(fit: Mapping[str, np.ndarray]) -> dict:
+    """The Eq. 9 coefficients (file units, CONTRACT §1 names) of a fit with an effect in: its mean strength
+    factor, P, C and K."""
+    coefficients = fit["coefficients"][:, 0]
+    return {"strength_factor": float(np.mean(fit["strength"][:, 0])), "sidewall_pressure_kpa": float(coefficients[0]),
+            "damping_kpa_s_m": float(coefficients[1]), "inertia_coefficient": float(coefficients[2])}
+
+
 def _own_context(context: Mapping[str, float], fit: Mapping[str, np.ndarray]) -> dict:
     """The reference values an effect's parameters are stated against, from the fit *with* that effect: its
     mean strength factor, P, C and K.  The baseline's own absorb part of a strong effect (a layer 1.8 × as strong
@@ -761,7 +778,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
             else:
                 t = tested[r.name]
                 change = _trajectory_change(effect, candidates[r.name][t.family.best].member,
-                                            t.fit["coefficients"][3:, 0], runs, values)
+                                            t.fit["coefficients"][3:, 0], runs, values, own_values=_own_values(t.fit))
         final.append(replace(r, trajectory_change=change, axis=EFFECTS[r.name].axis))
     final.sort(key=lambda r: (-int(r.significant), -r.shrink_pct))
     ambiguities = _ambiguities(final, tested, S0)
