@@ -50,7 +50,7 @@ import numpy as np
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
-from pencli.diagnose.null import (NoiseModel, RunNull, fit_anti_alias, fit_noise, gumbel_quantile,
+from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_anti_alias, fit_noise, gumbel_quantile,
                                   normal_quantile, replicate_campaign, student_quantile)
 from pencli.errors import FitError, ModelError
 from pencli.filter.tare import Events
@@ -532,20 +532,22 @@ def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted_ctx: np.ndarray, val
     baseline[:fitted_ctx.size] = fitted_ctx[:ts.size]  # the context starts the span; nothing is analysed past it
     return RunNull(ts, run.depth_m[span], run.acceleration_m_s2[span], at_rest, use, fitted_ctx[use_ctx], events,
                    run.design.penetration_depth_m, run.encoder_step_m, run.load_cell_mass_kg, noise,
-                   run.derivative_method, contact, _model_motion(run, ts, contact, values),
+                   run.derivative_method, contact, _model_motion(run, contact, values),
                    anti_alias=fit_anti_alias(noise), baseline_n=baseline)
 
 
-def _model_motion(run: DiagnosisRun, ts: np.ndarray, contact_s: float, values: Mapping[str, float]):
-    """The baseline's own motion in the material, as (depth [m], acceleration [m/s²], stop [s]) on ``ts``
-    from ``contact_s`` on (NaN before), or None when the model does not move the blade.
+def _model_motion(run: DiagnosisRun, contact_s: float, values: Mapping[str, float]) -> ModelMotion | None:
+    """The baseline's own motion in the material from ``contact_s`` on, or None when the model does not move
+    the blade.
 
     The encoder cannot resolve how the acceleration changes within a millisecond of contact or of the stop
     (at 0.1 mm steps a change of 20 m/s² over 0.5 ms moves the tip 2.5 µm); the smoothing spline through the
     record has its own shape there, which the data's true motion does not share.  Replicates made from the
     spline alone therefore miss the derivative error the data have near the ends of the penetration.  The
     reference model's dynamics, started where and as fast as the run met the material, give a motion with
-    the jumps the physics puts there; the replicates are measured from it.
+    the jumps the physics puts there; the replicates are measured from it (each placed at its own contact,
+    :func:`pencli.diagnose.null.replicate_run`), sampled 4 × as fast as the run so that it can be placed
+    between samples.
     """
     i = int(np.searchsorted(run.time_s, contact_s))
     if not 0 < i < run.time_s.size:
@@ -557,20 +559,13 @@ def _model_motion(run: DiagnosisRun, ts: np.ndarray, contact_s: float, values: M
     design = replace(with_coefficients(run.design, values),
                      surface_offset_m=run.design.surface_offset_m + depth_c)  # the block's surface as met
     try:
-        result = simulate(design, speed_at_contact_m_s=speed, output_rate_hz=run.rate_hz, rtol=1e-8)
+        result = simulate(design, speed_at_contact_m_s=speed, output_rate_hz=4.0 * run.rate_hz, rtol=1e-8)
     except ModelError:
         return None  # the replicates then come from the spline through the record
     if not result.success or result.trajectory.time_s.size < 4:
         return None
     traj = result.trajectory
-    tau = ts - contact_s
-    inside = tau >= 0.0
-    end = float(traj.time_s[-1])
-    depth = np.full(ts.size, np.nan)
-    accel = np.full(ts.size, np.nan)
-    depth[inside] = depth_c + np.interp(tau[inside], traj.time_s, traj.depth_m)
-    accel[inside] = np.where(tau[inside] <= end, np.interp(tau[inside], traj.time_s, traj.acceleration_m_s2), 0.0)
-    return depth, accel, contact_s + end
+    return ModelMotion(depth_c, traj.time_s, traj.depth_m, traj.acceleration_m_s2)
 
 
 def _standardise(values: np.ndarray, floor: float = 0.0) -> tuple[float, float, float]:

@@ -6,7 +6,9 @@ chain, as read from its data:
 - the true motion is the run's smoothed trajectory (the spline through its
   encoder record) in flight and, from the contact on, the baseline's own
   dynamics (whose acceleration jumps at contact and stop as the data's do,
-  which the encoder cannot resolve and the spline does not reproduce);
+  which the encoder cannot resolve and the spline does not reproduce), each
+  replicate's contact drawn within the sampling interval before the sample
+  at which the run's force shows it, as the data's lies;
 - the encoder quantises it to the record's own step, each run at its own
   phase as read from its record (:func:`encoder_phase`) shifted by one
   random amount per replicate, after adding the position error the record
@@ -229,6 +231,35 @@ def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
 
 
 @dataclass(frozen=True)
+class ModelMotion:
+    """The baseline's own motion in the material from its contact on (the reference model's dynamics, started
+    where and as fast as the run met the material), to be placed at any contact time."""
+
+    depth_at_contact_m: float
+    time_s: np.ndarray
+    """Since contact. [s]"""
+    depth_m: np.ndarray
+    """Since contact. [m]"""
+    acceleration_m_s2: np.ndarray
+
+    def on(self, ts: np.ndarray, contact_s: float, depth_at_contact_m: float | None = None
+           ) -> tuple[np.ndarray, np.ndarray, float]:
+        """(depth [m], acceleration [m/s²]) on ``ts`` with the contact at ``contact_s`` and there at
+        ``depth_at_contact_m`` (default: the run's reading at contact) (NaN before it, the acceleration 0 after
+        the stop), and the stop [s]."""
+        start = self.depth_at_contact_m if depth_at_contact_m is None else depth_at_contact_m
+        tau = ts - contact_s
+        inside = tau >= 0.0
+        end = float(self.time_s[-1])
+        depth = np.full(ts.size, np.nan)
+        accel = np.full(ts.size, np.nan)
+        depth[inside] = start + np.interp(tau[inside], self.time_s, self.depth_m)
+        accel[inside] = np.where(tau[inside] <= end,
+                                 np.interp(tau[inside], self.time_s, self.acceleration_m_s2), 0.0)
+        return depth, accel, contact_s + end
+
+
+@dataclass(frozen=True)
 class RunNull:
     """What one run needs to make its replicates (all on the span from the context start to just past the stop)."""
 
@@ -249,9 +280,9 @@ class RunNull:
     method: str
     kinematic_contact_s: float
     """Where the derivatives break the motion at contact (:func:`pencli.filter.inertia.kinematic_events`). [s]"""
-    model: tuple | None = None
-    """The baseline's motion in the material: (depth [m], acceleration [m/s²], NaN before contact; its stop [s]),
-    or None to make the replicates from the spline through the record alone."""
+    model: "ModelMotion | None" = None
+    """The baseline's motion in the material, or None to make the replicates from the spline through the record
+    alone."""
     anti_alias: AntiAlias | None = None
     """The force channel's low-pass as read from its noise (:func:`fit_anti_alias`), or None."""
     baseline_n: np.ndarray | None = None
@@ -353,6 +384,13 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
     acceleration a*, which in flight is D(x̃) (the smoother's own resolution bias, common to data and
     replicates, cancels).  Without a model the whole motion is x̃, as in flight.
 
+    Each replicate's contact is drawn uniformly within the sampling interval before the sample at which the
+    run's force shows it (``kinematic_contact_s``, where the derivatives break the motion, the data's and the
+    replicates' alike): the data's tip met the material somewhere in that interval, not on a sample, and
+    how far before the break the acceleration jumps sets the derivative error around contact.  With every
+    replicate's jump on the break, dev nulls read by a 0.32 mm encoder at 30 kHz put the data's sensor-lag
+    improvement above the replicates' median in 24 of 30 campaigns, and 2 of the 30 were called a lag.
+
     ``phases``: one shift per replicate (fractions of a count) added to the run's own phase as read from its
     record (:func:`encoder_phase`); without them each replicate reads the run at a random phase.
     """
@@ -364,17 +402,6 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
     smooth, velocity, _ = smooth_motion(null.depth_m, rate, motion_breaks(t, motion), step)
     smooth = np.where(null.at_rest & (t < null.events.contact_s), null.depth_m, smooth)
     true_contact = float(np.interp(null.events.contact_s, t, velocity))
-    inside = np.zeros(t.size, dtype=bool)
-    if null.model is not None:
-        model_depth, model_accel, model_stop = null.model
-        inside = np.isfinite(model_depth)
-        smooth = np.where(inside, model_depth, smooth)
-        motion = replace(motion, stop_s=min(model_stop, float(t[-1])))
-    breaks, joins = motion_breaks(t, motion), motion_joins(t, motion)
-    _, reference = derivatives(smooth, rate, breaks, null.method, count_m=step, joins=joins)
-    if null.model is not None:
-        reference = np.where(inside, model_accel, reference)
-    noise = null.noise.simulate(t.size, rng, count)
     flight = ~null.at_rest & (t < null.events.contact_s)
     own = encoder_phase(null.depth_m, smooth, flight, step)
     if phases is None:
@@ -382,11 +409,33 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
     else:
         fractions = (np.asarray(phases, dtype=float) + own) % 1.0
     jitter = position_noise(null.depth_m, smooth, flight, step, own, seed + 1)
-    phases = step * fractions
-    moved = smooth[:, None] + phases
+    # the motion of each replicate (columns) and the breaks of its derivatives
+    motions = [motion] * count
+    if null.model is not None:
+        contacts = null.kinematic_contact_s - rng.uniform(0.0, 1.0, count) / rate
+        # continuous with the smoothed flight where it meets the material (the record's reading there is a
+        # whole count, up to half a count off the motion)
+        placed = [null.model.on(t, c, float(np.interp(c, t, smooth))) for c in contacts]
+        inside = np.column_stack([np.isfinite(d) for d, _, _ in placed])
+        truth = np.where(inside, np.column_stack([d for d, _, _ in placed]), smooth[:, None])
+        motions = [replace(motion, stop_s=min(stop, float(t[-1]))) for _, _, stop in placed]
+        # the true acceleration: the model's in the material; in flight D(x̃), the smoother's own reading of it
+        flight_motion = motions[0]
+        _, flight_accel = derivatives(np.where(inside[:, 0], truth[:, 0], smooth), rate,
+                                      motion_breaks(t, flight_motion), null.method, count_m=step,
+                                      joins=motion_joins(t, flight_motion))
+        reference = np.where(inside, np.column_stack([a for _, a, _ in placed]), flight_accel[:, None])
+    else:
+        truth = np.repeat(smooth[:, None], count, axis=1)
+        _, accel0 = derivatives(smooth, rate, motion_breaks(t, motion), null.method, count_m=step,
+                                joins=motion_joins(t, motion))
+        reference = np.repeat(accel0[:, None], count, axis=1)
+    noise = null.noise.simulate(t.size, rng, count)
+    shifts = step * fractions
+    moved = truth + shifts
     if jitter > 0.0:  # the encoder's own position error, where the blade moves (at rest the record is its own)
         moved = moved + np.where(null.at_rest, 0.0, jitter)[:, None] * rng.standard_normal(moved.shape)
-    depth = step * np.round(moved / step) - phases
+    depth = step * np.round(moved / step) - shifts
     depth -= depth[:1] - null.depth_m[0]  # the encoder is zeroed at rest, as the data's
     speeds = np.full(count, np.nan)
     for b in range(count):
@@ -394,19 +443,27 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
             speeds[b] = detect_events(t, depth[:, b], null.full_depth_m).contact_speed_m_s
         except DataError:
             pass
-    if null.method == "spline":  # not linear: one replicate at a time
-        accel = np.column_stack([derivatives(depth[:, b], rate, breaks, null.method, count_m=step)[1]
-                                 for b in range(count)])
-    else:  # linear in the record: all replicates in one call
-        accel = derivatives(depth, rate, breaks, null.method, count_m=step, joins=joins)[1]
-    error = np.where(null.at_rest[:, None], 0.0, accel - reference[:, None])
+    accel = np.empty_like(depth)
+    groups: dict[tuple, list[int]] = {}
+    for b, m in enumerate(motions):
+        groups.setdefault((tuple(motion_breaks(t, m)), tuple(motion_joins(t, m))), []).append(b)
+    for members in groups.values():
+        m = motions[members[0]]
+        breaks, joins = motion_breaks(t, m), motion_joins(t, m)
+        if null.method == "spline":  # not linear: one replicate at a time
+            for b in members:
+                accel[:, b] = derivatives(depth[:, b], rate, breaks, null.method, count_m=step)[1]
+        else:  # linear in the record: the replicates of one set of breaks in one call
+            accel[:, members] = derivatives(depth[:, members], rate, breaks, null.method, count_m=step,
+                                            joins=joins)[1]
+    error = np.where(null.at_rest[:, None], 0.0, accel - reference)
     out = null.fitted_n[:, None] - null.load_cell_mass_kg * error[null.use] + noise[null.use]
     if null.anti_alias is not None:  # the channel's filter acts on the force, R + m·a, not on the noise added after
-        force = null.load_cell_mass_kg * np.where(null.at_rest, 0.0, reference)
+        force = null.load_cell_mass_kg * np.where(null.at_rest[:, None], 0.0, reference)
         if null.baseline_n is not None:
-            force = force + null.baseline_n
-        out += (null.anti_alias.apply(force) - force)[null.use][:, None]
-    return Replicates(out, speeds, true_contact, reference[:, None] + error, jitter)
+            force = force + null.baseline_n[:, None]
+        out += (null.anti_alias.apply(force) - force)[null.use]
+    return Replicates(out, speeds, true_contact, reference + error, jitter)
 
 
 def _replicate_job(args) -> Replicates:
