@@ -565,7 +565,7 @@ def _model_motion(run: DiagnosisRun, contact_s: float, values: Mapping[str, floa
     if not result.success or result.trajectory.time_s.size < 4:
         return None
     traj = result.trajectory
-    return ModelMotion(depth_c, traj.time_s, traj.depth_m, traj.acceleration_m_s2)
+    return ModelMotion(traj.time_s, traj.depth_m, traj.acceleration_m_s2)
 
 
 def _standardise(values: np.ndarray, floor: float = 0.0) -> tuple[float, float, float]:

@@ -235,25 +235,21 @@ class ModelMotion:
     """The baseline's own motion in the material from its contact on (the reference model's dynamics, started
     where and as fast as the run met the material), to be placed at any contact time."""
 
-    depth_at_contact_m: float
     time_s: np.ndarray
     """Since contact. [s]"""
     depth_m: np.ndarray
     """Since contact. [m]"""
     acceleration_m_s2: np.ndarray
 
-    def on(self, ts: np.ndarray, contact_s: float, depth_at_contact_m: float | None = None
-           ) -> tuple[np.ndarray, np.ndarray, float]:
-        """(depth [m], acceleration [m/s²]) on ``ts`` with the contact at ``contact_s`` and there at
-        ``depth_at_contact_m`` (default: the run's reading at contact) (NaN before it, the acceleration 0 after
-        the stop), and the stop [s]."""
-        start = self.depth_at_contact_m if depth_at_contact_m is None else depth_at_contact_m
+    def on(self, ts: np.ndarray, contact_s: float, depth_at_contact_m: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """(depth [m], acceleration [m/s²]) on ``ts`` with the contact at ``contact_s``, the depth there
+        ``depth_at_contact_m`` (NaN before it, the acceleration 0 after the stop), and the stop [s]."""
         tau = ts - contact_s
         inside = tau >= 0.0
         end = float(self.time_s[-1])
         depth = np.full(ts.size, np.nan)
         accel = np.full(ts.size, np.nan)
-        depth[inside] = start + np.interp(tau[inside], self.time_s, self.depth_m)
+        depth[inside] = depth_at_contact_m + np.interp(tau[inside], self.time_s, self.depth_m)
         accel[inside] = np.where(tau[inside] <= end,
                                  np.interp(tau[inside], self.time_s, self.acceleration_m_s2), 0.0)
         return depth, accel, contact_s + end

@@ -1,0 +1,81 @@
+"""Are development nulls exchangeable with their own null replicates?  The rank of the data among them.
+
+Run: python -m bench.bench_null_ranks N SEED [--out FILE.jsonl]
+
+For each of N null campaigns of the development world (``tests.campaigns.varied_campaigns``, nulls only,
+every nuisance varied), the diagnosis scores every effect family on the data and on its 60 replicates.  If
+the replicates are the data's null, the data's standardised improvement of each family is one more draw of
+the replicates' (each replicate standardised by the others, as the family-wise threshold does), and its rank
+among them is uniform: beaten by k of the 60 replicates with probability 1/61 for each k.  Printed per
+family: the median rank (30 expected) and how often 2 or fewer replicates beat the data (3/61 of the
+campaigns expected); and for the largest z over the families, which decides, how often 1 or fewer beat
+it (2/61 expected).  A family whose data rank sits low is one whose null the replicates miss, whatever
+the threshold; this is how the sub-sample contact (README, "Null replicates meet the material between
+samples") was found.  Tuned on: this is the development world.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from bench.bench_diagnose import run_one
+from pencli.diagnose import engine
+from tests.campaigns import varied_campaigns
+
+
+def replicate_z(improvements: np.ndarray, floor: float) -> np.ndarray:
+    """(families, replicates): each replicate's z, standardised by the other replicates (as
+    :func:`pencli.diagnose.engine.familywise_threshold` does)."""
+    null = improvements[1:].T
+    n = null.shape[1]
+    others = null[:, None, :].repeat(n, axis=1)[:, ~np.eye(n, dtype=bool)].reshape(null.shape[0], n, n - 1)
+    centre, scale = engine._null_scale(others, floor)
+    full = engine._null_scale(null, floor)[1]
+    return (null - centre) / np.maximum(scale, engine.HELD_OUT_SCALE_GUARD * full[:, None])
+
+
+def main(count: int, seed: int, out: Path | None) -> None:
+    seen: list[dict] = []
+    threshold = engine.familywise_threshold
+
+    def recording(improvements, floor, alpha):  # the effect families' call (the probes' has 2 columns)
+        if improvements.shape[1] > len(engine.PROBES):
+            centre, scale = engine._null_scale(improvements[1:].T, floor)
+            seen.append({"data_z": ((improvements[0] - centre) / scale).tolist(),
+                         "replicate_z": replicate_z(improvements, floor).tolist()})
+        return threshold(improvements, floor, alpha)
+
+    engine.familywise_threshold = recording
+    names = [n for n, e in engine.EFFECTS.items() if e.side != "drive"]
+    ranks, top_ranks = [], []
+    for i, (label, material, effects, _, nuisances) in enumerate(varied_campaigns(count, seed, only="nulls")):
+        seen.clear()
+        result, seconds = run_one(label, material, effects, seed + i, nuisances)
+        data, reps = np.array(seen[0]["data_z"]), np.array(seen[0]["replicate_z"])
+        rank = (reps >= data[:, None]).sum(axis=1)
+        top = int((reps.max(axis=0) >= data.max()).sum())
+        ranks.append(rank)
+        top_ranks.append(top)
+        print(f"{label:10s} verdict={result.verdict:24s} largest z {data.max():6.2f} beaten by {top:2d} of "
+              f"{reps.shape[1]} replicates ({names[int(data.argmax())]}) {seconds:.1f}s", flush=True)
+        if out is not None:
+            with out.open("a") as f:
+                f.write(json.dumps({"label": label, "verdict": result.verdict, "names": names, **seen[0]}) + "\n")
+    ranks = np.array(ranks)
+    n = len(top_ranks)
+    print(f"\n{n} development nulls (tuned on), 60 replicates each; expected: median rank 30, "
+          f"rank <= 2 in {3 * n / 61:.1f}, largest z beaten by <= 1 in {2 * n / 61:.1f}")
+    print(f"largest z beaten by <= 1 replicate: {sum(r <= 1 for r in top_ranks)} of {n}")
+    for j, name in enumerate(names):
+        print(f"  {name:26s} median rank {statistics.median(ranks[:, j]):4.0f}   rank <= 2: {int((ranks[:, j] <= 2).sum())}")
+
+
+if __name__ == "__main__":
+    args = sys.argv[1:]
+    target = Path(args[args.index("--out") + 1]) if "--out" in args else None
+    main(int(args[0]) if args else 30, int(args[1]) if len(args) > 1 else 43000, target)
