@@ -28,17 +28,6 @@ from pencli.diagnose import engine
 from tests.campaigns import varied_campaigns
 
 
-def replicate_z(improvements: np.ndarray, floor: float) -> np.ndarray:
-    """(families, replicates): each replicate's z, standardised by the other replicates (as
-    :func:`pencli.diagnose.engine.familywise_threshold` does)."""
-    null = improvements[1:].T
-    n = null.shape[1]
-    others = null[:, None, :].repeat(n, axis=1)[:, ~np.eye(n, dtype=bool)].reshape(null.shape[0], n, n - 1)
-    centre, scale = engine._null_scale(others, floor)
-    full = engine._null_scale(null, floor)[1]
-    return (null - centre) / np.maximum(scale, engine.HELD_OUT_SCALE_GUARD * full[:, None])
-
-
 def main(count: int, seed: int, out: Path | None) -> None:
     seen: list[dict] = []
     threshold = engine.familywise_threshold
@@ -47,7 +36,7 @@ def main(count: int, seed: int, out: Path | None) -> None:
         if improvements.shape[1] > len(engine.PROBES):
             centre, scale = engine._null_scale(improvements[1:].T, floor)
             seen.append({"data_z": ((improvements[0] - centre) / scale).tolist(),
-                         "replicate_z": replicate_z(improvements, floor).tolist()})
+                         "replicate_z": engine.replicate_z(improvements, floor).tolist()})
         return threshold(improvements, floor, alpha)
 
     engine.familywise_threshold = recording

@@ -230,13 +230,19 @@ def familywise_threshold(improvements: np.ndarray, floor: float, alpha: float) -
     replicate among a point mass cannot stand that replicate a million z out and blind the test to every
     family.
     """
+    return gumbel_quantile(replicate_z(improvements, floor).max(axis=0), alpha)
+
+
+def replicate_z(improvements: np.ndarray, floor: float) -> np.ndarray:
+    """(families, replicates): each null replicate's z (rows 1… of ``improvements``), standardised by the
+    *other* replicates' centre and scale, kept at :data:`HELD_OUT_SCALE_GUARD` of the scale with all of them or
+    more (see :func:`familywise_threshold`)."""
     null = improvements[1:].T  # (families, replicates)
     n = null.shape[1]
     others = null[:, None, :].repeat(n, axis=1)[:, ~np.eye(n, dtype=bool)].reshape(null.shape[0], n, n - 1)
     centre, scale = _null_scale(others, floor)  # (families, replicates): each replicate without itself
     full = _null_scale(null, floor)[1]
-    z = (null - centre) / np.maximum(scale, HELD_OUT_SCALE_GUARD * full[:, None])
-    return gumbel_quantile(z.max(axis=0), alpha)
+    return (null - centre) / np.maximum(scale, HELD_OUT_SCALE_GUARD * full[:, None])
 
 
 # ----------------------------------------------------------------------------- drive side

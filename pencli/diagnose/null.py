@@ -422,10 +422,9 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
                                       joins=motion_joins(t, flight_motion))
         reference = np.where(inside, np.column_stack([a for _, a, _ in placed]), flight_accel[:, None])
     else:
-        truth = np.repeat(smooth[:, None], count, axis=1)
-        _, accel0 = derivatives(smooth, rate, motion_breaks(t, motion), null.method, count_m=step,
-                                joins=motion_joins(t, motion))
-        reference = np.repeat(accel0[:, None], count, axis=1)
+        truth = smooth[:, None]  # one motion for every replicate
+        reference = derivatives(smooth, rate, motion_breaks(t, motion), null.method, count_m=step,
+                                joins=motion_joins(t, motion))[1][:, None]
     noise = null.noise.simulate(t.size, rng, count)
     shifts = step * fractions
     moved = truth + shifts
