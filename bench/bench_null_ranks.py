@@ -34,8 +34,7 @@ def main(count: int, seed: int, out: Path | None) -> None:
 
     def recording(improvements, floor, alpha):  # the effect families' call (the probes' has 2 columns)
         if improvements.shape[1] > len(engine.PROBES):
-            centre, scale = engine._null_scale(improvements[1:].T, floor)
-            seen.append({"data_z": ((improvements[0] - centre) / scale).tolist(),
+            seen.append({"data_z": [engine._standardise(column, floor)[0] for column in improvements.T],
                          "replicate_z": engine.replicate_z(improvements, floor).tolist()})
         return threshold(improvements, floor, alpha)
 
