@@ -255,6 +255,15 @@ def test_a_strong_gradient_in_scattered_blocks_is_a_gradient(tmp_path):
     assert top.name == "strength_gradient" and top.shrink_pct > 75.0
 
 
+def test_a_gradient_of_two_slopes_is_a_gradient(tmp_path):
+    """Issue 11: a gradient no one curve of the family matches (steepening threefold at 50 mm) was named a
+    plateau layer (74 % shrink against the best curve's 67 %) until the family held smooth monotone sums."""
+    gradient = {"name": "strength_gradient", "change_per_100mm": 1.5, "shape": 3, "kink_mm": 50, "slope_ratio": 3}
+    result = api.diagnose(campaign(tmp_path, [gradient], seed=62), ["all"])
+    assert result.verdict == "strength_gradient", [(e.name, e.shrink_pct) for e in result.effects[:3]]
+    assert result.effects[0].params["shape"] == "monotone" and result.effects[0].params["direction"] == "rising"
+
+
 @pytest.mark.parametrize("effect, seed, key, truth, tolerance", [
     ({"name": "plug_growth", "growth_mm": 2.0, "length_mm": 20.0, "shape": 1}, 52, "growth_mm", 2.0, 0.15),
     ({"name": "strength_layer", "depth_mm": 30, "ratio": 1.8, "thickness_mm": 300}, 51, "ratio", 1.8, 0.08),

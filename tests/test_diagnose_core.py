@@ -576,3 +576,18 @@ def test_a_lag_members_known_force_is_what_the_lag_does_to_the_inertia_force_in_
     rms = lambda r: float(np.sqrt(np.mean(r ** 2)))  # noqa: E731
     assert rms(y) > 1.0, rms(y)  # the lag shows in flight at all
     assert rms(y - known[flight]) < 0.3 * rms(y), (rms(y), rms(y - known[flight]), rms(y + known[flight]))
+
+
+def test_the_monotone_gradients_elements_rise_from_0_to_1_and_never_fall():
+    """Each element of the monotone gradient is an integrated B-spline: 0 before its span, 1 after, and
+    non-decreasing in between (checked by differences on a fine grid, not by the spline's own derivative)."""
+    from pencli.diagnose.effects import EFFECTS
+
+    members = {m.params["direction"]: m for m in EFFECTS["strength_gradient"].members
+               if m.params.get("shape") == "monotone"}
+    x = np.linspace(-0.1, 0.3, 4001)
+    for rise, fall in zip(members["rising"].profiles, members["falling"].profiles):
+        values = np.asarray(rise(x, 0.0), dtype=float)
+        assert values[0] == 0.0 and values[-1] == pytest.approx(1.0, abs=1e-12)
+        assert np.all(np.diff(values) >= -1e-12)
+        assert np.array_equal(np.asarray(fall(x, 0.0)), -values)

@@ -50,8 +50,10 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
                                                               "thickness_mm": 50.0, "edge_mm": 2.0}),
     EffectSpec("strength_gradient", "strength changes smoothly with depth, by change_per_100mm at 100 mm; shape 0: "
                "exponential S·(1 + change)^(x/0.1 m); 1: power S·(1 + change·(x/0.1 m)^exponent); 2: saturating "
-               "S·(1 + change·(1 − exp(−x/length_mm))/(1 − exp(−0.1 m/length_mm)))",
-               {"change_per_100mm": 0.5, "shape": 0.0, "exponent": 1.5, "length_mm": 40.0}, 3),
+               "S·(1 + change·(1 − exp(−x/length_mm))/(1 − exp(−0.1 m/length_mm))); 3: two slopes, the second "
+               "slope_ratio × the first below kink_mm",
+               {"change_per_100mm": 0.5, "shape": 0.0, "exponent": 1.5, "length_mm": 40.0, "kink_mm": 40.0,
+                "slope_ratio": 0.2}, 4),
     EffectSpec("plug_growth", "a crushed plug widens the frontal thickness to T + growth_mm·h(x); shape 0: "
                "hyperbolic h = (x/length_mm)/(1 + x/length_mm); 1: exponential h = 1 − exp(−x/length_mm); 2: "
                "linear until length_mm, then constant", {"growth_mm": 1.5, "length_mm": 30.0, "shape": 0.0}, 3),
@@ -188,6 +190,10 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
             return math.exp(math.log1p(change) * x / 0.1)
         if shape == 1:
             return 1.0 + change * (x / 0.1) ** gradient["exponent"]
+        if shape == 3:
+            kink, ratio = gradient["kink_mm"] * 1e-3, gradient["slope_ratio"]
+            span = min(x, kink) + ratio * max(x - kink, 0.0)
+            return 1.0 + change * span / (min(0.1, kink) + ratio * max(0.1 - kink, 0.0))
         length = gradient["length_mm"] * 1e-3
         return 1.0 + change * -math.expm1(-x / length) / -math.expm1(-0.1 / length)
 

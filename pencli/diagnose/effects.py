@@ -34,6 +34,7 @@ from pencli.model.design import Design
 from pencli.model.resistance import unit_terms
 
 np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
+interpolate = lazy("scipy.interpolate")
 
 # ----------------------------------------------------------------------------- run data
 
@@ -303,6 +304,32 @@ _LENGTHS_MM = (5.0, 10.0, 20.0, 40.0, 80.0, 160.0)
 _EXPONENTS = (0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0)
 
 
+_MONOTONE_CENTRES_MM = (0.0, 50.0, 100.0)
+"""Where the rises of the monotone gradient's elements are centred; each rises over ±75 mm.  Six rises
+30 mm apart (±45 mm) fitted the folds' runs better than any one curve but extrapolated worse to the held-out
+run, and the family picks its member per fold by training fit: on dev gradients of seed 51000, 12 of 16
+named a gradient against 14 of 16 without them; three 75 mm wide ones, 14 of 16."""
+
+
+def _rise(centre_m: float, half_width_m: float) -> Profile:
+    """A smooth rise from 0 to 1 over centre ± half width: the integral of a quadratic B-spline (an I-spline)."""
+    knots = centre_m + half_width_m * np.array([-1.0, -1.0 / 3.0, 1.0 / 3.0, 1.0])
+    integral = interpolate.BSpline.basis_element(knots, extrapolate=False).antiderivative()
+    top = float(integral(knots[-1]))
+    return lambda x, v: integral(np.clip(x, knots[0], knots[-1])) / top
+
+
+def _monotone_members() -> list[Member]:
+    """Smooth monotone strength profiles: non-negative sums of rises (or of falls), for the profiles no one
+    curve of the other members matches (issue 11's "smooth monotone profiles").  Dev gradients of two slopes
+    (sim truth shape 3; seed 53000): 7 of 10 named a gradient with them, 3 of 10 without (the others a
+    plateau layer or a capped-ramp plug)."""
+    rises = [_rise(c * 1e-3, 75e-3) for c in _MONOTONE_CENTRES_MM]
+    falls = [(lambda x, v, r=r: -r(x, v)) for r in rises]
+    return [law("strength", *rises, nonnegative=True, shape="monotone", direction="rising"),
+            law("strength", *falls, nonnegative=True, shape="monotone", direction="falling")]
+
+
 def _gradient_members() -> tuple[Member, ...]:
     out = [law("strength", (lambda x, v, p=p: (x / 0.1) ** p), exponent=p, shape="power") for p in _EXPONENTS]
     out.append(law("strength", lambda x, v: x / 0.1, lambda x, v: (x / 0.1) ** 2, shape="quadratic"))
@@ -310,7 +337,7 @@ def _gradient_members() -> tuple[Member, ...]:
             for L in _LENGTHS_MM[2:]]
     out += [law("strength", (lambda x, v, L=L * 1e-3: np.expm1(x / L)), length_mm=L, shape="exponential")
             for L in _LENGTHS_MM[3:]]
-    return tuple(out)
+    return tuple(out + _monotone_members())
 
 
 def _describe_gradient(m: Member, c, ctx) -> dict:
@@ -563,7 +590,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            _layer_members, _describe_layer),
     Effect("strength_gradient", "law", "depth",
            "Strength varies smoothly and monotonically with depth (power, quadratic, exponential or saturating "
-           "profiles). "
+           "profiles, or any non-negative sum of smooth rises, or of falls, 150 mm wide and 50 mm apart). "
            "Signature: a misfit growing smoothly with depth in proportion to the blade's frontal area.",
            _gradient_members, _describe_gradient),
     Effect("plug_growth", "law", "depth",
