@@ -34,7 +34,6 @@ from pencli.model.design import Design
 from pencli.model.resistance import unit_terms
 
 np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
-interpolate = lazy("scipy.interpolate")
 
 # ----------------------------------------------------------------------------- run data
 
@@ -313,8 +312,10 @@ named a gradient against 14 of 16 without them; three 75 mm wide ones, 14 of 16.
 
 def _rise(centre_m: float, half_width_m: float) -> Profile:
     """A smooth rise from 0 to 1 over centre ± half width: the integral of a quadratic B-spline (an I-spline)."""
+    from scipy.interpolate import BSpline  # here: `pen --help` imports this module and must not load scipy
+
     knots = centre_m + half_width_m * np.array([-1.0, -1.0 / 3.0, 1.0 / 3.0, 1.0])
-    integral = interpolate.BSpline.basis_element(knots, extrapolate=False).antiderivative()
+    integral = BSpline.basis_element(knots, extrapolate=False).antiderivative()
     top = float(integral(knots[-1]))
     return lambda x, v: integral(np.clip(x, knots[0], knots[-1])) / top
 
