@@ -176,7 +176,10 @@ def _score_family(stats: Statistics, specs: Sequence[Spec]) -> tuple[_Family, di
         for j, i in enumerate(idx):
             coefficients[i] = scores.coefficients[j]
             strength[i] = scores.strength[j]
-    pick = np.argmin(train, axis=0)  # (runs, targets)
+    # each fold's member: the one whose held-out error on the other folds is least (not its training fit, which
+    # favours the members with most columns however they extrapolate to a run they did not see)
+    others = heldout.sum(axis=1, keepdims=True) - heldout  # (members, runs, targets)
+    pick = np.argmin(others, axis=0)  # (runs, targets)
     per_fold = np.take_along_axis(heldout, pick[None], axis=0)[0]  # (runs, targets)
     best = int(np.argmin(total[:, 0]))
     family = _Family(per_fold.mean(axis=0), best, [int(k) for k in pick[:, 0]])
