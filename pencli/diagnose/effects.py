@@ -306,8 +306,9 @@ _EXPONENTS = (0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0)
 _MONOTONE_CENTRES_MM = (0.0, 50.0, 100.0)
 """Where the rises of the monotone gradient's elements are centred; each rises over ±75 mm.  Six rises
 30 mm apart (±45 mm) fitted the folds' runs better than any one curve but extrapolated worse to the held-out
-run, and the family picks its member per fold by training fit: on dev gradients of seed 51000, 12 of 16
-named a gradient against 14 of 16 without them; three 75 mm wide ones, 14 of 16."""
+run, while the family picked each fold's member by its training fit (it now picks by held-out error on
+the other folds): on dev gradients of seed 51000, 12 of 16 named a gradient against 14 of 16 without
+them; three 75 mm wide ones, 14 of 16."""
 
 
 def _rise(centre_m: float, half_width_m: float) -> Profile:
