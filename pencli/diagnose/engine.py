@@ -10,8 +10,9 @@ Two views of each run:
 
 Baseline: Eq. 9 with one strength factor per run (blocks scatter in
 strength), shared P, C, K ≥ 0.  Every catalogue effect is a family of shapes
-(:mod:`pencli.diagnose.effects`); each is added in turn, its shape chosen and
-its coefficients fitted on training runs, and scored on the run left out.
+(:mod:`pencli.diagnose.effects`); each is added in turn, its coefficients
+fitted on training runs, its shape the one of least held-out error on the
+other folds, and scored on the run left out.
 
 **Every decision is calibrated on the campaign at hand.**  Null replicates
 of the campaign (:mod:`pencli.diagnose.null`: the baseline re-measured
@@ -149,14 +150,15 @@ def _combine(a: _Candidate, b: _Candidate, base_spec: Spec) -> Spec | None:
 # ----------------------------------------------------------------------------- scoring
 @dataclass(frozen=True)
 class _Family:
-    """An effect's score on every target: per fold the member chosen on training runs, scored held out."""
+    """An effect's score on every target: per fold the member of least held-out error on the other folds,
+    scored on the fold's held-out run."""
 
     heldout: np.ndarray
     """(targets,) mean over runs of the held-out mean squared residual. [N²]"""
     best: int
     """Index (into the candidates) of the member best on all runs, measured data."""
     chosen: list[int]
-    """Per fold, the member chosen on the training runs (measured data)."""
+    """Per fold, the member chosen (measured data)."""
 
 
 def _score_family(stats: Statistics, specs: Sequence[Spec]) -> tuple[_Family, dict]:
@@ -165,14 +167,13 @@ def _score_family(stats: Statistics, specs: Sequence[Spec]) -> tuple[_Family, di
     for i, spec in enumerate(specs):
         groups.setdefault(len(spec.columns), []).append(i)
     n_targets = stats.cross.shape[2]
-    train = np.empty((len(specs), stats.n_runs, n_targets))
-    heldout = np.empty_like(train)
+    heldout = np.empty((len(specs), stats.n_runs, n_targets))
     total = np.empty((len(specs), n_targets))
     coefficients: dict[int, np.ndarray] = {}
     strength: dict[int, np.ndarray] = {}
     for idx in groups.values():
         scores = stats.score([specs[i] for i in idx])
-        train[idx], heldout[idx], total[idx] = scores.train, scores.heldout, scores.total
+        heldout[idx], total[idx] = scores.heldout, scores.total
         for j, i in enumerate(idx):
             coefficients[i] = scores.coefficients[j]
             strength[i] = scores.strength[j]
