@@ -1,6 +1,11 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
+     [--two-slopes] [--drift-friction]
+
+``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
+20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
+``--drift-friction``: every pair is a force drift with a velocity friction (random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
 single-effect verdicts that name the true effect (the hold-out bench's rule),
 false-positive rate on null campaigns, median held-out shrink of the
@@ -20,8 +25,37 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from pencli import api
-from tests.campaigns import BLOCKS, SIX, diagnosis_campaigns, judge, make_campaign, varied_campaigns
+from tests.campaigns import BLOCKS, SIX, diagnosis_campaigns, judge, make_campaign, random_effect, varied_campaigns
+
+
+def two_slopes(campaigns, seed):
+    """The campaigns with every strength gradient in the two-slope form (sim truth shape 3)."""
+    own = np.random.default_rng([seed, 3])
+    out = []
+    for label, material, effects, truth, nuisances in campaigns:
+        changed = []
+        for e in effects:
+            if e["name"] == "strength_gradient":
+                e = dict(e, shape=3.0, kink_mm=float(own.uniform(20, 80)),
+                         slope_ratio=float(own.choice([own.uniform(0, 0.5), own.uniform(2, 4)])))
+            changed.append(e)
+        out.append((label, material, changed, truth, nuisances))
+    return out
+
+
+def drift_friction(campaigns, seed):
+    """The campaigns with every pair replaced by a force drift and a velocity friction."""
+    own = np.random.default_rng([seed, 5])
+    out = []
+    for label, material, effects, truth, nuisances in campaigns:
+        if len(effects) == 2:
+            effects = [random_effect("force_drift", own), random_effect("velocity_friction", own)]
+            truth = {"force_drift", "velocity_friction"}
+        out.append((label, material, effects, truth, nuisances))
+    return out
 
 
 def run_one(label, material, effects, seed, nuisances=None):
@@ -47,6 +81,10 @@ def main() -> None:
         if "--only" in sys.argv:  # one effect alone: --varied 12 SEED --only strength_gradient
             only = sys.argv[sys.argv.index("--only") + 1]
         campaigns = varied_campaigns(count, base_seed, only=only)
+        if "--two-slopes" in sys.argv:
+            campaigns = two_slopes(campaigns, base_seed)
+        if "--drift-friction" in sys.argv:
+            campaigns = drift_friction(campaigns, base_seed)
     else:
         campaigns = [(*c, None) for c in diagnosis_campaigns(quick)]
         base_seed = 500
