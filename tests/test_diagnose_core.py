@@ -591,3 +591,27 @@ def test_the_monotone_gradients_elements_rise_from_0_to_1_and_never_fall():
         assert values[0] == 0.0 and values[-1] == pytest.approx(1.0, abs=1e-12)
         assert np.all(np.diff(values) >= -1e-12)
         assert np.array_equal(np.asarray(fall(x, 0.0)), -values)
+
+
+def test_each_folds_member_is_chosen_by_held_out_error_not_by_training_fit():
+    """A family of a straight line and a quintic in depth, on runs that each cover their own depth span, each
+    with its own slope about a common one: the quintic fits every fold's training runs better (it holds the
+    line, and bends to the runs' slopes) but extrapolates worse to the run left out, so every fold must keep
+    the line, and the family's held-out score is the line's.  Picking by training fit kept the quintic."""
+    from pencli.diagnose.engine import _score_family
+
+    rng = np.random.default_rng(11)
+    mats, ys = [], []
+    for i in range(6):
+        x = np.linspace(i / 6, (i + 1) / 6, 200)
+        zeros = np.zeros_like(x)
+        mats.append(np.column_stack([np.ones_like(x), zeros, zeros, zeros, *(x ** p for p in range(1, 6)), zeros]))
+        ys.append((1.0 + 0.1 * i) + (2.0 + rng.normal(0.0, 0.3)) * x + rng.normal(0.0, 0.05, x.size))
+    stats = Statistics(mats, [y[:, None] for y in ys])
+    line, quintic = Spec((0, 1, 2, 3, 4), offset=9), Spec((0, 1, 2, 3, 4, 5, 6, 7, 8), offset=9)
+    by_line, by_quintic = stats.score([line]), stats.score([quintic])
+    assert np.all(by_quintic.train[0, :, 0] <= by_line.train[0, :, 0])  # the quintic fits every fold's runs better
+    assert by_quintic.heldout[0, :, 0].mean() > 2 * by_line.heldout[0, :, 0].mean()  # and predicts the left-out worse
+    family, _ = _score_family(stats, [line, quintic])
+    assert family.chosen == [0] * 6
+    assert family.heldout[0] == pytest.approx(by_line.heldout[0, :, 0].mean())
