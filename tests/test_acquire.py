@@ -116,6 +116,8 @@ def test_the_anti_alias_filter_passes_white_noise_in_its_noise_bandwidth():
     ({"kind": "rig", "name": "x", "sampling_rate": 3}, "unknown key 'sampling_rate'"),
     ({"kind": "rig", "name": "x", "effects": [{"name": "gremlins"}]}, "unknown effect 'gremlins'"),
     ({"kind": "rig", "name": "x", "effects": [{"name": "strength_layer", "depht_mm": 3}]}, "depht_mm"),
+    ({"kind": "rig", "name": "x", "effects": [{"name": "strength_gradient", "shape": 3, "kink_mm": -5}]},
+     "kink_mm = -5"),
     ({"kind": "rig", "name": "x", "driver": "labview"}, "driver"),
     ({"kind": "rig", "name": "x", "encoder_phase": 1.0}, "encoder_phase"),
     ({"kind": "rig", "name": "x", "anti_alias_hz": 15000.0}, "anti_alias_hz"),

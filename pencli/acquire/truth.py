@@ -115,6 +115,11 @@ def validate_effects(effects: Any, where: str) -> tuple[tuple[str, dict[str, flo
         if shape not in range(spec.shapes):
             raise ParameterError(f"{where}: effects[{i}] ({name}): shape = {shape:g}; expected one of "
                                  f"{', '.join(map(str, range(spec.shapes)))}")
+        if name == "strength_gradient" and shape == 3:  # stated against its change at 100 mm: must change by then
+            kink, ratio = params["kink_mm"], params["slope_ratio"]
+            if kink < 0 or ratio < 0 or kink == ratio == 0:
+                raise ParameterError(f"{where}: effects[{i}] ({name}): kink_mm = {kink:g}, slope_ratio = {ratio:g}; "
+                                     f"expected both ≥ 0, not both 0")
         out.append((name, params))
     return tuple(out)
 
