@@ -1,11 +1,13 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
-     [--two-slopes] [--drift-friction]
+     [--two-slopes] [--drift-friction] [--slow-speeds]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
 ``--drift-friction``: every pair is a force drift with a velocity friction (random forms, their own stream).
+``--slow-speeds``: every rate strength and velocity friction takes a characteristic speed of 0.5–2 m/s (its own
+stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
 Prints, per campaign, the truth and the verdict, then: the share of
 single-effect verdicts that name the true effect (the hold-out bench's rule),
 false-positive rate on null campaigns, median held-out shrink of the
@@ -58,6 +60,17 @@ def drift_friction(campaigns, seed):
     return out
 
 
+def slow_speeds(campaigns, seed):
+    """The campaigns with every speed law's characteristic speed drawn from 0.5–2 m/s."""
+    own = np.random.default_rng([seed, 7])
+    out = []
+    for label, material, effects, truth, nuisances in campaigns:
+        effects = [dict(e, speed_m_s=float(own.uniform(0.5, 2.0)))
+                   if e["name"] in ("rate_strength", "velocity_friction") else e for e in effects]
+        out.append((label, material, effects, truth, nuisances))
+    return out
+
+
 def run_one(label, material, effects, seed, nuisances=None):
     with tempfile.TemporaryDirectory() as tmp:
         nuisances = {"shots": SIX, **(nuisances or {})}
@@ -85,6 +98,8 @@ def main() -> None:
             campaigns = two_slopes(campaigns, base_seed)
         if "--drift-friction" in sys.argv:
             campaigns = drift_friction(campaigns, base_seed)
+        if "--slow-speeds" in sys.argv:
+            campaigns = slow_speeds(campaigns, base_seed)
     else:
         campaigns = [(*c, None) for c in diagnosis_campaigns(quick)]
         base_seed = 500
