@@ -264,6 +264,22 @@ def test_a_gradient_of_two_slopes_is_a_gradient(tmp_path):
     assert result.effects[0].params["shape"] == "monotone" and result.effects[0].params["direction"] == "rising"
 
 
+def test_a_drift_with_a_velocity_friction_is_a_pair(tmp_path):
+    """Issue 11: two drift shapes together match a velocity friction on five runs about as well as the friction
+    does, so "better than a second own shape by more than the null's noise" failed and the friction was lost.
+    What the friction adds on top of the best pair of drift shapes tells them apart."""
+    effects = [{"name": "force_drift", "amplitude_n": 85.0, "time_constant_s": 0.02, "shape": 2},
+               {"name": "velocity_friction", "drop": 0.5, "speed_m_s": 2.7, "shape": 0}]
+    db = conditioned(make_campaign(tmp_path, "grill_brick", seed=55010, effects=effects, encoder_mm=0.16,
+                                   shots=[("1", 2), ("1", 6), ("1", 4), ("2", 2), ("2", 4)],
+                                   rig_extra={"force_noise_n": 0.5, "sampling_rate_hz": 60000.0},
+                                   strength_scale=[0.99, 0.92, 0.97, 0.99, 0.86],
+                                   standoff_mm=[0.5, 0.9, 0.9, 0.7, 0.2], encoder_phase=[0.45] * 5))
+    result = api.diagnose(db, ["all"])
+    assert set(result.verdict_effects) == {"force_drift", "velocity_friction"}, result.baseline.get("best_pair")
+    assert result.baseline["best_pair"]["over_own_pair"]["adds"]
+
+
 @pytest.mark.parametrize("effect, seed, key, truth, tolerance", [
     ({"name": "plug_growth", "growth_mm": 2.0, "length_mm": 20.0, "shape": 1}, 52, "growth_mm", 2.0, 0.15),
     ({"name": "strength_layer", "depth_mm": 30, "ratio": 1.8, "thickness_mm": 300}, 51, "ratio", 1.8, 0.08),
