@@ -280,6 +280,19 @@ def test_a_drift_with_a_velocity_friction_is_a_pair(tmp_path):
     assert result.baseline["best_pair"]["over_own_pair"]["adds"]
 
 
+def test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_on_some_replicates(tmp_path):
+    """Issue 11: the layer beat a second ringing shape by 11,902 N² on the data, but two ringing shapes together
+    extrapolate wildly on a few null replicates (−10¹⁵ N²), and the plain sd of the difference (4·10¹⁴) hid it.
+    The drawn campaign 2 of the development pairs of seed 60000 (4 runs, coloured noise, anti-alias filter)."""
+    from tests.campaigns import BLOCKS, varied_campaigns
+
+    _, material, effects, truth, nuisances = varied_campaigns(12, 60000, only="pairs")[2]
+    assert truth == {"rig_ringing", "strength_layer"}
+    db = conditioned(make_campaign(tmp_path, material, seed=60002, effects=effects, block_kpa=BLOCKS, **nuisances))
+    result = api.diagnose(db, ["all"])
+    assert set(result.verdict_effects) == truth, result.baseline.get("best_pair")
+
+
 @pytest.mark.parametrize("effect, seed, key, truth, tolerance", [
     ({"name": "plug_growth", "growth_mm": 2.0, "length_mm": 20.0, "shape": 1}, 52, "growth_mm", 2.0, 0.15),
     ({"name": "strength_layer", "depth_mm": 30, "ratio": 1.8, "thickness_mm": 300}, 51, "ratio", 1.8, 0.08),

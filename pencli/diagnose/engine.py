@@ -886,7 +886,11 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
     if own_specs:
         own, _ = _score_family(stats, own_specs)
         diff = own.heldout - second.family.heldout  # > 0 when the other effect does better than a second own shape
-        beyond_own = float(diff[0]) > AMBIGUITY_Z * float(np.std(diff[1:], ddof=1))
+        # standardised as every statistic here (median, and the larger of MAD and upper semi-deviation): a pair
+        # that extrapolates wildly on a few replicates puts them at −10¹⁵ N², which says nothing of the upper
+        # tail, and the plain sd then blinded the test (dev pair-2 of --pairs 12 60000: a layer beating a
+        # second ringing shape by 11,902 N² against a null sd of 4·10¹⁴ and a MAD of 10)
+        beyond_own = _standardise(diff, 1e-9 * float(np.median(np.abs(own.heldout))))[0] > AMBIGUITY_Z
         over_own = _over_own_pair(stats, _Candidate(lead.member, own_specs[own.best]), candidates[name], base_spec,
                                   own.heldout, S0, threshold, alpha)
         beyond_own = beyond_own or bool(over_own and over_own["adds"])
