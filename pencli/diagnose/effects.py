@@ -438,18 +438,9 @@ _SPEEDS = (0.5, 1.0, 2.0, 4.0, 8.0)
 
 
 def _speed_laws(term: str) -> tuple[Member, ...]:
-    """Speed laws of ``term``, each rising with v from 0.  A strength law's coefficient is ≥ 0 (strength rises
-    with rate); friction may rise or fall.  Unbounded, a law flat over the training runs' speeds (a saturation at
-    0.5 m/s on runs that pass through the block fast) is collinear with the runs' strength factors and took
-    coefficients of −3,578 that a held-out run which slows down turned into 2,000 times the baseline's error
-    (dev null-0 of ``--varied 28 44000``, Grill Brick)."""
-    bound = term == "strength"
-    out = [law(term, (lambda x, v, q=q: v ** q), exponent=q, shape="power", nonnegative=bound)
-           for q in _EXPONENTS[:-2]]
-    out += [law(term, (lambda x, v, s=s: -np.expm1(-v / s)), speed_m_s=s, shape="saturating", nonnegative=bound)
-            for s in _SPEEDS]
-    out += [law(term, (lambda x, v, s=s: np.log1p(v / s)), speed_m_s=s, shape="logarithmic", nonnegative=bound)
-            for s in _SPEEDS]
+    out = [law(term, (lambda x, v, q=q: v ** q), exponent=q, shape="power") for q in _EXPONENTS[:-2]]
+    out += [law(term, (lambda x, v, s=s: -np.expm1(-v / s)), speed_m_s=s, shape="saturating") for s in _SPEEDS]
+    out += [law(term, (lambda x, v, s=s: np.log1p(v / s)), speed_m_s=s, shape="logarithmic") for s in _SPEEDS]
     return tuple(out)
 
 
@@ -618,7 +609,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "sign). Signature: a misfit in proportion to depth × a function of speed.",
            partial(_speed_laws, "friction"), _describe_speed("p_kpa")),
     Effect("rate_strength", "law", "speed",
-           "Strength rises with penetration rate (power, saturating or logarithmic laws). Signature: the "
+           "Strength varies with penetration rate (power, saturating or logarithmic laws). Signature: the "
            "strength misfit follows the speed, in proportion to frontal area.",
            partial(_speed_laws, "strength"), _describe_speed("cs_mean")),
     Effect("load_cell_mass_error", "chain", "acceleration",
