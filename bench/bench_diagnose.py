@@ -33,42 +33,42 @@ from pencli import api
 from tests.campaigns import BLOCKS, SIX, diagnosis_campaigns, judge, make_campaign, random_effect, varied_campaigns
 
 
+def _redrawn(campaigns, seed, stream, change):
+    """The campaigns with ``change(effects, truth, rng)`` → (effects, truth) applied to each, drawing from a
+    stream of their own (``stream``), so that the campaigns' other draws stay what ``--varied`` made them."""
+    own = np.random.default_rng([seed, stream])
+    return [(label, material, *change(effects, truth, own), nuisances)
+            for label, material, effects, truth, nuisances in campaigns]
+
+
 def two_slopes(campaigns, seed):
     """The campaigns with every strength gradient in the two-slope form (sim truth shape 3)."""
-    own = np.random.default_rng([seed, 3])
-    out = []
-    for label, material, effects, truth, nuisances in campaigns:
-        changed = []
-        for e in effects:
-            if e["name"] == "strength_gradient":
-                e = dict(e, shape=3.0, kink_mm=float(own.uniform(20, 80)),
-                         slope_ratio=float(own.choice([own.uniform(0, 0.5), own.uniform(2, 4)])))
-            changed.append(e)
-        out.append((label, material, changed, truth, nuisances))
-    return out
+    def change(effects, truth, own):
+        return [dict(e, shape=3.0, kink_mm=float(own.uniform(20, 80)),
+                     slope_ratio=float(own.choice([own.uniform(0, 0.5), own.uniform(2, 4)])))
+                if e["name"] == "strength_gradient" else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 3, change)
 
 
 def drift_friction(campaigns, seed):
     """The campaigns with every pair replaced by a force drift and a velocity friction."""
-    own = np.random.default_rng([seed, 5])
-    out = []
-    for label, material, effects, truth, nuisances in campaigns:
-        if len(effects) == 2:
-            effects = [random_effect("force_drift", own), random_effect("velocity_friction", own)]
-            truth = {"force_drift", "velocity_friction"}
-        out.append((label, material, effects, truth, nuisances))
-    return out
+    def change(effects, truth, own):
+        if len(effects) != 2:
+            return effects, truth
+        return ([random_effect("force_drift", own), random_effect("velocity_friction", own)],
+                {"force_drift", "velocity_friction"})
+
+    return _redrawn(campaigns, seed, 5, change)
 
 
 def slow_speeds(campaigns, seed):
     """The campaigns with every speed law's characteristic speed drawn from 0.5–2 m/s."""
-    own = np.random.default_rng([seed, 7])
-    out = []
-    for label, material, effects, truth, nuisances in campaigns:
-        effects = [dict(e, speed_m_s=float(own.uniform(0.5, 2.0)))
-                   if e["name"] in ("rate_strength", "velocity_friction") else e for e in effects]
-        out.append((label, material, effects, truth, nuisances))
-    return out
+    def change(effects, truth, own):
+        return [dict(e, speed_m_s=float(own.uniform(0.5, 2.0)))
+                if e["name"] in ("rate_strength", "velocity_friction") else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 7, change)
 
 
 def run_one(label, material, effects, seed, nuisances=None):

@@ -894,8 +894,9 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
         over_own = _over_own_pair(stats, _Candidate(lead.member, own_specs[own.best]), candidates[name], base_spec,
                                   own.heldout, S0, threshold, alpha)
         beyond_own = beyond_own or bool(over_own and over_own["adds"])
-    return {"over_own_pair": over_own, "effect": name, "heldout": float(second.family.heldout[0]), "z": round(second.z, 2),
+    return {"effect": name, "heldout": float(second.family.heldout[0]), "z": round(second.z, 2),
             "threshold": threshold, "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own),
+            "over_own_pair": over_own,
             "significant": bool(second.z > threshold and share >= EXPLAIN_SHARE and beyond_own),
             "shrink_pct": round(100.0 * (1.0 - math.sqrt(max(second.family.heldout[0], 0.0) / S0[0])), 2)}
 
