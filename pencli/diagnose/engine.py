@@ -205,7 +205,7 @@ def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str,
     """Score each family's held-out improvement over ``reference`` (held-out mean squares, data then null
     replicates) and the threshold its z must beat (:func:`familywise_threshold`)."""
     tested = {}
-    roundoff = 1e-9 * float(np.median(np.abs(reference)))  # improvements below this are the solver's round-off
+    roundoff = _roundoff(reference)
     for name, specs in families.items():
         family, fit = _score_family(stats, specs)
         tested[name] = _Tested(family, fit, *_standardise(reference - family.heldout, roundoff))
@@ -213,6 +213,17 @@ def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str,
         return tested, math.inf
     improvements = np.column_stack([reference - t.family.heldout for t in tested.values()])
     return tested, familywise_threshold(improvements, roundoff, alpha)
+
+
+def _roundoff(reference: np.ndarray) -> float:
+    """Held-out mean squares (or their differences) below this are the solver's round-off. [N²]"""
+    return 1e-9 * float(np.median(np.abs(reference)))
+
+
+def _share_of_remainder(reference: np.ndarray, better: np.ndarray, S0: np.ndarray) -> float:
+    """Share that ``better`` removes of what ``reference`` leaves above the null floor (data, target 0)."""
+    remainder = float(reference[0]) - float(np.mean(S0[1:]))
+    return (float(reference[0]) - float(better[0])) / remainder if remainder > 0 else 0.0
 
 
 HELD_OUT_SCALE_GUARD = 0.5
@@ -880,8 +891,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
         return None
     name = max(scored, key=lambda n: S_top[0] - scored[n].family.heldout[0])
     second = scored[name]
-    remainder = float(S_top[0]) - float(np.mean(S0[1:]))
-    share = (float(S_top[0]) - float(second.family.heldout[0])) / remainder if remainder > 0 else 0.0
+    share = _share_of_remainder(S_top, second.family.heldout, S0)
     beyond_own, over_own = True, None
     if own_specs:
         own, _ = _score_family(stats, own_specs)
@@ -890,9 +900,9 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
         # that extrapolates wildly on a few replicates puts them at −10¹⁵ N², which says nothing of the upper
         # tail, and the plain sd then blinded the test (dev pair-2 of --pairs 12 60000: a layer beating a
         # second ringing shape by 11,902 N² against a null sd of 4·10¹⁴ and a MAD of 10)
-        beyond_own = _standardise(diff, 1e-9 * float(np.median(np.abs(own.heldout))))[0] > AMBIGUITY_Z
+        beyond_own = _standardise(diff, _roundoff(own.heldout))[0] > AMBIGUITY_Z
         over_own = _over_own_pair(stats, _Candidate(lead.member, own_specs[own.best]), candidates[name], base_spec,
-                                  own.heldout, S0, threshold, alpha)
+                                  own.heldout, S0, threshold)
         beyond_own = beyond_own or bool(over_own and over_own["adds"])
     return {"effect": name, "heldout": float(second.family.heldout[0]), "z": round(second.z, 2),
             "threshold": threshold, "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own),
@@ -902,7 +912,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
 
 
 def _over_own_pair(stats: Statistics, own_pair: _Candidate, cands: Sequence[_Candidate], base_spec: Spec,
-                   S_own: np.ndarray, S0: np.ndarray, threshold: float, alpha: float) -> dict | None:
+                   S_own: np.ndarray, S0: np.ndarray, threshold: float) -> dict | None:
     """What a second effect's family adds on top of the lead's best pair of own shapes: its z, the share it
     removes of what the own pair leaves above the null floor, and whether the z beats ``threshold`` (the pair
     test's family-wise one) and the share :data:`EXPLAIN_SHARE` (``adds``).
@@ -916,12 +926,11 @@ def _over_own_pair(stats: Statistics, own_pair: _Candidate, cands: Sequence[_Can
     specs = [spec for spec in (_combine(own_pair, c, base_spec) for c in cands) if spec is not None]
     if not specs:
         return None
-    scored, _ = _familywise(stats, S_own, {"second": specs}, alpha)
-    third = scored["second"]
-    remainder = float(S_own[0]) - float(np.mean(S0[1:]))
-    share = (float(S_own[0]) - float(third.family.heldout[0])) / remainder if remainder > 0 else 0.0
-    return {"z": round(third.z, 2), "threshold": round(threshold, 3), "share_of_remainder": round(share, 3),
-            "adds": bool(third.z > threshold and share >= EXPLAIN_SHARE)}
+    third, _ = _score_family(stats, specs)
+    z = _standardise(S_own - third.heldout, _roundoff(S_own))[0]
+    share = _share_of_remainder(S_own, third.heldout, S0)
+    return {"z": round(z, 2), "threshold": round(threshold, 3), "share_of_remainder": round(share, 3),
+            "adds": bool(z > threshold and share >= EXPLAIN_SHARE)}
 
 
 def _ambiguities(reports: Sequence[EffectReport], tested: Mapping[str, _Tested], S0) -> list[dict]:
