@@ -739,8 +739,8 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
 def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
     """Each run's inertia stage as a :class:`~pencli.diagnose.effects.DiagnosisRun`."""
 
-    from pencli.diagnose.effects import DiagnosisRun
-    from pencli.filter.inertia import kinematic_events
+    from pencli.diagnose.effects import LAG_SPAN_S, DiagnosisRun
+    from pencli.filter.inertia import kinematic_events, late_force_rise
 
     out = []
     names = ("time_s", "depth_m", "velocity_m_s", "acceleration_m_s2", "force_n", "resistance_n")
@@ -752,7 +752,8 @@ def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
                                 events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
                                 events.end, events.contact_speed_m_s, float(params["load_cell_mass_kg"]),
                                 float(params.get("encoder_step_m", 0.16e-3)), str(params.get("method", "spline")),
-                                kinematic_events(col["time_s"], col["force_n"], events).contact_s))
+                                kinematic_events(col["time_s"], col["force_n"], events).contact_s,
+                                late_force_rise(col["time_s"], col["force_n"], events, LAG_SPAN_S)))
     return out
 
 

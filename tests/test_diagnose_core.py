@@ -615,3 +615,26 @@ def test_each_folds_member_is_chosen_by_held_out_error_not_by_training_fit():
     family, _ = _score_family(stats, [line, quintic])
     assert family.chosen == [0] * 6
     assert family.heldout[0] == pytest.approx(by_line.heldout[0, :, 0].mean())
+
+
+def test_the_window_starts_after_a_force_rise_that_a_lag_moves_past_the_stand_off_tolerance(tmp_path):
+    """A block surface 3 mm past the file's stand-off and a force channel 0.6 ms late put the force's rise
+    0.29 + 0.6 ms after the position's contact, beyond the 0.48 ms the stand-off tolerance lets the force's
+    contact be looked for at 10.4 m/s.  The analysis window must still start after the rise: until 2026-11-26 it
+    started 0.5 ms after the position's contact, with the step inside it, and two development lag campaigns were
+    named a force drift that explained 0.2 % of the gap.  The rise is placed here from the record's depth (where
+    it reaches the true surface) and the simulated delay, not by the code under test."""
+    from pencli import api
+    from tests.campaigns import make_campaign
+
+    delay_s, surface_m = 0.6e-3, 3e-3
+    db = make_campaign(tmp_path, "grill_brick", seed=4, shots=[("2", 4)], encoder_mm=0.08, standoff_mm=[3.0],
+                       effects=[{"name": "sensor_lag", "tau_ms": delay_s * 1e3, "shape": 2.0}],
+                       rig_extra={"force_noise_n": 0.5, "torque_noise_nm": 0.0})
+    api.tare_runs(db, ["all"])
+    api.subtract_inertia_runs(db, ["all"])
+    run = api.load_diagnosis_runs(db, ["all"])[0]
+    rise = float(run.time_s[np.argmax(run.depth_m >= surface_m)]) + delay_s
+    start = float(run.time_s[run.window][0])
+    assert rise - run.contact_s > 0.48e-3 + 0.3e-3  # the case: past what the stand-off tolerance reaches
+    assert rise + 0.4e-3 < start < rise + 0.7e-3, (rise - run.contact_s, start - rise)

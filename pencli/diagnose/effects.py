@@ -66,6 +66,9 @@ class DiagnosisRun:
     force_contact_s: float | None = None
     """Contact as the force record sees it (:func:`pencli.filter.tare.force_onset`); differs from
     ``contact_s`` when the block's surface is not at the file's stand-off. [s]"""
+    force_rise_s: float | None = None
+    """The force's rise at contact where a lagging force chain puts it later than ``force_contact_s`` is looked
+    for (:func:`pencli.filter.inertia.late_force_rise`), else None: the window starts after it. [s]"""
 
     @property
     def rate_hz(self) -> float:
@@ -90,7 +93,8 @@ class DiagnosisRun:
     @property
     def window(self) -> np.ndarray:
         """The analysis window, starting no sooner than 0.5 ms after the latest contact."""
-        start = max(self.window_start_s, self.contact_span_s[1] + 0.5e-3)
+        start = max(self.window_start_s, self.contact_span_s[1] + 0.5e-3,
+                    -math.inf if self.force_rise_s is None else self.force_rise_s + 0.5e-3)
         return (self.time_s >= start) & (self.time_s <= self.window_end_s)
 
     @property
@@ -497,6 +501,8 @@ def _delay(delay_ms: float) -> Callable[[DiagnosisRun, Basis], Columns]:
 
 
 _TAUS_MS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.7, 1.0, 1.5)
+LAG_SPAN_S = max(_TAUS_MS) * 1e-3
+"""The longest delay or time constant of the lag members: how late a lagging force chain can show contact. [s]"""
 
 
 def _lag_members() -> tuple[Member, ...]:

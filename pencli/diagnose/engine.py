@@ -776,6 +776,11 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
             verdict, verdict_effects = "propulsion_loss", ["propulsion_loss"]
         else:
             verdict_effects.append("propulsion_loss")
+    late = {r.run_id: round((r.force_rise_s - r.contact_s) * 1e3, 3) for r in runs if r.force_rise_s is not None}
+    if late:
+        notes.append(f"{len(late)} of {len(runs)} runs' force rises later after contact than a block surface within "
+                     f"the stand-off tolerance explains ({min(late.values()):.2f}–{max(late.values()):.2f} ms): a "
+                     f"lagging force chain, or surfaces far from the stand-off; their windows start after the rise")
     if verdict == "none":
         limits = ", ".join(f"{r.name} {r.detectable_rms_n:.1f} N" for r in reports.values()
                            if r.detectable_rms_n is not None)
@@ -823,6 +828,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         "dynamic_heldout_rms_n": dyn_base,
         "coefficients": values,
         "strength_factor_per_run": {r.run_id: float(c) for r, c in zip(runs, cs)},
+        "late_force_rise_ms": late,
     }
     if pair is not None:
         baseline_out["best_pair"] = {"effects": [significant[0].name, pair["effect"]], "shrink_pct": pair["shrink_pct"],

@@ -131,11 +131,28 @@ def kinematic_events(time_s: np.ndarray, force_n: np.ndarray, events: Events) ->
     point (:func:`pencli.filter.tare.force_onset`) is used when it lies within
     the stand-off tolerance of the position's contact, at the contact speed.
     """
-    span = min(4e-3, STANDOFF_TOLERANCE_M / max(events.contact_speed_m_s, 0.1))
-    seen = force_onset(time_s, force_n, events.contact_s, span_s=span)
+    seen = force_onset(time_s, force_n, events.contact_s, span_s=_contact_span_s(events))
     if not events.motion_start_s < seen < events.stop_s:
         return events
     return replace(events, contact_s=seen)
+
+
+def _contact_span_s(events: Events) -> float:
+    """How far from the position's contact the force's is looked for: the stand-off tolerance at the contact
+    speed, at most 4 ms. [s]"""
+    return min(4e-3, STANDOFF_TOLERANCE_M / max(events.contact_speed_m_s, 0.1))
+
+
+def late_force_rise(time_s: np.ndarray, force_n: np.ndarray, events: Events, lag_s: float) -> float | None:
+    """The force's rise at contact when it comes later than :func:`kinematic_events` looks, else None. [s]
+
+    A force chain that lags by up to ``lag_s`` moves the rise that much past where the block's surface puts
+    it; with the surface past the file's stand-off too, it can fall beyond the stand-off tolerance.  The
+    change point is then looked for over a span ``lag_s`` wider, and kept only if it lies past the narrow
+    span's end (inside it, the narrow search has already seen what there is to see)."""
+    span = _contact_span_s(events)
+    rise = force_onset(time_s, force_n, events.contact_s, span_s=span + lag_s)
+    return rise if events.contact_s + span < rise < events.stop_s else None
 
 
 def motion_joins(time_s: np.ndarray, events: Events) -> list[tuple[float, int]]:
