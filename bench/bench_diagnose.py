@@ -1,13 +1,15 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
-     [--two-slopes] [--drift-friction] [--slow-speeds]
+     [--two-slopes] [--drift-friction] [--slow-speeds] [--ringing-pairs]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
 ``--drift-friction``: every pair is a force drift with a velocity friction (random forms, their own stream).
 ``--slow-speeds``: every rate strength and velocity friction takes a characteristic speed of 0.5–2 m/s (its own
 stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
+``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
+random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
 single-effect verdicts that name the true effect (the hold-out bench's rule),
 false-positive rate on null campaigns, median held-out shrink of the
@@ -71,6 +73,20 @@ def slow_speeds(campaigns, seed):
     return _redrawn(campaigns, seed, 7, change)
 
 
+def ringing_pairs(campaigns, seed):
+    """The campaigns with every pair replaced by rig ringing and a depth law (pressure growth, plug growth,
+    gradient or layer; random forms, their own stream)."""
+    laws = ["sidewall_pressure_growth", "plug_growth", "strength_gradient", "strength_layer"]
+
+    def change(effects, truth, own):
+        if len(effects) != 2:
+            return effects, truth
+        second = str(own.choice(laws))
+        return [random_effect("rig_ringing", own), random_effect(second, own)], {"rig_ringing", second}
+
+    return _redrawn(campaigns, seed, 8, change)
+
+
 def run_one(label, material, effects, seed, nuisances=None):
     with tempfile.TemporaryDirectory() as tmp:
         nuisances = {"shots": SIX, **(nuisances or {})}
@@ -100,6 +116,8 @@ def main() -> None:
             campaigns = drift_friction(campaigns, base_seed)
         if "--slow-speeds" in sys.argv:
             campaigns = slow_speeds(campaigns, base_seed)
+        if "--ringing-pairs" in sys.argv:
+            campaigns = ringing_pairs(campaigns, base_seed)
     else:
         campaigns = [(*c, None) for c in diagnosis_campaigns(quick)]
         base_seed = 500

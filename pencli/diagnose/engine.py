@@ -873,7 +873,10 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
 
     Significant when (1) ``top`` leaves a gap its own null would not, (2) the second effect's standardised
     improvement beats the null's largest (family-wise, as for the first), (3) it removes at least
-    :data:`EXPLAIN_SHARE` of what ``top`` leaves above the null floor, and (4) no second shape of ``top``'s own
+    :data:`EXPLAIN_SHARE` of what ``top`` leaves above the null floor, or of what ``top``'s best pair of own
+    shapes leaves when it adds on top of that pair (a first effect whose form one member follows only in part
+    leaves a misfit of its own, which a second own shape takes and a second cause does not: two struck modes
+    with their own decays left three times what a pressure growth beside them removed), and (4) no second shape of ``top``'s own
     family can stand in for it: at high signal-to-noise any family fits a little of the first effect's shape
     mismatch, and another shape of the first family fits it at least as well, while a second cause is
     something no shape of the first can mimic.  (4) holds when the second effect does better than the best
@@ -913,7 +916,8 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
     return {"effect": name, "heldout": float(second.family.heldout[0]), "z": round(second.z, 2),
             "threshold": threshold, "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own),
             "over_own_pair": over_own,
-            "significant": bool(second.z > threshold and share >= EXPLAIN_SHARE and beyond_own),
+            "significant": bool(second.z > threshold and beyond_own
+                                and (share >= EXPLAIN_SHARE or bool(over_own and over_own["adds"]))),
             "shrink_pct": round(100.0 * (1.0 - math.sqrt(max(second.family.heldout[0], 0.0) / S0[0])), 2)}
 
 
