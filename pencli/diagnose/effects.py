@@ -92,7 +92,7 @@ class DiagnosisRun:
 
     @property
     def window(self) -> np.ndarray:
-        """The analysis window, starting no sooner than 0.5 ms after the latest contact."""
+        """The analysis window, starting no sooner than 0.5 ms after the latest contact or a late force rise."""
         start = max(self.window_start_s, self.contact_span_s[1] + 0.5e-3,
                     -math.inf if self.force_rise_s is None else self.force_rise_s + 0.5e-3)
         return (self.time_s >= start) & (self.time_s <= self.window_end_s)

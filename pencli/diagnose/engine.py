@@ -778,9 +778,10 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
             verdict_effects.append("propulsion_loss")
     late = {r.run_id: round((r.force_rise_s - r.contact_s) * 1e3, 3) for r in runs if r.force_rise_s is not None}
     if late:
-        notes.append(f"{len(late)} of {len(runs)} runs' force rises later after contact than a block surface within "
-                     f"the stand-off tolerance explains ({min(late.values()):.2f}–{max(late.values()):.2f} ms): a "
-                     f"lagging force chain, or surfaces far from the stand-off; their windows start after the rise")
+        notes.append(f"in {len(late)} of {len(runs)} runs the force rises {min(late.values()):.2f}–"
+                     f"{max(late.values()):.2f} ms after the position's contact, later than a block surface within the "
+                     f"stand-off tolerance allows (a lagging force chain, or a surface far from the stand-off); their "
+                     f"windows start after the rise")
     if verdict == "none":
         limits = ", ".join(f"{r.name} {r.detectable_rms_n:.1f} N" for r in reports.values()
                            if r.detectable_rms_n is not None)
@@ -872,18 +873,17 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
     """The effect that adds most on top of ``top`` (its best member held), tested against the null.
 
     Significant when (1) ``top`` leaves a gap its own null would not, (2) the second effect's standardised
-    improvement beats the null's largest (family-wise, as for the first), (3) it removes at least
-    :data:`EXPLAIN_SHARE` of what ``top`` leaves above the null floor, or of what ``top``'s best pair of own
-    shapes leaves when it adds on top of that pair (a first effect whose form one member follows only in part
-    leaves a misfit of its own, which a second own shape takes and a second cause does not: two struck modes
-    with their own decays left three times what a pressure growth beside them removed), and (4) no second shape of ``top``'s own
-    family can stand in for it: at high signal-to-noise any family fits a little of the first effect's shape
+    improvement beats the null's largest (family-wise, as for the first), and either
+    (a) it removes at least :data:`EXPLAIN_SHARE` of what ``top`` leaves above the null floor and does better
+    than the best second shape of ``top``'s own family by more than the null's noise, or (b) it still adds on
+    top of that own pair: its z beats the same family-wise threshold and it removes :data:`EXPLAIN_SHARE` of
+    what the own pair leaves.  At high signal-to-noise any family fits a little of the first effect's shape
     mismatch, and another shape of the first family fits it at least as well, while a second cause is
-    something no shape of the first can mimic.  (4) holds when the second effect does better than the best
-    second own shape by more than the null's noise, or when it still adds on top of that own pair (its z
-    beats the same family-wise threshold and it removes :data:`EXPLAIN_SHARE` of what the own pair leaves):
-    two shapes of a flexible family (two drifts) can together match a second cause about as well as the
-    cause does, and then only what the cause adds beyond them tells them apart.
+    something no shape of the first can mimic.  Two shapes of a flexible family (two drifts) can together match
+    a second cause about as well as the cause does, and then only what the cause adds beyond them tells them
+    apart.  Until the twenty-first session (b) also needed (a)'s share: a first effect whose form one member
+    follows only in part leaves a misfit of its own, which a second own shape takes and a second cause does
+    not (two struck modes with their own decays left three times what a pressure growth beside them removed).
     """
     lead = candidates[top][tested[top].family.best]
     S_top = tested[top].family.heldout
