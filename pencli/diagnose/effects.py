@@ -340,7 +340,7 @@ def _gradient_members() -> tuple[Member, ...]:
     out = [law("strength", (lambda x, v, p=p: (x / 0.1) ** p), exponent=p, shape="power") for p in _EXPONENTS]
     out.append(law("strength", lambda x, v: x / 0.1, lambda x, v: (x / 0.1) ** 2, shape="quadratic"))
     out += [law("strength", (lambda x, v, L=L * 1e-3: -np.expm1(-x / L)), length_mm=L, shape="saturating")
-            for L in _LENGTHS_MM[2:]]
+            for L in _LENGTHS_MM]
     out += [law("strength", (lambda x, v, L=L * 1e-3: np.expm1(x / L)), length_mm=L, shape="exponential")
             for L in _LENGTHS_MM[3:]]
     return tuple(out + _monotone_members())
