@@ -901,7 +901,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
     name = max(scored, key=lambda n: S_top[0] - scored[n].family.heldout[0])
     second = scored[name]
     share = _share_of_remainder(S_top, second.family.heldout, S0)
-    beyond_own, over_own = True, None
+    beyond_own, over_own, adds = True, None, False
     if own_specs:
         own, _ = _score_family(stats, own_specs)
         diff = own.heldout - second.family.heldout  # > 0 when the other effect does better than a second own shape
@@ -912,12 +912,11 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
         beyond_own = _standardise(diff, _roundoff(own.heldout))[0] > AMBIGUITY_Z
         over_own = _over_own_pair(stats, _Candidate(lead.member, own_specs[own.best]), candidates[name], base_spec,
                                   own.heldout, S0, threshold)
-        beyond_own = beyond_own or bool(over_own and over_own["adds"])
+        adds = bool(over_own and over_own["adds"])
     return {"effect": name, "heldout": float(second.family.heldout[0]), "z": round(second.z, 2),
-            "threshold": threshold, "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own),
+            "threshold": threshold, "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own or adds),
             "over_own_pair": over_own,
-            "significant": bool(second.z > threshold and beyond_own
-                                and (share >= EXPLAIN_SHARE or bool(over_own and over_own["adds"]))),
+            "significant": bool(second.z > threshold and ((share >= EXPLAIN_SHARE and beyond_own) or adds)),
             "shrink_pct": round(100.0 * (1.0 - math.sqrt(max(second.family.heldout[0], 0.0) / S0[0])), 2)}
 
 
