@@ -1,13 +1,15 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
-     [--two-slopes] [--drift-friction] [--slow-speeds] [--ringing-pairs]
+     [--two-slopes] [--drift-friction] [--slow-speeds] [--ringing-pairs] [--short-gradients]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
 ``--drift-friction``: every pair is a force drift with a velocity friction (random forms, their own stream).
 ``--slow-speeds``: every rate strength and velocity friction takes a characteristic speed of 0.5–2 m/s (its own
 stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
+``--short-gradients``: every strength gradient saturates (sim truth shape 2) within 4–15 mm (its own stream;
+``--varied`` draws 15–80 mm).
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
 random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
@@ -73,6 +75,15 @@ def slow_speeds(campaigns, seed):
     return _redrawn(campaigns, seed, 7, change)
 
 
+def short_gradients(campaigns, seed):
+    """The campaigns with every strength gradient saturating (sim truth shape 2) within 4–15 mm (its own stream)."""
+    def change(effects, truth, own):
+        return [dict(e, shape=2.0, length_mm=float(own.uniform(4, 15))) if e["name"] == "strength_gradient" else e
+                for e in effects], truth
+
+    return _redrawn(campaigns, seed, 9, change)
+
+
 def ringing_pairs(campaigns, seed):
     """The campaigns with every pair replaced by rig ringing and a depth law (pressure growth, plug growth,
     gradient or layer; random forms, their own stream)."""
@@ -118,6 +129,8 @@ def main() -> None:
             campaigns = slow_speeds(campaigns, base_seed)
         if "--ringing-pairs" in sys.argv:
             campaigns = ringing_pairs(campaigns, base_seed)
+        if "--short-gradients" in sys.argv:
+            campaigns = short_gradients(campaigns, base_seed)
     else:
         campaigns = [(*c, None) for c in diagnosis_campaigns(quick)]
         base_seed = 500
