@@ -15,6 +15,13 @@ ingest → tare → subtract-inertia → diagnose, as the README says.  Parts:
    refitted, in units of the campaign's noise.  Detected = the effect is
    significant and first (or among the verdict's effects).
 
+Every effect, pair and outside campaign of part 1 is also run without its effects (its twin: the same seed,
+so the same runs, nuisances and noise), which gives its size as in part 3.  The summary prints the verdicts
+right both over all those campaigns (the figure the issue's target is set on) and over those whose effects
+leave at least :data:`SEEN` × the noise after the baseline refit: a campaign whose effect the baseline absorbs
+(a rate strength that only rescales the damping terms) leaves nothing for any method to name.  Propulsion loss
+always counts: the resistance view does not see it (its size is ~0), the drive view does.
+
 Prints each campaign, then the figures; ``--out FILE.jsonl`` appends every row as it is made, and
 ``--summary FILE.jsonl`` prints the figures from such a file again.
 """
@@ -33,6 +40,9 @@ from pencli import api
 from tests.holdout_world import CATALOGUE, OUTSIDE, make_campaign
 
 LADDER = (0.04, 0.08, 0.16, 0.32, 0.64)
+SEEN = 0.5
+"""Size (RMS left after the baseline refit / noise) from which a campaign counts in the second accuracy figure;
+set before any twin was measured, at the lower edge of the ladder's bin where detection starts."""
 SIZE_BINS = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, math.inf)
 
 
@@ -54,6 +64,13 @@ def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
             "shrink_of_truth": next((e.shrink_pct for e in result.effects if e.name in effects), None),
             "baseline_ms_n2": result.baseline["heldout_rms_n"] ** 2, "noise_n": campaign.nuisances["noise_n"],
             "nuisances": campaign.nuisances, "forms": campaign.effects, "seconds": seconds}
+
+
+def with_size(row: dict) -> dict:
+    """``row`` with its twin's held-out mean square and its size (see the module's doc)."""
+    twin = run(row["seed"])
+    return {**row, "twin_ms_n2": twin["baseline_ms_n2"], "twin_verdict": twin["verdict"],
+            "size": math.sqrt(max(row["baseline_ms_n2"] - twin["baseline_ms_n2"], 0.0)) / row["noise_n"]}
 
 
 def right(row: dict) -> bool:
@@ -85,7 +102,8 @@ def keep(part: str, row: dict) -> dict:
 def show(label: str, row: dict) -> None:
     print(f"{label:34s} truth={'+'.join(row['truth']) or 'none':45s} verdict={row['verdict']:25s} "
           f"{'OK ' if right(row) else 'MISS'} effects={row['verdict_effects']} {row['seconds']:.1f}s "
-          f"noise={row['noise_n']:.1f}N rate={row['nuisances']['rate_hz']} enc={row['nuisances']['encoder_mm']}mm",
+          f"noise={row['noise_n']:.1f}N rate={row['nuisances']['rate_hz']} enc={row['nuisances']['encoder_mm']}mm"
+          + (f" size={row['size']:.2f}" if "size" in row else ""),
           flush=True)
 
 
@@ -110,15 +128,15 @@ def main() -> None:
         show(f"null {i}", rows["accuracy"][-1])
     for k, name in enumerate(CATALOGUE):
         for rep in range(1 if quick else 2):
-            rows["accuracy"].append(keep("accuracy", run(base + 100 + 2 * k + rep, [name])))
+            rows["accuracy"].append(keep("accuracy", with_size(run(base + 100 + 2 * k + rep, [name]))))
             show(f"{name} {rep}", rows["accuracy"][-1])
     pairs = [("strength_layer", "load_cell_mass_error"), ("rig_ringing", "sidewall_pressure_growth"),
              ("propulsion_loss", "strength_gradient"), ("force_drift", "velocity_friction")]
     for k, pair in enumerate(pairs[:1] if quick else pairs):
-        rows["accuracy"].append(keep("accuracy", run(base + 200 + k, list(pair))))
+        rows["accuracy"].append(keep("accuracy", with_size(run(base + 200 + k, list(pair)))))
         show(f"pair {k}", rows["accuracy"][-1])
     for k in range(1 if quick else 2):
-        rows["accuracy"].append(keep("accuracy", run(base + 300 + k, [OUTSIDE])))
+        rows["accuracy"].append(keep("accuracy", with_size(run(base + 300 + k, [OUTSIDE]))))
         show(f"outside {k}", rows["accuracy"][-1])
     if not quick:
         for i in range(40):
@@ -149,6 +167,13 @@ def summarise(rows: dict, n_nulls: int) -> None:
           f"({100 * sum(map(right, effect_rows)) / len(effect_rows):.0f} %)")
     print(f"verdicts right, all campaigns incl. {n_nulls} nulls:        {sum(map(right, acc))} of {len(acc)} "
           f"({100 * sum(map(right, acc)) / len(acc):.0f} %)")
+    sized = [r for r in effect_rows if "size" in r]
+    if sized:
+        seen = [r for r in sized if r["size"] >= SEEN or "propulsion_loss" in r["truth"]]
+        print(f"verdicts right where the effects leave >= {SEEN:g} x the noise: {sum(map(right, seen))} of {len(seen)} "
+              f"({100 * sum(map(right, seen)) / max(len(seen), 1):.0f} %); below it: "
+              + (", ".join(f"{'+'.join(r['truth'])} {r['size']:.2f} ({'right' if right(r) else r['verdict']})"
+                           for r in sized if r not in seen) or "none"))
     print(f"single effects right:                                {sum(map(right, singles))} of {len(singles)}")
     print(f"pairs with both effects found:                       {sum(map(right, pair_rows))} of {len(pair_rows)}")
     print(f"null campaigns called anything but none:             {sum(not right(r) for r in nulls)} of {len(nulls)} "
