@@ -1,7 +1,7 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
-     [--two-slopes] [--drift-friction] [--slow-speeds] [--ringing-pairs] [--short-gradients]
+     [--two-slopes] [--drift-friction] [--slow-speeds] [--ringing-pairs] [--short-gradients] [--bessel-lags]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -10,6 +10,8 @@ Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SE
 stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
 ``--short-gradients``: every strength gradient saturates (sim truth shape 2) within 4–15 mm (its own stream;
 ``--varied`` draws 15–80 mm).
+``--bessel-lags``: every sensor lag a fourth-order Bessel low-pass (sim truth shape 3) of group delay 0.2–0.8 ms
+(its own stream; ``--varied`` draws one or two poles or a pure delay).
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
 random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
@@ -85,6 +87,16 @@ def short_gradients(campaigns, seed):
     return _redrawn(campaigns, seed, 9, change)
 
 
+def bessel_lags(campaigns, seed):
+    """The campaigns with every sensor lag a fourth-order Bessel low-pass (sim truth shape 3) of group delay
+    0.2–0.8 ms (its own stream): a delay with a rounded step, which no single lag member has."""
+    def change(effects, truth, own):
+        return [dict(e, shape=3.0, tau_ms=float(own.uniform(0.2, 0.8))) if e["name"] == "sensor_lag" else e
+                for e in effects], truth
+
+    return _redrawn(campaigns, seed, 10, change)
+
+
 def ringing_pairs(campaigns, seed):
     """The campaigns with every pair replaced by rig ringing and a depth law (pressure growth, plug growth,
     gradient or layer; random forms, their own stream)."""
@@ -130,6 +142,8 @@ def main() -> None:
             campaigns = slow_speeds(campaigns, base_seed)
         if "--ringing-pairs" in sys.argv:
             campaigns = ringing_pairs(campaigns, base_seed)
+        if "--bessel-lags" in sys.argv:
+            campaigns = bessel_lags(campaigns, base_seed)
         if "--short-gradients" in sys.argv:
             campaigns = short_gradients(campaigns, base_seed)
     else:

@@ -107,8 +107,8 @@ def test_saturating_sidewall_pressure_integrates_its_rise():
 def test_an_effect_form_outside_its_shapes_is_refused_in_one_line():
     from pencli.errors import ParameterError
 
-    with pytest.raises(ParameterError, match=r"effects\[0\] \(sensor_lag\): shape = 3; expected one of 0, 1, 2"):
-        _resistance([{"name": "sensor_lag", "shape": 3}], 0.0, 0.0)
+    with pytest.raises(ParameterError, match=r"effects\[0\] \(sensor_lag\): shape = 4; expected one of 0, 1, 2, 3"):
+        _resistance([{"name": "sensor_lag", "shape": 4}], 0.0, 0.0)
     # a two-slope gradient that cannot be stated against its change at 100 mm (it divided by zero)
     with pytest.raises(ParameterError, match=r"effects\[0\] \(strength_gradient\): kink_mm = 0, slope_ratio = 0; "
                                              r"expected both ≥ 0, not both 0"):
@@ -125,3 +125,24 @@ def test_the_pure_delay_lag_shifts_the_force_by_its_delay():
     signal = np.sin(2 * np.pi * 200.0 * t)
     delayed = _lag(signal, 0.5e-3, rate, 2)  # 15 samples
     assert np.allclose(delayed[15:], signal[:-15], atol=1e-12)
+
+
+def test_the_bessel_lag_delays_a_slow_sine_as_the_analogue_fourth_order_prototype_does():
+    import numpy as np
+
+    from pencli.acquire.sim import _lag
+
+    rate, tau = 30000.0, 0.5e-3
+    t = np.arange(3000) / rate
+    w = 2 * np.pi * 150.0
+    out = _lag(np.sin(w * t), tau, rate, 3)
+    # the unit-delay fourth-order Bessel prototype: 105 / (s⁴ + 10 s³ + 45 s² + 105 s + 105) at s = jωτ
+    s = 1j * w * tau
+    h = 105.0 / (s ** 4 + 10 * s ** 3 + 45 * s ** 2 + 105 * s + 105)
+    settled = t > 0.05
+    expected = abs(h) * np.sin(w * t + np.angle(h))
+    assert np.max(np.abs(out[settled] - expected[settled])) < 2e-3
+    # a step crosses half-way one group delay late and settles at its height (gain 1 at DC)
+    step = _lag(np.r_[np.zeros(100), np.ones(900)], tau, rate, 3)
+    assert abs((np.argmax(step >= 0.5) - 100) / rate - tau) <= 1.0 / rate
+    assert abs(step[-1] - 1.0) < 1e-6 and step.max() < 1.015

@@ -61,11 +61,20 @@ def world_from(penetrator: ParameterSet, material: ParameterSet, energizing: Par
 
 def _lag(signal: np.ndarray, tau_s: float, rate_hz: float, shape: int) -> np.ndarray:
     """The force channel's lag, starting settled: shape 0 two cascaded first-order low-passes (exact
-    discretisation), 1 one of them, 2 a pure delay of ``tau_s`` (linear interpolation between samples)."""
+    discretisation), 1 one of them, 2 a pure delay of ``tau_s`` (linear interpolation between samples), 3 a
+    fourth-order Bessel low-pass whose group delay is ``tau_s`` (bilinear; a delay with a rounded step, as a
+    conditioning amplifier's linear-phase filter gives)."""
     if shape == 2:
         shifted = np.arange(signal.size) - tau_s * rate_hz
         return np.interp(shifted, np.arange(signal.size), signal)
     from scipy.signal import lfilter
+
+    if shape == 3:
+        from scipy.signal import bessel, lfilter_zi
+
+        # norm="delay": the group delay at low frequency is 1/(2π Wn) with Wn in the units of fs
+        b, a = bessel(4, 1.0 / (2.0 * math.pi * tau_s), norm="delay", fs=rate_hz)
+        return lfilter(b, a, signal, zi=lfilter_zi(b, a) * signal[0])[0]
 
     a = math.exp(-1.0 / (tau_s * rate_hz))
     out = signal

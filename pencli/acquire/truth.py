@@ -71,7 +71,8 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
     EffectSpec("load_cell_mass_error", "the mass below the load cell is ratio × the file's value",
                {"ratio": 1.5}),
     EffectSpec("sensor_lag", "the force channel lags; shape 0: two first-order poles of tau_ms each; 1: one pole "
-               "of tau_ms; 2: a pure delay of tau_ms", {"tau_ms": 0.3, "shape": 0.0}, 3),
+               "of tau_ms; 2: a pure delay of tau_ms; 3: a fourth-order Bessel low-pass of group delay tau_ms",
+               {"tau_ms": 0.3, "shape": 0.0}, 4),
     EffectSpec("rig_ringing", "two damped structural modes are struck at contact: amplitude_n_per_m_s × contact "
                "speed at frequency_hz, and second_amplitude of it at second_ratio × frequency_hz (twice the decay)",
                {"amplitude_n_per_m_s": 40.0, "frequency_hz": 900.0, "damping_ratio": 0.03,
