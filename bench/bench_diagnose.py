@@ -1,7 +1,7 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
-     [--two-slopes] [--drift-friction] [--slow-speeds] [--ringing-pairs] [--short-gradients] [--bessel-lags]
+     [--two-slopes] [--drift-friction] [--slow-speeds] [--ringing-pairs] [--short-gradients] [--bessel-lags] [--s-gradients]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -10,6 +10,8 @@ Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SE
 stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
 ``--short-gradients``: every strength gradient saturates (sim truth shape 2) within 4–15 mm (its own stream;
 ``--varied`` draws 15–80 mm).
+``--s-gradients``: every strength gradient an S-shaped rise (sim truth shape 4) centred at 20–80 mm, tanh width
+10–30 mm (its own stream).
 ``--bessel-lags``: every sensor lag a fourth-order Bessel low-pass (sim truth shape 3) of group delay 0.2–0.8 ms
 (its own stream; ``--varied`` draws one or two poles or a pure delay).
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
@@ -87,6 +89,17 @@ def short_gradients(campaigns, seed):
     return _redrawn(campaigns, seed, 9, change)
 
 
+def s_gradients(campaigns, seed):
+    """The campaigns with every strength gradient an S-shaped rise (sim truth shape 4) centred at 20–80 mm, tanh
+    width 10–30 mm (its own stream): a smooth monotone profile that is neither a power, a saturation nor a
+    sharp-edged step."""
+    def change(effects, truth, own):
+        return [dict(e, shape=4.0, length_mm=float(own.uniform(20, 80)), width_mm=float(own.uniform(10, 30)))
+                if e["name"] == "strength_gradient" else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 11, change)
+
+
 def bessel_lags(campaigns, seed):
     """The campaigns with every sensor lag a fourth-order Bessel low-pass (sim truth shape 3) of group delay
     0.2–0.8 ms (its own stream): a delay with a rounded step, which no single lag member has."""
@@ -142,6 +155,8 @@ def main() -> None:
             campaigns = slow_speeds(campaigns, base_seed)
         if "--ringing-pairs" in sys.argv:
             campaigns = ringing_pairs(campaigns, base_seed)
+        if "--s-gradients" in sys.argv:
+            campaigns = s_gradients(campaigns, base_seed)
         if "--bessel-lags" in sys.argv:
             campaigns = bessel_lags(campaigns, base_seed)
         if "--short-gradients" in sys.argv:

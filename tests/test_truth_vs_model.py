@@ -70,7 +70,10 @@ def _resistance(effects, x, v):
 @pytest.mark.parametrize("shape,at_50mm", [
     (0, lambda c, e, L: (1 + c) ** 0.5 - 1), (1, lambda c, e, L: c * 0.5 ** e),
     (2, lambda c, e, L: c * (1 - math.exp(-50 / L)) / (1 - math.exp(-100 / L))),
-    (3, lambda c, e, L: c * (40 + 0.2 * 10) / (40 + 0.2 * 60))])  # two slopes: the defaults' kink 40 mm, ratio 0.2
+    (3, lambda c, e, L: c * (40 + 0.2 * 10) / (40 + 0.2 * 60)),  # two slopes: the defaults' kink 40 mm, ratio 0.2
+    # an S-shaped rise centred at L, the default tanh width 20 mm: s(x) = tanh((x − L)/20)
+    (4, lambda c, e, L: c * (math.tanh((50 - L) / 20) + math.tanh(L / 20)) / (math.tanh((100 - L) / 20)
+                                                                             + math.tanh(L / 20)))])
 def test_each_form_of_a_strength_gradient_changes_the_frontal_strength_as_described(shape, at_50mm):
     """The sim world's random forms (issue 11): at 100 mm every form has changed the frontal strength force
     (R at the surface, at rest) by change_per_100mm; at 50 mm by its own profile, written out here."""

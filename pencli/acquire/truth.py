@@ -51,9 +51,10 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
     EffectSpec("strength_gradient", "strength changes smoothly with depth, by change_per_100mm at 100 mm; shape 0: "
                "exponential S·(1 + change)^(x/0.1 m); 1: power S·(1 + change·(x/0.1 m)^exponent); 2: saturating "
                "S·(1 + change·(1 − exp(−x/length_mm))/(1 − exp(−0.1 m/length_mm))); 3: two slopes, the second "
-               "slope_ratio × the first below kink_mm",
+               "slope_ratio × the first below kink_mm; 4: an S-shaped rise S·(1 + change·(s(x) − s(0))/(s(0.1 m) − s(0))), "
+               "s(x) = tanh((x − length_mm)/width_mm)",
                {"change_per_100mm": 0.5, "shape": 0.0, "exponent": 1.5, "length_mm": 40.0, "kink_mm": 40.0,
-                "slope_ratio": 0.2}, 4),
+                "slope_ratio": 0.2, "width_mm": 20.0}, 5),
     EffectSpec("plug_growth", "a crushed plug widens the frontal thickness to T + growth_mm·h(x); shape 0: "
                "hyperbolic h = (x/length_mm)/(1 + x/length_mm); 1: exponential h = 1 − exp(−x/length_mm); 2: "
                "linear until length_mm, then constant", {"growth_mm": 1.5, "length_mm": 30.0, "shape": 0.0}, 3),
@@ -121,6 +122,8 @@ def validate_effects(effects: Any, where: str) -> tuple[tuple[str, dict[str, flo
             if kink < 0 or ratio < 0 or kink == ratio == 0:
                 raise ParameterError(f"{where}: effects[{i}] ({name}): kink_mm = {kink:g}, slope_ratio = {ratio:g}; "
                                      f"expected both ≥ 0, not both 0")
+        if name == "strength_gradient" and shape == 4 and params["width_mm"] <= 0:
+            raise ParameterError(f"{where}: effects[{i}] ({name}): width_mm = {params['width_mm']:g}; expected > 0")
         out.append((name, params))
     return tuple(out)
 
@@ -201,6 +204,10 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
             span = min(x, kink) + ratio * max(x - kink, 0.0)
             return 1.0 + change * span / (min(0.1, kink) + ratio * max(0.1 - kink, 0.0))
         length = gradient["length_mm"] * 1e-3
+        if shape == 4:
+            width = gradient["width_mm"] * 1e-3
+            s0 = math.tanh(-length / width)
+            return 1.0 + change * (math.tanh((x - length) / width) - s0) / (math.tanh((0.1 - length) / width) - s0)
         return 1.0 + change * -math.expm1(-x / length) / -math.expm1(-0.1 / length)
 
     def rate_factor(v: float) -> float:
