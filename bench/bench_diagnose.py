@@ -11,7 +11,7 @@ stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most 
 ``--short-gradients``: every strength gradient saturates (sim truth shape 2) within 4–15 mm (its own stream;
 ``--varied`` draws 15–80 mm).
 ``--s-gradients``: every strength gradient an S-shaped rise (sim truth shape 4) centred at 20–80 mm, tanh width
-10–30 mm (its own stream).
+15–40 mm (its own stream).
 ``--bessel-lags``: every sensor lag a fourth-order Bessel low-pass (sim truth shape 3) of group delay 0.2–0.8 ms
 (its own stream; ``--varied`` draws one or two poles or a pure delay).
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
@@ -91,10 +91,10 @@ def short_gradients(campaigns, seed):
 
 def s_gradients(campaigns, seed):
     """The campaigns with every strength gradient an S-shaped rise (sim truth shape 4) centred at 20–80 mm, tanh
-    width 10–30 mm (its own stream): a smooth monotone profile that is neither a power, a saturation nor a
-    sharp-edged step."""
+    width 15–40 mm (its own stream): a smooth monotone profile that is neither a power, a saturation nor a step
+    (a layer's edge is a tanh too, at most 12 mm wide in the catalogue, 0.5–8 mm in ``--varied``)."""
     def change(effects, truth, own):
-        return [dict(e, shape=4.0, length_mm=float(own.uniform(20, 80)), width_mm=float(own.uniform(10, 30)))
+        return [dict(e, shape=4.0, length_mm=float(own.uniform(20, 80)), width_mm=float(own.uniform(15, 40)))
                 if e["name"] == "strength_gradient" else e for e in effects], truth
 
     return _redrawn(campaigns, seed, 11, change)
