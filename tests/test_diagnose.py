@@ -337,6 +337,25 @@ def test_a_gradient_saturating_within_a_few_millimetres_is_a_gradient(tmp_path):
     result = api.diagnose(db, ["all"])
     assert result.verdict == "strength_gradient", [(e.name, e.z, e.shrink_pct) for e in result.effects[:3]]
 
+def test_a_gradient_rising_in_an_s_wider_than_a_layers_edge_is_a_gradient(tmp_path):
+    """Issue 11: strength rising in an S (a tanh step tens of millimetres wide) was named a strength layer or a
+    plug growth: the gradient family had no S-shaped member, the layer's widest edge (12 mm) came nearest.
+    Campaign 1 of ``bench_diagnose --varied 8 78000 --only strength_gradient --s-gradients`` (the S's centre and
+    width from a stream of their own), named a plug growth before the family's single S-rises."""
+    from tests.campaigns import BLOCKS, varied_campaigns
+
+    _, material, effects, _, nuisances = varied_campaigns(8, 78000, only="strength_gradient")[1]
+    own = np.random.default_rng([78000, 11])
+    drawn = [(float(own.uniform(20, 80)), float(own.uniform(15, 40))) for _ in range(2)]  # centre, width
+    centre_mm, width_mm = drawn[1]
+    effects = [dict(effects[0], shape=4.0, length_mm=centre_mm, width_mm=width_mm)]
+    assert width_mm > 12.0  # wider than any layer edge of the catalogue
+    db = conditioned(make_campaign(tmp_path, material, seed=78001, effects=effects,
+                                   block_kpa=BLOCKS if material == "mpacs_c" else None, **nuisances))
+    result = api.diagnose(db, ["all"])
+    assert result.verdict == "strength_gradient", [(e.name, e.z, e.shrink_pct) for e in result.effects[:3]]
+
+
 def test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_on_some_replicates(tmp_path):
     """Issue 11: the layer beat a second ringing shape by 11,902 N² on the data, but two ringing shapes together
     extrapolate wildly on a few null replicates (−10¹⁵ N²), and the plain sd of the difference (4·10¹⁴) hid it.
