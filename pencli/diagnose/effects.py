@@ -336,21 +336,6 @@ def _monotone_members() -> list[Member]:
             law("strength", *falls, nonnegative=True, shape="monotone", direction="falling")]
 
 
-_RISE_CENTRES_MM = tuple(range(10, 100, 10))
-_RISE_WIDTHS_MM = (18.0, 27.0, 40.0)
-"""Single S-shaped rises (or falls: the coefficient is free), tanh((x − centre)/width) as a layer's edge but
-wider than any (a layer's edges are at most 12 mm): centred every 10 mm, 10–90 % over 40, 59 or 88 mm.  Added
-for the S-shaped development gradients of ``bench_diagnose --s-gradients`` (seed 78000: 3 of 8 named a
-gradient without them, 6 of 8 with; fresh seed 79000: 2 → 5 of 8), most of which went to a layer's 12 mm edge."""
-
-
-def _s_rise(centre_m: float, width_m: float) -> Profile:
-    """A layer's edge, ½(1 + tanh((x − centre)/width)), less its value at the surface: 0 there, as every gradient."""
-    step = _step(centre_m, width_m)
-    at_surface = float(_sigmoid(-centre_m / width_m))
-    return lambda x, v: step(x, v) - at_surface
-
-
 def _gradient_members() -> tuple[Member, ...]:
     out = [law("strength", (lambda x, v, p=p: (x / 0.1) ** p), exponent=p, shape="power") for p in _EXPONENTS]
     out.append(law("strength", lambda x, v: x / 0.1, lambda x, v: (x / 0.1) ** 2, shape="quadratic"))
@@ -358,8 +343,6 @@ def _gradient_members() -> tuple[Member, ...]:
             for L in _LENGTHS_MM]
     out += [law("strength", (lambda x, v, L=L * 1e-3: np.expm1(x / L)), length_mm=L, shape="exponential")
             for L in _LENGTHS_MM[3:]]
-    out += [law("strength", _s_rise(c * 1e-3, w * 1e-3), centre_mm=float(c), width_mm=w, shape="s_rise")
-            for c in _RISE_CENTRES_MM for w in _RISE_WIDTHS_MM]
     return tuple(out + _monotone_members())
 
 
@@ -615,8 +598,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            _layer_members, _describe_layer),
     Effect("strength_gradient", "law", "depth",
            "Strength varies smoothly and monotonically with depth (power, quadratic, exponential or saturating "
-           "profiles, an S-shaped rise or fall wider than a layer's edge, or any non-negative sum of smooth rises, "
-           "or of falls, 150 mm wide and 50 mm apart). "
+           "profiles, or any non-negative sum of smooth rises, or of falls, 150 mm wide and 50 mm apart). "
            "Signature: a misfit growing smoothly with depth in proportion to the blade's frontal area.",
            _gradient_members, _describe_gradient),
     Effect("plug_growth", "law", "depth",
