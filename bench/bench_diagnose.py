@@ -124,6 +124,12 @@ def ringing_pairs(campaigns, seed):
     return _redrawn(campaigns, seed, 8, change)
 
 
+REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--slow-speeds": slow_speeds,
+           "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
+           "--short-gradients": short_gradients}
+"""The scratch sets' flags and what each redraws (see the module's doc)."""
+
+
 def run_one(label, material, effects, seed, nuisances=None):
     with tempfile.TemporaryDirectory() as tmp:
         nuisances = {"shots": SIX, **(nuisances or {})}
@@ -147,20 +153,9 @@ def main() -> None:
         if "--only" in sys.argv:  # one effect alone: --varied 12 SEED --only strength_gradient
             only = sys.argv[sys.argv.index("--only") + 1]
         campaigns = varied_campaigns(count, base_seed, only=only)
-        if "--two-slopes" in sys.argv:
-            campaigns = two_slopes(campaigns, base_seed)
-        if "--drift-friction" in sys.argv:
-            campaigns = drift_friction(campaigns, base_seed)
-        if "--slow-speeds" in sys.argv:
-            campaigns = slow_speeds(campaigns, base_seed)
-        if "--ringing-pairs" in sys.argv:
-            campaigns = ringing_pairs(campaigns, base_seed)
-        if "--s-gradients" in sys.argv:
-            campaigns = s_gradients(campaigns, base_seed)
-        if "--bessel-lags" in sys.argv:
-            campaigns = bessel_lags(campaigns, base_seed)
-        if "--short-gradients" in sys.argv:
-            campaigns = short_gradients(campaigns, base_seed)
+        for flag, redraw in REDRAWS.items():  # in this order: a later one wins where two change the same effect
+            if flag in sys.argv:
+                campaigns = redraw(campaigns, base_seed)
     else:
         campaigns = [(*c, None) for c in diagnosis_campaigns(quick)]
         base_seed = 500

@@ -337,6 +337,7 @@ def test_a_gradient_saturating_within_a_few_millimetres_is_a_gradient(tmp_path):
     result = api.diagnose(db, ["all"])
     assert result.verdict == "strength_gradient", [(e.name, e.z, e.shrink_pct) for e in result.effects[:3]]
 
+
 @pytest.mark.xfail(strict=True, reason="issue 11: S-shaped gradients go to a layer's widest edge or a plug; the "
                    "S-rise members that fixed it lost a layer + ringing pair and were reverted (README, twenty-second "
                    "session)")

@@ -116,6 +116,9 @@ def test_an_effect_form_outside_its_shapes_is_refused_in_one_line():
     with pytest.raises(ParameterError, match=r"effects\[0\] \(strength_gradient\): kink_mm = 0, slope_ratio = 0; "
                                              r"expected both ≥ 0, not both 0"):
         _resistance([{"name": "strength_gradient", "shape": 3, "kink_mm": 0, "slope_ratio": 0}], 0.0, 0.0)
+    # an S-shaped rise of no width is a step the sim does not draw (it divided by zero)
+    with pytest.raises(ParameterError, match=r"effects\[0\] \(strength_gradient\): width_mm = 0; expected > 0"):
+        _resistance([{"name": "strength_gradient", "shape": 4, "width_mm": 0}], 0.0, 0.0)
 
 
 def test_the_pure_delay_lag_shifts_the_force_by_its_delay():

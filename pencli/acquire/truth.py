@@ -51,8 +51,8 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
     EffectSpec("strength_gradient", "strength changes smoothly with depth, by change_per_100mm at 100 mm; shape 0: "
                "exponential S·(1 + change)^(x/0.1 m); 1: power S·(1 + change·(x/0.1 m)^exponent); 2: saturating "
                "S·(1 + change·(1 − exp(−x/length_mm))/(1 − exp(−0.1 m/length_mm))); 3: two slopes, the second "
-               "slope_ratio × the first below kink_mm; 4: an S-shaped rise S·(1 + change·(s(x) − s(0))/(s(0.1 m) − s(0))), "
-               "s(x) = tanh((x − length_mm)/width_mm)",
+               "slope_ratio × the first below kink_mm; 4: an S-shaped rise "
+               "S·(1 + change·(s(x) − s(0))/(s(0.1 m) − s(0))), s(x) = tanh((x − length_mm)/width_mm)",
                {"change_per_100mm": 0.5, "shape": 0.0, "exponent": 1.5, "length_mm": 40.0, "kink_mm": 40.0,
                 "slope_ratio": 0.2, "width_mm": 20.0}, 5),
     EffectSpec("plug_growth", "a crushed plug widens the frontal thickness to T + growth_mm·h(x); shape 0: "
