@@ -338,19 +338,16 @@ def test_a_gradient_saturating_within_a_few_millimetres_is_a_gradient(tmp_path):
     assert result.verdict == "strength_gradient", [(e.name, e.z, e.shrink_pct) for e in result.effects[:3]]
 
 
-@pytest.mark.xfail(strict=True, reason="issue 11: S-shaped gradients go to a layer's widest edge or a plug; the "
-                   "S-rise members that fixed it lost a layer + ringing pair and were reverted (README, twenty-second "
-                   "session)")
 def test_a_gradient_rising_in_an_s_wider_than_a_layers_edge_is_a_gradient(tmp_path):
     """Issue 11: strength rising in an S (a tanh step tens of millimetres wide) was named a strength layer or a
     plug growth: the gradient family had no S-shaped member, the layer's widest edge (12 mm) came nearest.
     Campaign 1 of ``bench_diagnose --varied 8 78000 --only strength_gradient --s-gradients`` (the S's centre and
     width from a stream of their own), named a plug growth.  Single S-shaped rises in the gradient family (da3bce6)
-    named it a gradient, and 6 of 8 of that set (5 of 8 on seed 79000), but were reverted: the first effect they
-    made top of a layer + ringing pair left no gap its own null would not, so the ringing was lost
-    (``test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_on_some_replicates``).  The
-    cause: an S-rise centred past the depth a fold's training runs reach is unconstrained there and explodes on
-    the held-out run of a tenth of the null replicates, which widens its null; bound such members per fold."""
+    named it a gradient but were reverted: centred past the depth a fold's training runs reach, an S-rise is
+    unconstrained there and explodes on the held-out run of a tenth of the null replicates, and that wide null
+    lost a layer + ringing pair
+    (``test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_on_some_replicates``).  An
+    S-rise now enters only where every fold's training runs reach a width past its centre (``Member.reach_m``)."""
     from tests.campaigns import BLOCKS, varied_campaigns
 
     _, material, effects, _, nuisances = varied_campaigns(8, 78000, only="strength_gradient")[1]

@@ -193,6 +193,11 @@ class Member:
     (n, T) ``a`` (one measurement per column) as well as an (n,) one: the diagnosis then builds them again from
     each null replicate's own measured acceleration, whose derivative error that replicate's resistance carries
     (R = F − m·a)."""
+    reach_m: float = 0.0
+    """How deep every fold's training runs must reach for the member to be fitted at all: the second-deepest
+    run of the campaign reaches this depth or the member is left out (the diagnosis leaves one run out, and a
+    shape that bends deeper than its training runs go is unconstrained there: fitted on next to nothing, it
+    extrapolates wildly to the run held out, on the data and on the null replicates alike). [m]"""
 
     def strength_columns(self, n_extra: int) -> tuple[int, ...]:
         """Which of the member's ``n_extra`` extra columns are shares of the run's strength (a law on the
@@ -268,8 +273,8 @@ class Effect:
         return self.family() if callable(self.family) else self.family
 
 
-def law(term: str, *profiles: Profile, nonnegative: bool = False, **params) -> Member:
-    return Member(params, term, tuple(profiles), nonnegative=nonnegative)
+def law(term: str, *profiles: Profile, nonnegative: bool = False, reach_m: float = 0.0, **params) -> Member:
+    return Member(params, term, tuple(profiles), nonnegative=nonnegative, reach_m=reach_m)
 
 
 def _sigmoid(z):
@@ -336,6 +341,23 @@ def _monotone_members() -> list[Member]:
             law("strength", *falls, nonnegative=True, shape="monotone", direction="falling")]
 
 
+_RISE_CENTRES_MM = tuple(range(20, 100, 10))
+_RISE_WIDTHS_MM = (18.0, 27.0, 40.0)
+"""Single S-shaped rises (or falls: the coefficient is free), tanh((x − centre)/width) as a layer's edge but
+wider than any (a layer's edges are at most 12 mm): centred every 10 mm, 10–90 % over 40, 59 or 88 mm, and only
+where the S's toe lies in the block (centre ≥ width: at most 12 % risen at the surface; a shallower S is a
+saturating rise, which the saturating members cover).  Added for the S-shaped development gradients of
+``bench_diagnose --s-gradients``, most of which went to a layer's 12 mm edge.  Each enters a campaign only where
+every fold's training runs reach a width past its centre (:attr:`Member.reach_m`)."""
+
+
+def _s_rise(centre_m: float, width_m: float) -> Profile:
+    """A layer's edge, ½(1 + tanh((x − centre)/width)), less its value at the surface: 0 there, as every gradient."""
+    step = _step(centre_m, width_m)
+    at_surface = float(_sigmoid(-centre_m / width_m))
+    return lambda x, v: step(x, v) - at_surface
+
+
 def _gradient_members() -> tuple[Member, ...]:
     out = [law("strength", (lambda x, v, p=p: (x / 0.1) ** p), exponent=p, shape="power") for p in _EXPONENTS]
     out.append(law("strength", lambda x, v: x / 0.1, lambda x, v: (x / 0.1) ** 2, shape="quadratic"))
@@ -343,6 +365,9 @@ def _gradient_members() -> tuple[Member, ...]:
             for L in _LENGTHS_MM]
     out += [law("strength", (lambda x, v, L=L * 1e-3: np.expm1(x / L)), length_mm=L, shape="exponential")
             for L in _LENGTHS_MM[3:]]
+    out += [law("strength", _s_rise(c * 1e-3, w * 1e-3), centre_mm=float(c), width_mm=w, shape="s_rise",
+                reach_m=(c + w) * 1e-3)  # past the S's centre by a width: 88 % risen, its top constrained
+            for c in _RISE_CENTRES_MM for w in _RISE_WIDTHS_MM if c >= w]
     return tuple(out + _monotone_members())
 
 
@@ -598,7 +623,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            _layer_members, _describe_layer),
     Effect("strength_gradient", "law", "depth",
            "Strength varies smoothly and monotonically with depth (power, quadratic, exponential or saturating "
-           "profiles, or any non-negative sum of smooth rises, or of falls, 150 mm wide and 50 mm apart). "
+           "profiles, an S-shaped rise or fall wider than a layer's edge, or any non-negative sum of smooth rises, "
+           "or of falls, 150 mm wide and 50 mm apart). "
            "Signature: a misfit growing smoothly with depth in proportion to the blade's frontal area.",
            _gradient_members, _describe_gradient),
     Effect("plug_growth", "law", "depth",

@@ -125,6 +125,13 @@ def _register(columns: _Columns, bases: Sequence[Basis], runs: Sequence[Diagnosi
     return _Candidate(member, Spec(tuple(base + extra), offset, scaled))
 
 
+def _fold_reach(bases: Sequence[Basis], uses: Sequence[np.ndarray]) -> float:
+    """The depth every leave-one-run-out fold's training runs reach: the second-deepest run's deepest analysis
+    sample (:attr:`~pencli.diagnose.effects.Member.reach_m`). [m]"""
+    deepest = sorted(float(np.max(b.x[u], initial=0.0)) for b, u in zip(bases, uses))
+    return deepest[-2]
+
+
 def _measured_acceleration(basis: Basis, replicate: np.ndarray) -> np.ndarray:
     """(context samples, 1 + replicates): the data's acceleration, then each replicate's (``replicate``: its
     span, which starts where the context does; past the span, which no analysis sample reaches, the data's).
@@ -681,8 +688,10 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     law_effects = [EFFECTS[n] for n in names if EFFECTS[n].side != "drive"]
     measured = [_measured_acceleration(b, rep.acceleration_m_s2) for b, rep in zip(bases, replicates)]
     varying: dict[int, list[np.ndarray]] = {}
+    reach = _fold_reach(bases, uses)
     candidates: dict[str, list[_Candidate]] = {
-        e.name: [_register(columns, bases, runs, uses, m, base_spec, measured, varying) for m in e.members]
+        e.name: [_register(columns, bases, runs, uses, m, base_spec, measured, varying)
+                 for m in e.members if m.reach_m <= reach]
         for e in (*law_effects, *PROBES.values())}
     matrices = columns.matrices()
     stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(ys, replicates)],
