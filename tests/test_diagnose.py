@@ -95,6 +95,25 @@ def test_propulsion_loss_is_a_drive_side_gap(tmp_path):
     assert 0.1 < loss.params["loss"] < 0.35  # truth: 20 % less efficiency plus 10 N guide friction
 
 
+def test_a_speed_deficit_whose_loss_moves_the_motion_away_is_not_a_propulsion_loss(tmp_path):
+    """Issue 11: a loud development null (null 9 of 20 on seed 86000, the force noise redrawn at 5–6 N) was called
+    a propulsion loss: its contact speeds fell 0.44 % short (t 4.08), but the loss fitted to them made the
+    predicted motion worse (dynamic shrink −23.8 %).  A loss that does not bring the motion closer explains
+    nothing.  The truth has no effect at all."""
+    from tests.campaigns import BLOCKS, varied_campaigns
+
+    camps = varied_campaigns(20, 86000, only="nulls")
+    own = np.random.default_rng([86000, 99])
+    noise_n = [float(own.uniform(5.0, 6.0)) for _ in camps][9]
+    _, material, effects, truth, nuisances = camps[9]
+    assert not effects and truth == {"none"}
+    nuisances = {"shots": SIX, **nuisances, "rig_extra": dict(nuisances["rig_extra"], force_noise_n=noise_n)}
+    db = conditioned(make_campaign(tmp_path, material, seed=86009, effects=effects,
+                                   block_kpa=BLOCKS if material == "mpacs_c" else None, **nuisances))
+    result = api.diagnose(db, ["all"])
+    assert result.verdict == "none", (result.verdict, result.baseline["drive_t"])
+
+
 def test_effect_outside_the_catalogue_is_unexplained(tmp_path):
     result = api.diagnose(campaign(tmp_path, [{"name": "brittle_bursts", "period_mm": 20, "ratio": 0.5}], 36),
                           ["all"])

@@ -31,7 +31,9 @@ null distribution:
   a slight mismatch of the noise model would pass for a gap;
 - the drive view has a gap when contact speeds fall below prediction by more
   than their scatter allows, after the measurement bias the replicates show
-  (one-sided t-test).
+  (one-sided t-test), and the launcher loss fitted to them brings the
+  predicted motion closer to the measured one (a loss that makes it worse
+  explains nothing).
 
 The campaign's false-alarm rate ``false_alarm`` is split equally between the
 three.  One constant is a definition, not a tuning: an effect (or pair)
@@ -746,6 +748,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         base_rms = [_dynamic_rms(r, dict(values, strength_factor=float(c))) ** 2 for r, c in zip(runs, cs)]
         loss_rms = [_dynamic_rms(r, dict(values, strength_factor=float(c)), loss) ** 2 for r, c in zip(runs, cs)]
         dyn_base, dyn_loss = math.sqrt(float(np.mean(base_rms))), math.sqrt(float(np.mean(loss_rms)))
+        # a loss explains the contact speeds only if it brings the predicted motion closer to the measured one
+        drive_gap = drive_gap and dyn_loss < dyn_base
         reports["propulsion_loss"] = EffectReport(
             "propulsion_loss", "drive", "drive", {"loss": loss, "contact_speed_deficit_pct": -100 * float(np.mean(ratios))},
             {}, dyn_loss, round(100.0 * (1 - dyn_loss / dyn_base), 2) if dyn_base > 0 else 0.0, bool(drive_gap),
