@@ -762,7 +762,7 @@ def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | No
              progress: Callable[[str, float], None] | None = None):
     """``pen diagnose``: where the model and the runs part, which effect, how far it closes.
 
-    ``false_alarm`` and ``bootstrap`` default to the engine's (1 %, 60 replicates).
+    ``false_alarm`` and ``bootstrap`` default to the engine's (1 %, 200 replicates).
     """
     from pencli.diagnose import engine
 
