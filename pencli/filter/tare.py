@@ -166,21 +166,23 @@ def moving_span(depth_m: np.ndarray, before: np.ndarray, step_m: float) -> tuple
     A rest is the record's commonest level over ``before`` (the blade at rest before the release, e.g. the
     pre-trigger span) or over its last :data:`REST_TAIL`, with the neighbouring counts it flickers to
     there.  A flicker moves the record by one count and back; the motion moves it further.  So the motion
-    starts after the record was last at the first rest's lowest level before it first rose two counts above
-    it, and ends where it first entered the final rest's levels after it was last two counts from them.  On a
+    starts after the record was last at or below the first rest's commonest level before it first rose two
+    counts above it (not its lowest: a blade resting a hair above a count edge flickers down a count now and
+    then, and the last such flicker, 5 ms before a release on a 0.08 mm encoder, put the release there and
+    the derivatives' break with it), and ends where it first entered the final rest's levels after it was last two counts from them.  On a
     record that does not flicker these are its first and last changes.  ``(-1, -1)`` when the record never
     moves two counts.
     """
     x = np.asarray(depth_m, dtype=float)
     tol = 1.5 * step_m
     lead = x[before] if np.any(before) else x[:1]
-    start, start_lo, _ = _rest_levels(lead, step_m)
+    start, _, _ = _rest_levels(lead, step_m)
     final, final_lo, final_hi = _rest_levels(x[x.size - max(16, int(REST_TAIL * x.size)):], step_m)
     risen = np.flatnonzero(x - start > tol)
     away = np.flatnonzero(np.abs(x - final) > tol)
     if risen.size == 0 or away.size == 0:
         return -1, -1
-    resting = np.flatnonzero(x[:risen[0]] < start_lo + 0.5 * step_m)
+    resting = np.flatnonzero(x[:risen[0]] < start + 0.5 * step_m)
     first = int(resting[-1]) + 1 if resting.size else 0
     after = x[away[-1]:]
     arrived = np.flatnonzero((after > final_lo - 0.5 * step_m) & (after < final_hi + 0.5 * step_m))
