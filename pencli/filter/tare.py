@@ -169,9 +169,9 @@ def moving_span(depth_m: np.ndarray, before: np.ndarray, step_m: float) -> tuple
     starts after the record was last at or below the first rest's commonest level before it first rose two
     counts above it (not its lowest: a blade resting a hair above a count edge flickers down a count now and
     then, and the last such flicker, 5 ms before a release on a 0.08 mm encoder, put the release there and
-    the derivatives' break with it), and ends where it first entered the final rest's levels after it was last two counts from them.  On a
-    record that does not flicker these are its first and last changes.  ``(-1, -1)`` when the record never
-    moves two counts.
+    the derivatives' break with it), and ends where it first entered the final rest's levels after it was
+    last two counts from them.  On a record that does not flicker these are its first and last changes.
+    ``(-1, -1)`` when the record never moves two counts.
     """
     x = np.asarray(depth_m, dtype=float)
     tol = 1.5 * step_m
