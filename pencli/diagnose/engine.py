@@ -51,7 +51,8 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
-from pencli.diagnose.effects import EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of
+from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of,
+                                     surfaces)
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
 from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_anti_alias, fit_noise, gumbel_quantile,
                                   normal_quantile, replicate_campaign, student_quantile)
@@ -657,6 +658,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     say("baseline", 0.0)
 
     # ---- baseline on the measured data (to build the frontal column and the null replicates)
+    runs = [replace(r, surface_m=s) for r, s in zip(runs, surfaces(runs))]  # depth below each block's surface
     bases = [basis_of(r) for r in runs]
     uses = [(r.flight | r.window)[r.context] for r in runs]
     ys = [r.resistance_n[r.context][u] for r, u in zip(runs, uses)]
