@@ -448,7 +448,7 @@ def test_a_null_read_by_a_coarse_encoder_at_30_khz_is_none(tmp_path):
     assert lag.z < result.decision["effect_threshold_z"]
 
 
-def test_a_steep_plug_in_blocks_whose_surfaces_scatter_is_a_plug(tmp_path):
+def test_a_steep_plug_in_blocks_whose_surfaces_scatter_is_a_plug_of_its_size(tmp_path):
     """Issue 11: a plug 2.5 mm wide at saturation (exponential, 23 mm) on blades of 1–2 mm, in four blocks whose
     surfaces lay −0.6 to +2.3 mm from the file's stand-off.  With depth counted from the file's stand-off the
     plug's own exact shape left a held-out RMS of 54 N against 2.5 N of noise (7.5 N with no stand-off
@@ -463,3 +463,5 @@ def test_a_steep_plug_in_blocks_whose_surfaces_scatter_is_a_plug(tmp_path):
                                    block_kpa=BLOCKS, **nuisances))
     result = api.diagnose(db, ["all"])
     assert result.verdict == "plug_growth", [(e.name, e.z, e.shrink_pct) for e in result.effects[:3]]
+    plug = next(e for e in result.effects if e.name == "plug_growth")  # lengths √2 apart: 4.8 mm
+    assert plug.params["growth_mm"] == pytest.approx(effects[0]["growth_mm"], rel=0.25), (plug.params, effects)

@@ -407,10 +407,13 @@ def _describe_gradient(m: Member, c, ctx) -> dict:
     return {"change_per_100mm": change / ctx["cs_mean"], **{k: v for k, v in m.params.items()}}
 
 
-_PLUG_LENGTHS_MM = tuple(round(5.0 * 2.0 ** (i / 2), 1) for i in range(11))
-"""Plug lengths, a factor √2 apart from 5 to 160 mm.  A factor 2 apart, a capped ramp between two of them lost
-to a strength layer, whose edges sit every 5 mm with three widths (dev plugs of seed 40000: the four capped
-ramps, lengths 16–30 mm, all named a layer once the layer rode on each block's strength)."""
+_PLUG_LENGTHS_MM = tuple(round(5.0 * 2.0 ** (i / 4), 1) for i in range(21))
+"""Plug lengths, a factor 2^¼ (19 %) apart from 5 to 160 mm.  A factor 2 apart, a capped ramp between two of them
+lost to a strength layer, whose edges sit every 5 mm with three widths (dev plugs of seed 40000: the four capped
+ramps, lengths 16–30 mm, all named a layer once the layer rode on each block's strength).  A factor √2 apart, a
+capped ramp of 11.4 mm (dev plug 7 of ``--varied 12 82000``) fitted at 10 or 14.1 mm left a held-out RMS of 33 N
+where its own length left 9 N, and lost to a layer; an exponential of 23.3 mm fitted at 28.3 mm came out 4.8 mm
+wide for 2.5 (dev plug 2)."""
 
 
 def _plug_members() -> tuple[Member, ...]:
