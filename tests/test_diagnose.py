@@ -467,5 +467,10 @@ def test_a_steep_plug_in_blocks_whose_surfaces_scatter_is_a_plug_of_its_size(tmp
                                    block_kpa=BLOCKS, **nuisances))
     result = api.diagnose(db, ["all"])
     assert result.verdict == "plug_growth", [(e.name, e.z, e.shrink_pct) for e in result.effects[:3]]
+    # each block's surface in the JSON, against the stand-off scatter the rig was given (both less their median),
+    # to within the blade's travel in one sample at contact (0.35 mm at 10.5 m/s and 30 kHz)
+    read = np.array([result.baseline["surface_mm"][k] for k in sorted(result.baseline["surface_mm"])])
+    truth = np.array(nuisances["standoff_mm"])
+    assert np.abs((read - np.median(read)) - (truth - np.median(truth))).max() < 0.35, (read, truth)
     plug = next(e for e in result.effects if e.name == "plug_growth")  # lengths √2 apart: 4.8 mm
     assert plug.params["growth_mm"] == pytest.approx(effects[0]["growth_mm"], rel=0.25), (plug.params, effects)

@@ -370,7 +370,7 @@ def _residual_series(runs, uses, residuals):
     for run, use, res in zip(runs, uses, residuals):
         c = run.context
         t = run.time_s[c][use]
-        out.append((run, t, run.depth_m[c][use], np.maximum(run.velocity_m_s[c][use], 0.0),
+        out.append((run, t, run.depth_m[c][use] - run.surface_m, np.maximum(run.velocity_m_s[c][use], 0.0),
                     run.acceleration_m_s2[c][use], res))
     return out
 
@@ -845,6 +845,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         "coefficients": values,
         "strength_factor_per_run": {r.run_id: float(c) for r, c in zip(runs, cs)},
         "late_force_rise_ms": late,
+        "surface_mm": {r.run_id: round(r.surface_m * 1e3, 3) for r in runs},
     }
     if pair is not None:
         baseline_out["best_pair"] = {"effects": [significant[0].name, pair["effect"]], "shrink_pct": pair["shrink_pct"],
