@@ -1,13 +1,15 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
-     [--two-slopes] [--drift-friction] [--slow-speeds] [--ringing-pairs] [--short-gradients] [--bessel-lags] [--s-gradients]
+     [--two-slopes] [--drift-friction] [--slow-speeds] [--wide-friction] [--ringing-pairs] [--short-gradients] [--bessel-lags] [--s-gradients]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
 ``--drift-friction``: every pair is a force drift with a velocity friction (random forms, their own stream).
 ``--slow-speeds``: every rate strength and velocity friction takes a characteristic speed of 0.5–2 m/s (its own
 stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
+``--wide-friction``: every velocity friction a power law in speed or a Stribeck fall with a viscous rise (sim
+truth shapes 3 and 4; its own stream).
 ``--short-gradients``: every strength gradient saturates (sim truth shape 2) within 4–15 mm (its own stream;
 ``--varied`` draws 15–80 mm).
 ``--s-gradients``: every strength gradient an S-shaped rise (sim truth shape 4) centred at 20–80 mm, tanh width
@@ -80,6 +82,22 @@ def slow_speeds(campaigns, seed):
     return _redrawn(campaigns, seed, 7, change)
 
 
+def wide_friction(campaigns, seed):
+    """The campaigns with every velocity friction in a form ``--varied`` never draws (its own stream): a power law
+    in speed (exponent 0.3–2.5, sim truth shape 3) or a Stribeck fall with a viscous rise past it (shape 4: drop
+    0.3–0.6 by 0.5–3 m/s, rise 0.2–0.8 of μ at 10 m/s), drops of either sign."""
+    def change(effects, truth, own):
+        def redraw(e):
+            if own.uniform() < 0.5:
+                return dict(e, shape=3.0, exponent=float(own.uniform(0.3, 2.5)))
+            return dict(e, shape=4.0, drop=abs(e["drop"]), speed_m_s=float(own.uniform(0.5, 3.0)),
+                        viscous=float(own.uniform(0.2, 0.8)))
+
+        return [redraw(e) if e["name"] == "velocity_friction" else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 12, change)
+
+
 def short_gradients(campaigns, seed):
     """The campaigns with every strength gradient saturating (sim truth shape 2) within 4–15 mm (its own stream)."""
     def change(effects, truth, own):
@@ -125,6 +143,7 @@ def ringing_pairs(campaigns, seed):
 
 
 REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--slow-speeds": slow_speeds,
+           "--wide-friction": wide_friction,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
            "--short-gradients": short_gradients}
 """The scratch sets' flags and what each redraws (see the module's doc)."""

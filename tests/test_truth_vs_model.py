@@ -98,6 +98,22 @@ def test_each_form_of_plug_growth_widens_every_frontal_term(shape, h):
         assert _resistance(effect, x, v) - _resistance([], x, v) == pytest.approx((widened - 1) * frontal, rel=1e-9)
 
 
+@pytest.mark.parametrize("params,g", [
+    ({"shape": 3, "drop": 0.4, "exponent": 0.6}, lambda v: -0.4 * (v / 10) ** 0.6),
+    ({"shape": 4, "drop": 0.3, "speed_m_s": 1.5, "viscous": 0.5}, lambda v: -0.3 * (1 - math.exp(-v / 1.5)) + 0.05 * v)])
+def test_the_power_and_stribeck_friction_forms_follow_their_speed_laws(params, g):
+    """The relative change of μ, g(v), moves every friction force by the same factor: the force change at two
+    speeds at one depth is in the ratio of g, and at one speed it grows with depth as the sidewall friction."""
+    effect = [{"name": "velocity_friction", **params}]
+
+    def change(x, v):
+        return _resistance(effect, x, v) - _resistance([], x, v)
+
+    assert change(0.05, 2.0) / change(0.05, 8.0) == pytest.approx(g(2.0) / g(8.0), rel=1e-9)
+    sidewall = _resistance([], 0.05, 0.0) - _resistance([], 0.0, 0.0)  # 2 μ w P x at 50 mm
+    assert change(0.05, 8.0) == pytest.approx(g(8.0) * sidewall, rel=2e-3)  # and μ cos θ of a blunt tip
+
+
 def test_saturating_sidewall_pressure_integrates_its_rise():
     rise, scale = 2.0, 25.0
     effect = [{"name": "sidewall_pressure_growth", "shape": 1, "rise": rise, "scale_mm": scale}]

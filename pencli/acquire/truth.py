@@ -64,7 +64,9 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
     EffectSpec("velocity_friction", "friction changes with sliding speed, by up to −drop (a negative drop is a "
                "rise); shape 0: Stribeck-like μ·(1 − drop·(1 − exp(−v/speed_m_s))); 1: hyperbolic "
                "μ·(1 − drop·v/(v + speed_m_s)); 2: logarithmic μ·(1 − drop·ln(1 + v/speed_m_s)/ln(1 + 10 m/s / "
-               "speed_m_s))", {"drop": 0.4, "speed_m_s": 3.0, "shape": 0.0}, 3),
+               "speed_m_s)); 3: power μ·(1 − drop·(v/10 m/s)^exponent); 4: Stribeck with a viscous rise "
+               "μ·(1 − drop·(1 − exp(−v/speed_m_s)) + viscous·v/10 m/s)",
+               {"drop": 0.4, "speed_m_s": 3.0, "shape": 0.0, "exponent": 1.0, "viscous": 0.0}, 5),
     EffectSpec("rate_strength", "strength rises with penetration rate; shape 0: power "
                "S·(1 + coefficient·(v/1 m/s)^exponent); 1: logarithmic S·(1 + 4·coefficient·ln(1 + v/speed_m_s)); "
                "2: saturating S·(1 + 5·coefficient·(1 − exp(−v/speed_m_s)))",
@@ -242,8 +244,12 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
                 law = -math.expm1(-v / s)
             elif shape == 1:
                 law = v / (v + s)
-            else:
+            elif shape == 2:
                 law = math.log1p(v / s) / math.log1p(10.0 / s)
+            elif shape == 3:
+                law = (v / 10.0) ** vfric["exponent"]
+            else:
+                return mu0 * (1.0 - vfric["drop"] * -math.expm1(-v / s) + vfric["viscous"] * v / 10.0)
             return mu0 * (1.0 - vfric["drop"] * law)
         return mu0
 
