@@ -507,9 +507,26 @@ def _speed_laws(term: str) -> tuple[Member, ...]:
     return tuple(out)
 
 
+def _velocity_friction_members() -> tuple[Member, ...]:
+    # a Stribeck curve: friction falls with speed and saturates, and a viscous part rises in proportion past it
+    # (two coefficients, each of the sign its meaning fixes: the fall's column is negated).  No one-law member
+    # follows a fall and a rise: on dev Stribeck forms of ``--wide-friction`` two of five were named a plug,
+    # whose damping and inertia columns grow with depth too.  With free signs the pair follows more than a Stribeck
+    # curve, the held-out pick of the member got noisier, and two dev frictions that one law had named went to a
+    # rate strength (dev 6 of ``--varied 12 91000``, dev 2 of ``--varied 12 93000 --slow-speeds``)
+    out = list(_speed_laws("friction"))
+    out += [law("friction", (lambda x, v, s=s: np.expm1(-v / s)), (lambda x, v: v / 10.0), speed_m_s=s,
+                shape="stribeck", nonnegative=True) for s in _SPEEDS]
+    return tuple(out)
+
+
 def _describe_speed(reference: str) -> Callable[[Member, np.ndarray, Mapping[str, float]], dict]:
     def describe(m: Member, c, ctx) -> dict:
-        at_5 = float(c[0]) * float(m.profiles[0](np.float64(0.0), np.float64(5.0))) / ctx[reference]
+        at_5 = sum(float(k) * float(p(np.float64(0.0), np.float64(5.0))) for k, p in zip(c, m.profiles))
+        at_5 /= ctx[reference]
+        if m.params["shape"] == "stribeck":  # the fall at saturation and the viscous rise at 10 m/s, both ≥ 0
+            return {"change_at_5_m_s": at_5, "fall": float(c[0]) / ctx[reference],
+                    "viscous_rise_at_10_m_s": float(c[1]) / ctx[reference], **dict(m.params)}
         return {"change_at_5_m_s": at_5, **dict(m.params)}
 
     return describe
@@ -672,8 +689,9 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            _pressure_members, _describe_pressure),
     Effect("velocity_friction", "law", "speed",
            "Blade–material friction varies with sliding speed (power, saturating or logarithmic laws, either "
-           "sign). Signature: a misfit in proportion to depth × a function of speed.",
-           partial(_speed_laws, "friction"), _describe_speed("p_kpa")),
+           "sign, or a Stribeck fall with a viscous rise past it). Signature: a misfit in proportion to depth × "
+           "a function of speed.",
+           _velocity_friction_members, _describe_speed("p_kpa")),
     Effect("rate_strength", "law", "speed",
            "Strength varies with penetration rate (power, saturating or logarithmic laws). Signature: the "
            "strength misfit follows the speed, in proportion to frontal area.",
