@@ -1,7 +1,7 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
-     [--two-slopes] [--drift-friction] [--slow-speeds] [--wide-friction] [--ringing-pairs] [--short-gradients] [--bessel-lags] [--s-gradients]
+     [--two-slopes] [--drift-friction] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs] [--short-gradients] [--bessel-lags] [--s-gradients]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -10,6 +10,7 @@ Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SE
 stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
 ``--wide-friction``: every velocity friction a power law in speed or a Stribeck fall with a viscous rise (sim
 truth shapes 3 and 4; its own stream).
+``--wide-plugs``: every plug a power of depth up to its length, then constant (sim truth shape 3; its own stream).
 ``--short-gradients``: every strength gradient saturates (sim truth shape 2) within 4–15 mm (its own stream;
 ``--varied`` draws 15–80 mm).
 ``--s-gradients``: every strength gradient an S-shaped rise (sim truth shape 4) centred at 20–80 mm, tanh width
@@ -98,6 +99,17 @@ def wide_friction(campaigns, seed):
     return _redrawn(campaigns, seed, 12, change)
 
 
+def wide_plugs(campaigns, seed):
+    """The campaigns with every plug a power of depth until its length, then constant (sim truth shape 3;
+    exponent 0.4–2.5, length 10–60 mm; its own stream): from a square root, steep at the surface, to a plug that
+    forms slowly and then fast."""
+    def change(effects, truth, own):
+        return [dict(e, shape=3.0, exponent=float(own.uniform(0.4, 2.5)), length_mm=float(own.uniform(10, 60)))
+                if e["name"] == "plug_growth" else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 13, change)
+
+
 def short_gradients(campaigns, seed):
     """The campaigns with every strength gradient saturating (sim truth shape 2) within 4–15 mm (its own stream)."""
     def change(effects, truth, own):
@@ -143,7 +155,7 @@ def ringing_pairs(campaigns, seed):
 
 
 REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--slow-speeds": slow_speeds,
-           "--wide-friction": wide_friction,
+           "--wide-friction": wide_friction, "--wide-plugs": wide_plugs,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
            "--short-gradients": short_gradients}
 """The scratch sets' flags and what each redraws (see the module's doc)."""

@@ -87,10 +87,10 @@ def test_each_form_of_a_strength_gradient_changes_the_frontal_strength_as_descri
 
 
 @pytest.mark.parametrize("shape,h", [(0, lambda r: r / (1 + r)), (1, lambda r: 1 - math.exp(-r)),
-                                     (2, lambda r: min(r, 1.0))])
+                                     (2, lambda r: min(r, 1.0)), (3, lambda r: min(r, 1.0) ** 0.6)])
 def test_each_form_of_plug_growth_widens_every_frontal_term(shape, h):
     growth, length, T = 2.0, 20.0, 1.0  # mm; al6061_1mm
-    effect = [{"name": "plug_growth", "growth_mm": growth, "length_mm": length, "shape": shape}]
+    effect = [{"name": "plug_growth", "growth_mm": growth, "length_mm": length, "shape": shape, "exponent": 0.6}]
     for x_mm, v in ((10.0, 0.0), (35.0, 4.0)):
         x = x_mm * 1e-3
         widened = 1 + growth * h(x_mm / length) / T

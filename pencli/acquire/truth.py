@@ -57,7 +57,8 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
                 "slope_ratio": 0.2, "width_mm": 20.0}, 5),
     EffectSpec("plug_growth", "a crushed plug widens the frontal thickness to T + growth_mm·h(x); shape 0: "
                "hyperbolic h = (x/length_mm)/(1 + x/length_mm); 1: exponential h = 1 − exp(−x/length_mm); 2: "
-               "linear until length_mm, then constant", {"growth_mm": 1.5, "length_mm": 30.0, "shape": 0.0}, 3),
+               "linear until length_mm, then constant; 3: a power (x/length_mm)^exponent until length_mm, then "
+               "constant", {"growth_mm": 1.5, "length_mm": 30.0, "shape": 0.0, "exponent": 1.0}, 4),
     EffectSpec("sidewall_pressure_growth", "sidewall pressure rises with depth; shape 0: power "
                "P·(1 + (x/scale_mm)^exponent); 1: saturating P·(1 + rise·(1 − exp(−x/scale_mm)))",
                {"scale_mm": 60.0, "exponent": 1.5, "shape": 0.0, "rise": 2.0}, 2),
@@ -266,7 +267,10 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
         if plug:
             ratio = x / (plug["length_mm"] * 1e-3)
             shape = plug["shape"]
-            h = ratio / (1.0 + ratio) if shape == 0 else -math.expm1(-ratio) if shape == 1 else min(ratio, 1.0)
+            if shape == 3:
+                h = min(ratio, 1.0) ** plug["exponent"]
+            else:
+                h = ratio / (1.0 + ratio) if shape == 0 else -math.expm1(-ratio) if shape == 1 else min(ratio, 1.0)
             return T + plug["growth_mm"] * 1e-3 * h
         return T
 
