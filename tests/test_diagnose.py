@@ -494,3 +494,23 @@ def test_a_stribeck_friction_is_a_velocity_friction_not_a_plug(tmp_path):
     friction = next(e for e in result.effects if e.name == "velocity_friction")
     plug = next(e for e in result.effects if e.name == "plug_growth")
     assert friction.shrink_pct > plug.shrink_pct + 10, ranked
+
+
+def test_a_plug_that_drives_the_baselines_strength_factor_below_zero_is_still_a_plug(tmp_path):
+    """Issue 11: a plug 2.7 mm wide at 49 mm (a capped power of depth, exponent 2.5) on blades of 1–2 mm more than
+    triples the frontal force of the thinnest.  The baseline without it fits negative strength factors (its P and
+    K take the growth), and the plug's strength column, built at their mean, pointed against the plug, whose
+    growth is bounded ≥ 0: the plug's own exact shape was held at zero growth (48–173 N per held-out run) and the
+    campaign was named a gradient.  Campaign 6 of ``--varied 12 99300 --only plug_growth --wide-plugs`` (its
+    nuisances; the form written out)."""
+    from tests.campaigns import varied_campaigns
+
+    _, material, _, _, nuisances = varied_campaigns(12, 99300, only="plug_growth")[6]
+    effects = [{"name": "plug_growth", "shape": 3, "growth_mm": 2.71, "length_mm": 49.3, "exponent": 2.48}]
+    db = conditioned(make_campaign(tmp_path, material, seed=99306, effects=effects,
+                                   block_kpa=BLOCKS if material == "mpacs_c" else None, **nuisances))
+    result = api.diagnose(db, ["all"])
+    ranked = [(e.name, e.z, e.shrink_pct, e.params.get("growth_mm")) for e in result.effects[:3]]
+    assert result.verdict == "plug_growth", ranked
+    plug, second = result.effects[0], result.effects[1]
+    assert plug.shrink_pct > second.shrink_pct + 5 and plug.params["growth_mm"] > 0, ranked

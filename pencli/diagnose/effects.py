@@ -136,7 +136,8 @@ class Basis:
     strength_factor: float | None = None
     """The baseline's strength factor of this run (with ``frontal``)."""
     strength_factor_mean: float | None = None
-    """The baseline's strength factor, mean over the campaign's runs (with ``frontal``)."""
+    """The baseline's strength factor, mean over the campaign's runs, by magnitude (:func:`column_strength_factor`;
+    with ``frontal``)."""
 
     def matrix(self) -> np.ndarray:
         return np.column_stack([self.strength, self.friction, self.damping, self.inertia])
@@ -416,6 +417,17 @@ where its own length left 9 N, and lost to a layer; an exponential of 23.3 mm fi
 wide for 2.5 (dev plug 2)."""
 
 
+def column_strength_factor(strength_factor: float) -> float:
+    """The strength factor a plug's strength column is built at: the baseline's mean, by its magnitude. [–]
+
+    A strong plug can push the baseline's strength factors below 0 (its P and K take the depth's growth; dev plug
+    6 of ``--varied 12 99300 --only plug_growth --wide-plugs``, 2.7 mm on blades of 1–2 mm: −1.0 to −0.1), and a
+    column built at a negative one points against the plug, whose growth is bounded ≥ 0: the plug's own exact
+    shape was then held at zero growth and left 48–173 N per held-out run, against 12–22 N with the column's
+    sign kept."""
+    return abs(strength_factor) if strength_factor != 0 else 1.0
+
+
 def _plug_members() -> tuple[Member, ...]:
     # a plug adds a width g·h(x) ≥ 0 to every blade, whatever its thickness: T_eff = T + g·h(x), so every frontal
     # term gains (its force / T) × g·h(x); h is dimensionless (1 at saturation), g in metres.  The strength, damping
@@ -470,7 +482,11 @@ def _describe_plug(m: Member, c, ctx) -> dict:
     def over(value, reference):
         return float(value) * 1e3 / reference if reference > 0 else None
 
-    growth = float(c[0]) * 1e3 * ctx.get("cs_baseline", ctx["cs_mean"]) / ctx["cs_mean"]
+    built_at = ctx.get("cs_baseline", ctx["cs_mean"])
+    # against the fit's own mean strength factor; a fit whose strength factors stay at or below 0 has none, and
+    # the growth is then stated against the factor the column was built at
+    own = ctx["cs_mean"] if ctx["cs_mean"] > 1e-6 else built_at
+    growth = float(c[0]) * 1e3 * built_at / own
     return {"growth_mm": growth, "growth_mm_damping": over(c[1], ctx.get("c_kpa_s_m", 0.0)),
             "growth_mm_inertia": over(c[2], ctx.get("k", 0.0)), **dict(m.params)}
 

@@ -52,7 +52,7 @@ import numpy as np
 
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of,
-                                     surfaces)
+                                     column_strength_factor, surfaces)
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
 from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_anti_alias, fit_noise, gumbel_quantile,
                                   normal_quantile, replicate_campaign, student_quantile)
@@ -496,8 +496,8 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
             after = simulate(replace(base_design, efficiency=base_design.efficiency * (1 - loss)), rtol=1e-8).summary
         else:
             own = values if own_values is None else own_values
-            force = member.force(coefficients, run.design,
-                                 dict(own, strength_factor_of_columns=values["strength_factor"]))
+            columns_at = column_strength_factor(values["strength_factor"])
+            force = member.force(coefficients, run.design, dict(own, strength_factor_of_columns=columns_at))
             after = simulate(with_coefficients(run.design, own), rtol=1e-8, extra_resistance=force).summary
     except ModelError as exc:  # the effect's fitted force can make the motion one the model cannot finish
         return {"run": run.run_id, "note": f"the dynamic model with this effect did not finish: {exc}"}
@@ -524,9 +524,10 @@ def _own_context(context: Mapping[str, float], fit: Mapping[str, np.ndarray]) ->
     """The reference values an effect's parameters are stated against, from the fit *with* that effect: its
     mean strength factor, P, C and K.  The baseline's own absorb part of a strong effect (a layer 1.8 × as strong
     over most of the depth raises every run's baseline strength factor, and the layer's ratio against that came
-    out 1.52); ``cs_baseline`` is the baseline's mean, at which a plug's strength column is built."""
+    out 1.52); ``cs_baseline`` is the strength factor a plug's strength column is built at
+    (:func:`~pencli.diagnose.effects.column_strength_factor`)."""
     strength, coefficients = fit["strength"][:, 0], fit["coefficients"][:, 0]
-    own = dict(context, cs_baseline=context["cs_mean"])
+    own = dict(context, cs_baseline=context["cs_columns"])
     if float(np.mean(strength)) > 0:
         own["cs_mean"] = float(np.mean(strength))
     own.update(p_kpa=max(float(coefficients[0]), 1e-9), c_kpa_s_m=float(coefficients[1]), k=float(coefficients[2]))
@@ -674,9 +675,11 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     values = {"strength_factor": float(np.mean(cs)), "sidewall_pressure_kpa": float(shared[0]),
               "damping_kpa_s_m": float(shared[1]), "inertia_coefficient": float(shared[2])}
     bases = [replace(b, frontal=c * b.strength + shared[1] * b.damping + shared[2] * b.inertia,
-                     strength_factor=float(c), strength_factor_mean=values["strength_factor"])
+                     strength_factor=float(c), strength_factor_mean=column_strength_factor(values["strength_factor"]))
              for b, c in zip(bases, cs)]
-    context = {"cs_mean": max(values["strength_factor"], 1e-9), "p_kpa": max(values["sidewall_pressure_kpa"], 1e-9),
+    context = {"cs_mean": max(values["strength_factor"], 1e-9),
+               "cs_columns": column_strength_factor(values["strength_factor"]),
+               "p_kpa": max(values["sidewall_pressure_kpa"], 1e-9),
                "load_cell_mass_kg": float(np.mean([r.load_cell_mass_kg for r in runs]))}
 
     # ---- null replicates through the campaign's own chain
