@@ -27,6 +27,19 @@ def campaign(tmp_path, effects, seed, material="mpacs_c"):
                                      block_kpa=BLOCKS if material == "mpacs_c" else None))
 
 
+def dev_campaign(tmp_path, seed, index, only, effects=None):
+    """Campaign ``index`` of the development set ``--varied 12 seed --only only`` diagnosed: its nuisances, and
+    its own effects or ``effects`` (a form a scratch flag drew, written out).  (material, effects, nuisances,
+    result)."""
+    from tests.campaigns import varied_campaigns
+
+    _, material, drawn, _, nuisances = varied_campaigns(12, seed, only=only)[index]
+    effects = drawn if effects is None else effects
+    db = conditioned(make_campaign(tmp_path, material, seed=seed + index, effects=effects,
+                                   block_kpa=BLOCKS if material == "mpacs_c" else None, **nuisances))
+    return material, effects, nuisances, api.diagnose(db, ["all"])
+
+
 def conditioned(db):
     """The campaign tared and inertia-subtracted, as the README's diagnosis needs it."""
     api.tare_runs(db, ["all"])
@@ -459,13 +472,8 @@ def test_a_steep_plug_in_blocks_whose_surfaces_scatter_is_a_plug_of_its_size(tmp
     scatter), fitted growth 1.7 mm, and the campaign was named a strength layer; depth counted from each
     block's surface as its force saw it (:func:`pencli.diagnose.effects.surfaces`) gives the plug.
     Campaign 2 of the development set ``--varied 12 82000 --only plug_growth``."""
-    from tests.campaigns import varied_campaigns
-
-    _, material, effects, _, nuisances = varied_campaigns(12, 82000, only="plug_growth")[2]
+    material, effects, nuisances, result = dev_campaign(tmp_path, 82000, 2, "plug_growth")
     assert material == "mpacs_c" and max(nuisances["standoff_mm"]) > 2.0
-    db = conditioned(make_campaign(tmp_path, material, seed=82002, effects=effects,
-                                   block_kpa=BLOCKS, **nuisances))
-    result = api.diagnose(db, ["all"])
     assert result.verdict == "plug_growth", [(e.name, e.z, e.shrink_pct) for e in result.effects[:3]]
     # each block's surface in the JSON, against the stand-off scatter the rig was given (both less their median),
     # to within the blade's travel in one sample at contact (0.35 mm at 10.5 m/s and 30 kHz)
@@ -482,13 +490,8 @@ def test_a_stribeck_friction_is_a_velocity_friction_not_a_plug(tmp_path):
     follows a fall and a rise; the plug's depth-growing damping and inertia columns came closer, and the
     campaign was named a plug (34 % shrink against the friction's 33 %).  Campaign 10 of the development set
     ``--varied 12 95000 --only velocity_friction --wide-friction`` (its nuisances; the form written out)."""
-    from tests.campaigns import varied_campaigns
-
-    _, material, _, _, nuisances = varied_campaigns(12, 95000, only="velocity_friction")[10]
-    effects = [{"name": "velocity_friction", "shape": 4, "drop": 0.39, "speed_m_s": 1.51, "viscous": 0.54}]
-    db = conditioned(make_campaign(tmp_path, material, seed=95010, effects=effects,
-                                   block_kpa=BLOCKS if material == "mpacs_c" else None, **nuisances))
-    result = api.diagnose(db, ["all"])
+    stribeck = [{"name": "velocity_friction", "shape": 4, "drop": 0.39, "speed_m_s": 1.51, "viscous": 0.54}]
+    *_, result = dev_campaign(tmp_path, 95000, 10, "velocity_friction", stribeck)
     ranked = [(e.name, e.z, e.shrink_pct, e.params.get("shape")) for e in result.effects[:3]]
     assert result.verdict == "velocity_friction", ranked
     friction = next(e for e in result.effects if e.name == "velocity_friction")
@@ -503,13 +506,8 @@ def test_a_plug_that_drives_the_baselines_strength_factor_below_zero_is_still_a_
     growth is bounded ≥ 0: the plug's own exact shape was held at zero growth (48–173 N per held-out run) and the
     campaign was named a gradient.  Campaign 6 of ``--varied 12 99300 --only plug_growth --wide-plugs`` (its
     nuisances; the form written out)."""
-    from tests.campaigns import varied_campaigns
-
-    _, material, _, _, nuisances = varied_campaigns(12, 99300, only="plug_growth")[6]
-    effects = [{"name": "plug_growth", "shape": 3, "growth_mm": 2.71, "length_mm": 49.3, "exponent": 2.48}]
-    db = conditioned(make_campaign(tmp_path, material, seed=99306, effects=effects,
-                                   block_kpa=BLOCKS if material == "mpacs_c" else None, **nuisances))
-    result = api.diagnose(db, ["all"])
+    capped = [{"name": "plug_growth", "shape": 3, "growth_mm": 2.71, "length_mm": 49.3, "exponent": 2.48}]
+    *_, result = dev_campaign(tmp_path, 99300, 6, "plug_growth", capped)
     ranked = [(e.name, e.z, e.shrink_pct, e.params.get("growth_mm")) for e in result.effects[:3]]
     assert result.verdict == "plug_growth", ranked
     plug, second = result.effects[0], result.effects[1]
