@@ -135,6 +135,9 @@ def test_an_effect_form_outside_its_shapes_is_refused_in_one_line():
     # an S-shaped rise of no width is a step the sim does not draw (it divided by zero)
     with pytest.raises(ParameterError, match=r"effects\[0\] \(strength_gradient\): width_mm = 0; expected > 0"):
         _resistance([{"name": "strength_gradient", "shape": 4, "width_mm": 0}], 0.0, 0.0)
+    # a capped power plug of exponent ≤ 0 is infinite at the surface (0 ** −1 raised ZeroDivisionError)
+    with pytest.raises(ParameterError, match=r"effects\[0\] \(plug_growth\): exponent = -1; expected > 0"):
+        _resistance([{"name": "plug_growth", "shape": 3, "exponent": -1}], 0.0, 0.0)
 
 
 def test_the_pure_delay_lag_shifts_the_force_by_its_delay():

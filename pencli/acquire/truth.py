@@ -125,6 +125,9 @@ def validate_effects(effects: Any, where: str) -> tuple[tuple[str, dict[str, flo
             if kink < 0 or ratio < 0 or kink == ratio == 0:
                 raise ParameterError(f"{where}: effects[{i}] ({name}): kink_mm = {kink:g}, slope_ratio = {ratio:g}; "
                                      f"expected both ≥ 0, not both 0")
+        if name in ("plug_growth", "velocity_friction") and shape == 3 and params["exponent"] <= 0:
+            # a power of depth or speed from 0: a non-positive exponent is infinite at the surface or at rest
+            raise ParameterError(f"{where}: effects[{i}] ({name}): exponent = {params['exponent']:g}; expected > 0")
         if name == "strength_gradient" and shape == 4 and params["width_mm"] <= 0:
             raise ParameterError(f"{where}: effects[{i}] ({name}): width_mm = {params['width_mm']:g}; expected > 0")
         out.append((name, params))
