@@ -674,11 +674,12 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     shared = fitted["coefficients"][:, 0]
     values = {"strength_factor": float(np.mean(cs)), "sidewall_pressure_kpa": float(shared[0]),
               "damping_kpa_s_m": float(shared[1]), "inertia_coefficient": float(shared[2])}
+    built_at = column_strength_factor(values["strength_factor"])  # a plug's strength column's factor
     bases = [replace(b, frontal=c * b.strength + shared[1] * b.damping + shared[2] * b.inertia,
-                     strength_factor=float(c), strength_factor_mean=column_strength_factor(values["strength_factor"]))
+                     strength_factor=float(c), strength_factor_mean=built_at)
              for b, c in zip(bases, cs)]
     context = {"cs_mean": max(values["strength_factor"], 1e-9),
-               "cs_columns": column_strength_factor(values["strength_factor"]),
+               "cs_columns": built_at,
                "p_kpa": max(values["sidewall_pressure_kpa"], 1e-9),
                "load_cell_mass_kg": float(np.mean([r.load_cell_mass_kg for r in runs]))}
 
