@@ -14,6 +14,12 @@ OUTSIDE_SPEC = REPO.parent / "shared" / "spec"
 """Where the binding contract lives beside a development checkout (absent in a user's clone)."""
 
 
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``slow`` (15 s to 2 min each) first: started last, one of them kept a worker busy for two
+    minutes after the other had finished."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
 @pytest.fixture
 def runner() -> CliRunner:
     return CliRunner()

@@ -76,6 +76,7 @@ def test_grill_brick_null_is_none(tmp_path):
     assert api.diagnose(campaign(tmp_path, [], 32, "grill_brick"), ["all"]).verdict == "none"
 
 
+@pytest.mark.slow
 def test_plateau_layer_is_found_as_a_strength_layer_where_it_is(tmp_path):
     campaign_db = campaign(tmp_path, [{"name": "strength_layer", "depth_mm": 40, "ratio": 0.6}], 33)
     result = api.diagnose(campaign_db, ["all"])
@@ -204,6 +205,7 @@ def test_varied_null_campaign_is_none_and_says_what_it_would_have_seen(tmp_path)
     assert abs(strict.baseline["gap_z"]) < 3.5
 
 
+@pytest.mark.slow
 def test_the_whole_catalogue_nulls_a_pair_and_an_outside_effect(tmp_path):
     """Issue 5's test set at one magnitude each, generated from seeds here (the bench uses other seeds and
     the larger set): every catalogue effect, nulls with block scatter, a two-effect campaign, an outside
@@ -274,6 +276,7 @@ def test_a_null_read_by_a_flickering_encoder_is_none_and_its_position_error_is_r
     assert all(5.0 <= r <= 15.0 for r in read), read
 
 
+@pytest.mark.slow
 def test_a_strong_gradient_in_scattered_blocks_is_a_gradient(tmp_path):
     """Issue 11: the block's strength scatter multiplies a gradient as it multiplies the strength.  Fitted
     as a shared column beside per-run strength factors, ±5 % of scatter on a gradient that more than doubles
@@ -287,6 +290,7 @@ def test_a_strong_gradient_in_scattered_blocks_is_a_gradient(tmp_path):
     assert top.name == "strength_gradient" and top.shrink_pct > 75.0
 
 
+@pytest.mark.slow
 def test_a_gradient_of_two_slopes_is_a_gradient(tmp_path):
     """Issue 11: a gradient no one curve of the family matches (steepening threefold at 50 mm) was named a
     plateau layer (74 % shrink against the best curve's 67 %) until the family held smooth monotone sums."""
@@ -411,6 +415,7 @@ def test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_
     assert set(result.verdict_effects) == truth, result.baseline.get("best_pair")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("effect, seed, key, truth, tolerance", [
     ({"name": "plug_growth", "growth_mm": 2.0, "length_mm": 20.0, "shape": 1}, 52, "growth_mm", 2.0, 0.15),
     ({"name": "strength_layer", "depth_mm": 30, "ratio": 1.8, "thickness_mm": 300}, 51, "ratio", 1.8, 0.08),
@@ -425,6 +430,7 @@ def test_a_strong_effects_size_is_stated_against_the_fit_that_has_it(tmp_path, e
     assert result.effects[0].params[key] == pytest.approx(truth, rel=tolerance)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("effect, seed, figure", [
     ({"name": "plug_growth", "growth_mm": 2.0, "length_mm": 20.0, "shape": 1}, 52, "final_depth_mm"),
     ({"name": "strength_gradient", "change_per_100mm": 1.0}, 53, "penetration_time_pct"),
@@ -499,6 +505,7 @@ def test_a_stribeck_friction_is_a_velocity_friction_not_a_plug(tmp_path):
     assert friction.shrink_pct > plug.shrink_pct + 10, ranked
 
 
+@pytest.mark.slow
 def test_a_plug_that_drives_the_baselines_strength_factor_below_zero_is_still_a_plug(tmp_path):
     """Issue 11: a plug 2.7 mm wide at 49 mm (a capped power of depth, exponent 2.5) on blades of 1–2 mm more than
     triples the frontal force of the thinnest.  The baseline without it fits negative strength factors (its P and

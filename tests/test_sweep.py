@@ -43,6 +43,7 @@ def scalar(d: dict[str, np.ndarray], i: int, speed=None):
     return simulate(design, speed_at_contact_m_s=speed, output_rate_hz=2000.0).summary
 
 
+@pytest.mark.slow
 def test_batch_agrees_with_the_scalar_simulator_on_10000_random_designs():
     d = random_designs(10_000, 7)
     speeds = np.where(np.arange(10_000) % 5 == 0, np.random.default_rng(8).uniform(0, 15, 10_000), np.nan)
