@@ -519,3 +519,18 @@ def test_a_plug_that_drives_the_baselines_strength_factor_below_zero_is_still_a_
     assert result.verdict == "plug_growth", ranked
     plug, second = result.effects[0], result.effects[1]
     assert plug.shrink_pct > second.shrink_pct + 5 and plug.params["growth_mm"] > 0, ranked
+
+
+@pytest.mark.slow
+def test_a_plug_that_forms_as_the_square_root_of_depth_is_a_plug(tmp_path):
+    """Issue 11: a plug 2.8 mm wide that forms as (x/14.5 mm)^0.44 and then stays: steep at the surface, a corner
+    at 14.5 mm.  None of the exponential, hyperbolic or straight capped rises follows both, and the campaign was
+    named a strength layer.  Campaign 8 of ``--varied 12 99400 --only plug_growth --wide-plugs`` (its nuisances;
+    the form written out).  Its size is not yet right: 1.76 mm read for 2.79 (the capped square root's, whose
+    corner sits at 14.1 or 16.8 mm of the length grid); that gap is open, and this test does not read it."""
+    concave = [{"name": "plug_growth", "shape": 3, "growth_mm": 2.79, "length_mm": 14.5, "exponent": 0.44}]
+    *_, result = dev_campaign(tmp_path, 99400, 8, "plug_growth", concave)
+    ranked = [(e.name, e.z, e.shrink_pct, e.params.get("shape")) for e in result.effects[:3]]
+    assert result.verdict == "plug_growth", ranked
+    plug = result.effects[0]
+    assert plug.params["shape"] == "capped_power" and plug.params["exponent"] == 0.5, (plug.params, ranked)

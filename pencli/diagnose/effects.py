@@ -446,6 +446,10 @@ def _plug_members() -> tuple[Member, ...]:
     # a plug that grows at a steady rate until it reaches its final size, then stays (a ramp with a corner)
     out += [member(lambda x, L=L * 1e-3: np.minimum(x / L, 1.0), length_mm=L, shape="capped_ramp")
             for L in _PLUG_LENGTHS_MM]
+    # the same with a curved rise: a plug that forms fast at the surface (a square root) or slowly and then fast
+    # (a square), then stays
+    out += [member(lambda x, L=L * 1e-3, p=p: np.clip(x / L, 0.0, 1.0) ** p, length_mm=L, exponent=p,
+                   shape="capped_power") for p in (0.5, 2.0) for L in _PLUG_LENGTHS_MM]
     out.append(member(lambda x: x / 0.1, shape="linear"))
     return tuple(out)
 
