@@ -526,8 +526,9 @@ def test_a_plug_that_forms_as_the_square_root_of_depth_is_a_plug(tmp_path):
     """Issue 11: a plug 2.8 mm wide that forms as (x/14.5 mm)^0.44 and then stays: steep at the surface, a corner
     at 14.5 mm.  None of the exponential, hyperbolic or straight capped rises follows both, and the campaign was
     named a strength layer.  Campaign 8 of ``--varied 12 99400 --only plug_growth --wide-plugs`` (its nuisances;
-    the form written out).  Its size is not yet right: 1.76 mm read for 2.79 (the capped square root's, whose
-    corner sits at 14.1 or 16.8 mm of the length grid); that gap is open, and this test does not read it."""
+    the form written out).  Its size reads low, 1.76 mm for 2.79, and 2.08 with the exact form as the only
+    member: past the first millimetres this plug is a constant added width, which each run's own strength factor
+    (block scatter) takes up; only the rise near the surface tells it apart.  This test does not read the size."""
     concave = [{"name": "plug_growth", "shape": 3, "growth_mm": 2.79, "length_mm": 14.5, "exponent": 0.44}]
     *_, result = dev_campaign(tmp_path, 99400, 8, "plug_growth", concave)
     ranked = [(e.name, e.z, e.shrink_pct, e.params.get("shape")) for e in result.effects[:3]]
