@@ -15,8 +15,8 @@ OUTSIDE_SPEC = REPO.parent / "shared" / "spec"
 
 
 def pytest_collection_modifyitems(config, items):
-    """Tests marked ``slow`` (15 s to 2 min each) first: started last, one of them kept a worker busy for two
-    minutes after the other had finished."""
+    """Tests marked ``slow`` (15 s to 2 min each) first, so that none of them starts last and holds one worker
+    while the other idles."""
     items.sort(key=lambda item: item.get_closest_marker("slow") is None)
 
 
