@@ -486,7 +486,7 @@ def _describe_plug(m: Member, c, ctx) -> dict:
     def over(value, reference):
         return float(value) * 1e3 / reference if reference > 0 else None
 
-    built_at = ctx.get("cs_baseline", ctx["cs_mean"])
+    built_at = ctx["cs_columns"]
     # against the fit's own mean strength factor; a fit whose strength factors stay at or below 0 has none, and
     # the growth is then stated against the factor the column was built at
     own = ctx["cs_mean"] if ctx["cs_mean"] > 1e-6 else built_at

@@ -524,10 +524,10 @@ def _own_context(context: Mapping[str, float], fit: Mapping[str, np.ndarray]) ->
     """The reference values an effect's parameters are stated against, from the fit *with* that effect: its
     mean strength factor, P, C and K.  The baseline's own absorb part of a strong effect (a layer 1.8 × as strong
     over most of the depth raises every run's baseline strength factor, and the layer's ratio against that came
-    out 1.52); ``cs_baseline`` is the strength factor a plug's strength column is built at
-    (:func:`~pencli.diagnose.effects.column_strength_factor`)."""
+    out 1.52); ``cs_columns``, the strength factor a plug's strength column is built at
+    (:func:`~pencli.diagnose.effects.column_strength_factor`), stays the baseline's."""
     strength, coefficients = fit["strength"][:, 0], fit["coefficients"][:, 0]
-    own = dict(context, cs_baseline=context["cs_columns"])
+    own = dict(context)
     if float(np.mean(strength)) > 0:
         own["cs_mean"] = float(np.mean(strength))
     own.update(p_kpa=max(float(coefficients[0]), 1e-9), c_kpa_s_m=float(coefficients[1]), k=float(coefficients[2]))
