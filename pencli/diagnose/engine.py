@@ -169,10 +169,23 @@ class _Family:
     """Index (into the candidates) of the member best on all runs, measured data."""
     chosen: list[int]
     """Per fold, the member chosen (measured data)."""
+    per_run: np.ndarray
+    """(runs, targets) the held-out mean squared residual of each run under its fold's choice. [N²]"""
 
 
-def _score_family(stats: Statistics, specs: Sequence[Spec]) -> tuple[_Family, dict]:
-    """Score the members of one family (or of pairs) and pick members per fold and target."""
+def _score_family(stats: Statistics, specs: Sequence[Spec], absent: np.ndarray | None = None
+                  ) -> tuple[_Family, dict]:
+    """Score the members of one family (or of pairs) and pick members per fold and target.
+
+    ``absent``: (runs, targets) the held-out mean squares of the model without the family, which then counts
+    as one more choice of each fold: a fold whose other folds are fitted better without any member scores as
+    the model without it (the family's size zero).  Given in the pair tests, where the second effect's
+    columns beside the first's are often nearly collinear with them: on null replicates each member then
+    extrapolates wildly to some held-out run, on more than half of them (dev pair-10 of ``--pairs 12 99500
+    --drift-friction``: a velocity friction beside a drift, median improvement −37 N², to −159,000 N², against
+    +96 N² on the data), which put the null's MAD at 46 N² and hid a friction that removed all of the drift's
+    remainder.
+    """
     groups: dict[int, list[int]] = {}
     for i, spec in enumerate(specs):
         groups.setdefault(len(spec.columns), []).append(i)
@@ -189,11 +202,13 @@ def _score_family(stats: Statistics, specs: Sequence[Spec]) -> tuple[_Family, di
             strength[i] = scores.strength[j]
     # each fold's member: the one whose held-out error on the other folds is least (not its training fit, which
     # favours the members with most columns however they extrapolate to a run they did not see)
-    others = heldout.sum(axis=1, keepdims=True) - heldout  # (members, runs, targets)
+    choices = heldout if absent is None else np.concatenate([heldout, absent[None]])
+    others = choices.sum(axis=1, keepdims=True) - choices  # (members, runs, targets)
     pick = np.argmin(others, axis=0)  # (runs, targets)
-    per_fold = np.take_along_axis(heldout, pick[None], axis=0)[0]  # (runs, targets)
+    per_fold = np.take_along_axis(choices, pick[None], axis=0)[0]  # (runs, targets)
     best = int(np.argmin(total[:, 0]))
-    family = _Family(per_fold.mean(axis=0), best, [int(k) for k in pick[:, 0]])
+    members = np.argmin(others[:len(specs), :, 0], axis=0)  # the shapes reported: members only
+    family = _Family(per_fold.mean(axis=0), best, [int(k) for k in members], per_fold)
     return family, {"coefficients": coefficients[best], "strength": strength[best]}
 
 
@@ -210,14 +225,15 @@ class _Tested:
     """Null scale of it (:func:`_standardise`). [N²]"""
 
 
-def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str, Sequence[Spec]], alpha: float
-                ) -> tuple[dict[str, _Tested], float]:
+def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str, Sequence[Spec]], alpha: float,
+                absent: np.ndarray | None = None) -> tuple[dict[str, _Tested], float]:
     """Score each family's held-out improvement over ``reference`` (held-out mean squares, data then null
-    replicates) and the threshold its z must beat (:func:`familywise_threshold`)."""
+    replicates) and the threshold its z must beat (:func:`familywise_threshold`); ``absent``: the reference per
+    run, a choice of every fold (:func:`_score_family`)."""
     tested = {}
     roundoff = _roundoff(reference)
     for name, specs in families.items():
-        family, fit = _score_family(stats, specs)
+        family, fit = _score_family(stats, specs, absent)
         tested[name] = _Tested(family, fit, *_standardise(reference - family.heldout, roundoff))
     if not tested:
         return tested, math.inf
@@ -915,7 +931,8 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
         if specs:
             combined[name] = specs
     own_specs = combined.pop(top, None)
-    scored, threshold = _familywise(stats, S_top, combined, alpha)
+    absent = tested[top].family.per_run
+    scored, threshold = _familywise(stats, S_top, combined, alpha, absent)
     if not scored:
         return None
     name = max(scored, key=lambda n: S_top[0] - scored[n].family.heldout[0])
@@ -923,7 +940,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
     share = _share_of_remainder(S_top, second.family.heldout, S0)
     beyond_own, over_own, adds = True, None, False
     if own_specs:
-        own, _ = _score_family(stats, own_specs)
+        own, _ = _score_family(stats, own_specs, absent)
         diff = own.heldout - second.family.heldout  # > 0 when the other effect does better than a second own shape
         # standardised as every statistic here (median, and the larger of MAD and upper semi-deviation): a pair
         # that extrapolates wildly on a few replicates puts them at −10¹⁵ N², which says nothing of the upper
@@ -931,7 +948,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
         # second ringing shape by 11,902 N² against a null sd of 4·10¹⁴ and a MAD of 10)
         beyond_own = _standardise(diff, _roundoff(own.heldout))[0] > AMBIGUITY_Z
         over_own = _over_own_pair(stats, _Candidate(lead.member, own_specs[own.best]), candidates[name], base_spec,
-                                  own.heldout, S0, threshold)
+                                  own, S0, threshold)
         adds = bool(over_own and over_own["adds"])
     return {"effect": name, "heldout": float(second.family.heldout[0]), "z": round(second.z, 2),
             "threshold": threshold, "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own or adds),
@@ -941,7 +958,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
 
 
 def _over_own_pair(stats: Statistics, own_pair: _Candidate, cands: Sequence[_Candidate], base_spec: Spec,
-                   S_own: np.ndarray, S0: np.ndarray, threshold: float) -> dict | None:
+                   own: _Family, S0: np.ndarray, threshold: float) -> dict | None:
     """What a second effect's family adds on top of the lead's best pair of own shapes: its z, the share it
     removes of what the own pair leaves above the null floor, and whether the z beats ``threshold`` (the pair
     test's family-wise one) and the share :data:`EXPLAIN_SHARE` (``adds``).
@@ -955,7 +972,8 @@ def _over_own_pair(stats: Statistics, own_pair: _Candidate, cands: Sequence[_Can
     specs = [spec for spec in (_combine(own_pair, c, base_spec) for c in cands) if spec is not None]
     if not specs:
         return None
-    third, _ = _score_family(stats, specs)
+    S_own = own.heldout
+    third, _ = _score_family(stats, specs, own.per_run)
     z = _standardise(S_own - third.heldout, _roundoff(S_own))[0]
     share = _share_of_remainder(S_own, third.heldout, S0)
     return {"z": round(z, 2), "threshold": round(threshold, 3), "share_of_remainder": round(share, 3),
