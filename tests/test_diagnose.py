@@ -143,6 +143,19 @@ def test_two_effects_are_both_found(tmp_path):
     assert {"strength_layer", "load_cell_mass_error"} <= found
 
 
+def test_a_ringing_between_two_grid_frequencies_is_followed(tmp_path):
+    """Issue 11: one mode at 1,110 Hz, ζ 0.03, half-way between the family's grid frequencies 1,067 and 1,154 Hz
+    (7.9 % apart) and between its damping ratios 0.02 and 0.04.  Over the 1/σ ≈ 5 ms it rings the nearest grid
+    mode drifts a radian in phase, and the family took 51 % of the misfit (the same mode on a grid point: 90 %).
+    A single-mode member now carries the mode's first-order change in frequency and decay: 75 %."""
+    effects = [{"name": "rig_ringing", "amplitude_n_per_m_s": 50.0, "frequency_hz": 1110.0, "damping_ratio": 0.03,
+                "second_amplitude": 0.0}]
+    result = api.diagnose(campaign(tmp_path, effects, 41), ["all"])
+    ring = result.effects[0]
+    assert result.verdict == "rig_ringing", [(e.name, e.shrink_pct) for e in result.effects[:3]]
+    assert ring.shrink_pct > 65.0, (ring.shrink_pct, ring.params)
+
+
 def test_cli_writes_the_contract_json_and_refuses_bad_input(tmp_path, runner):
     db = campaign(tmp_path, [{"name": "rig_ringing", "amplitude_n_per_m_s": 60}], 38)
     out = tmp_path / "d.json"
@@ -355,7 +368,10 @@ def test_a_pressure_growth_under_ringing_counts_against_what_ringings_own_pair_l
     one ringing member follows, so the ringing alone leaves a misfit of its own; the pressure growth removed a
     third of that (z 260 against 4.2), short of the half a second effect must remove, though it removed 80 % of
     what the best pair of ringing shapes leaves.  Campaign 1 of ``bench_diagnose --pairs 12 66000
-    --ringing-pairs`` (4 Grill Brick runs, 0.32 mm encoder, 4.6 N of noise)."""
+    --ringing-pairs`` (4 Grill Brick runs, 0.32 mm encoder, 4.6 N of noise).  Since the twenty-eighth session a
+    single ringing mode carries its first-order change in frequency and decay, the ringing alone leaves less, and
+    the pressure removes 70 % of it: the case the test was written for (under half) is gone, the verdict and
+    what the pressure adds over the own pair are still checked."""
     effects = [{"name": "rig_ringing", "amplitude_n_per_m_s": 56.0, "frequency_hz": 1284.5, "damping_ratio": 0.0595,
                 "second_amplitude": 0.206, "second_ratio": 1.62},
                {"name": "sidewall_pressure_growth", "scale_mm": 59.9, "exponent": 1.88, "shape": 1.0, "rise": 2.34}]
@@ -368,7 +384,7 @@ def test_a_pressure_growth_under_ringing_counts_against_what_ringings_own_pair_l
     result = api.diagnose(db, ["all"])
     pair = result.baseline["best_pair"]
     assert set(result.verdict_effects) == {"rig_ringing", "sidewall_pressure_growth"}, pair
-    assert pair["share_of_remainder"] < 0.5 <= pair["over_own_pair"]["share_of_remainder"], pair  # the case
+    assert pair["over_own_pair"]["adds"] and pair["over_own_pair"]["share_of_remainder"] >= 0.5, pair
 
 
 @pytest.mark.xfail(strict=True, reason="since 4e725ec a layer (a 5 mm step, 4 mm edge, plateau to 15 mm) scores 91.2 % "

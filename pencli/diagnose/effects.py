@@ -620,15 +620,25 @@ def _lag_members() -> tuple[Member, ...]:
     return tuple(out)
 
 
-def _mode_columns(run: DiagnosisRun, b: Basis, frequency_hz: float, damping_ratio: float, scale: float
-                  ) -> np.ndarray:
+def _mode_columns(run: DiagnosisRun, b: Basis, frequency_hz: float, damping_ratio: float, scale: float,
+                  first_order: bool = True) -> np.ndarray:
     # struck when the tip meets the material: the force's contact, not the file's stand-off
     struck = run.seen_contact_s
     tc = np.maximum(b.t - struck, 0.0)
     w0 = 2 * math.pi * frequency_hz
     wd = w0 * math.sqrt(1 - damping_ratio ** 2)
     env = np.where(b.t > struck, np.exp(-damping_ratio * w0 * tc), 0.0) * scale
-    return np.column_stack([env * np.sin(wd * tc), env * np.cos(wd * tc)])
+    sin, cos = env * np.sin(wd * tc), env * np.cos(wd * tc)
+    # ``first_order``: with the mode's first-order change in its frequency and its decay rate (∂/∂ω and ∂/∂σ of
+    # e^(−σt)·sin(ωt + φ) span t·e^(−σt)·sin and t·e^(−σt)·cos; time in units of the decay time): a mode between
+    # two grid frequencies (7.9 % apart) or two damping ratios is followed, not left as a beat.  On the
+    # development ringings (``--varied 12 102000 --only rig_ringing``) the verdict's held-out shrink went from a
+    # median of 61.6 % to 71.6 %; the exact two-mode form of one of them (dev 0) takes 90 %, the grid 64 %, the
+    # grid with these 81 %
+    if not first_order:
+        return np.column_stack([sin, cos])
+    decays = tc * (damping_ratio * w0)
+    return np.column_stack([sin, cos, decays * sin, decays * cos])
 
 
 def _modes(modes: Sequence[tuple[float, float]], by: str) -> Callable[[DiagnosisRun, Basis], Columns]:
@@ -639,7 +649,11 @@ def _modes(modes: Sequence[tuple[float, float]], by: str) -> Callable[[Diagnosis
             frontal = b.frontal if b.frontal is not None else b.strength
             after = np.flatnonzero(b.inside)
             scale = float(frontal[after[0]]) if after.size else 0.0
-        return Columns(np.column_stack([_mode_columns(run, b, f, z, scale) for f, z in modes]))
+        # one mode follows its neighbourhood to first order; two modes keep two columns each: with four each,
+        # some development ringings gained more (dev 1 of 102000: 83.5 % against 69.1 %), but a diagnosis took
+        # about twice as long
+        first_order = len(modes) == 1
+        return Columns(np.column_stack([_mode_columns(run, b, f, z, scale, first_order) for f, z in modes]))
 
     return build
 
