@@ -163,14 +163,17 @@ class _Family:
     """An effect's score on every target: per fold the member of least held-out error on the other folds,
     scored on the fold's held-out run."""
 
-    heldout: np.ndarray
-    """(targets,) mean over runs of the held-out mean squared residual. [N²]"""
+    per_run: np.ndarray
+    """(runs, targets) the held-out mean squared residual of each run under its fold's choice. [N²]"""
     best: int
     """Index (into the candidates) of the member best on all runs, measured data."""
     chosen: list[int]
     """Per fold, the member chosen (measured data)."""
-    per_run: np.ndarray
-    """(runs, targets) the held-out mean squared residual of each run under its fold's choice. [N²]"""
+
+    @property
+    def heldout(self) -> np.ndarray:
+        """(targets,) mean over runs of the held-out mean squared residual. [N²]"""
+        return self.per_run.mean(axis=0)
 
 
 def _score_family(stats: Statistics, specs: Sequence[Spec], absent: np.ndarray | None = None
@@ -208,7 +211,7 @@ def _score_family(stats: Statistics, specs: Sequence[Spec], absent: np.ndarray |
     per_fold = np.take_along_axis(choices, pick[None], axis=0)[0]  # (runs, targets)
     best = int(np.argmin(total[:, 0]))
     members = np.argmin(others[:len(specs), :, 0], axis=0)  # the shapes reported: members only
-    family = _Family(per_fold.mean(axis=0), best, [int(k) for k in members], per_fold)
+    family = _Family(per_fold, best, [int(k) for k in members])
     return family, {"coefficients": coefficients[best], "strength": strength[best]}
 
 
