@@ -310,9 +310,9 @@ def _first_departure(force_n: np.ndarray, lo: int, hi: int, reference: int) -> i
     The level at a sample is the median of the :data:`_LEVEL_SAMPLES` before it; a rise is :data:`_DEPARTURE_SDS`
     robust standard deviations of the ``reference`` samples before ``lo`` on two consecutive samples, the
     deviation the larger of the force's about a straight line and of its rise over its level there (smooth,
-    coloured noise wanders further than it steps: at 3 and 2 N against 0.5 N, a filtered flight's slow wander
-    had been taken for a departure 0.25 ms before the contact).  Only rises: the tip's contact compresses the
-    load cell.  None where there is no reference.
+    coloured noise wanders further than it steps: measured by its steps alone, a filtered flight's wander had
+    been taken for a departure 0.25 ms before the contact, and a block's surface placed 2.7 mm off).  Only
+    rises: the tip's contact compresses the load cell.  None where there is no reference.
     """
     start = lo - reference - _LEVEL_SAMPLES
     if reference < 4 * _LEVEL_SAMPLES or start < 0 or hi + 1 >= force_n.size:
@@ -339,7 +339,10 @@ def force_onset(time_s: np.ndarray, force_n: np.ndarray, contact_s: float, *, sp
 
     The force follows the free flight's slow trend until the tip meets the
     material, then the strength term switches on.  The change point is the
-    split that best fits two straight lines (least squares, by cumulative sums).
+    split that best fits two straight lines (least squares, by cumulative sums),
+    or the force's first sustained rise off its flight level
+    (:func:`_first_departure`) where that comes earlier: a strong mode struck at
+    contact can make the two lines fit best half a period late.
     A block whose surface is not where the energizing file puts it (stand-off
     scatter) makes it differ from the position's contact.
     """
