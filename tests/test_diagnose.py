@@ -316,7 +316,10 @@ def test_a_gradient_of_two_slopes_is_a_gradient(tmp_path):
 def test_a_drift_with_a_velocity_friction_is_a_pair(tmp_path):
     """Issue 11: two drift shapes together match a velocity friction on five runs about as well as the friction
     does, so "better than a second own shape by more than the null's noise" failed and the friction was lost.
-    What the friction adds on top of the best pair of drift shapes tells them apart."""
+    What the friction adds on top of the best pair of drift shapes told them apart.  Since the thirtieth session
+    the drift family has powers, logarithms and time constants √2 apart: one drift shape follows this drift,
+    and the friction beats a second one outright (it removes 97 % of what the drift leaves); the route through
+    the own pair is held by ``test_a_pressure_growth_under_ringing_counts_against_what_ringings_own_pair_leaves``."""
     effects = [{"name": "force_drift", "amplitude_n": 85.0, "time_constant_s": 0.02, "shape": 2},
                {"name": "velocity_friction", "drop": 0.5, "speed_m_s": 2.7, "shape": 0}]
     db = conditioned(make_campaign(tmp_path, "grill_brick", seed=55010, effects=effects, encoder_mm=0.16,
@@ -326,7 +329,6 @@ def test_a_drift_with_a_velocity_friction_is_a_pair(tmp_path):
                                    standoff_mm=[0.5, 0.9, 0.9, 0.7, 0.2], encoder_phase=[0.45] * 5))
     result = api.diagnose(db, ["all"])
     assert set(result.verdict_effects) == {"force_drift", "velocity_friction"}, result.baseline.get("best_pair")
-    assert result.baseline["best_pair"]["over_own_pair"]["adds"]
 
 
 @pytest.mark.slow
@@ -341,6 +343,19 @@ def test_a_friction_beside_a_drift_is_found_though_it_extrapolates_wildly_on_nul
     effects = [{"name": "force_drift", "amplitude_n": 94.8, "time_constant_s": 0.0413, "shape": 0},
                {"name": "velocity_friction", "drop": 0.527, "speed_m_s": 3.34, "shape": 1}]
     *_, result = dev_campaign(tmp_path, 99500, 10, "pairs", effects)
+    assert set(result.verdict_effects) == {"force_drift", "velocity_friction"}, result.baseline.get("best_pair")
+
+
+@pytest.mark.slow
+def test_a_friction_beside_a_drift_between_the_old_time_constants_is_a_pair(tmp_path):
+    """Issue 11: a drift 1 − e^(−t/33 ms) fell between the family's time constants (20 and 50 ms); a second
+    drift shape took that mismatch, did better than the friction beside the first (over the own pair z −12),
+    and the friction was lost.  With time constants √2 apart (and logarithmic and power drifts) the friction
+    removes 59 % of what the drift leaves and adds on top of the own pair.  Campaign 6 of ``--pairs 12 105000
+    --drift-friction`` (its nuisances; the forms written out)."""
+    effects = [{"name": "force_drift", "amplitude_n": 125.97, "time_constant_s": 0.033, "shape": 0},
+               {"name": "velocity_friction", "drop": 0.55, "speed_m_s": 2.974, "shape": 1}]
+    *_, result = dev_campaign(tmp_path, 105000, 6, "pairs", effects)
     assert set(result.verdict_effects) == {"force_drift", "velocity_friction"}, result.baseline.get("best_pair")
 
 

@@ -688,15 +688,25 @@ def _drift_cols(profile: Callable[[np.ndarray], np.ndarray]) -> Callable[[Diagno
 def _drift_members() -> tuple[Member, ...]:
     out = [Member({"shape": "linear"}, chain=_drift_cols(lambda t: t[:, None])),
            Member({"shape": "quadratic"}, chain=_drift_cols(lambda t: np.column_stack([t, t * t])))]
+    out += [Member({"shape": "power", "exponent": p}, chain=_drift_cols(lambda t, p=p: ((t / 0.1) ** p)[:, None]))
+            for p in (0.5, 0.75, 1.5)]
     out += [Member({"shape": "exponential", "time_constant_s": tau},
                    chain=_drift_cols(lambda t, tau=tau: -np.expm1(-t / tau)[:, None]))
-            for tau in (0.01, 0.02, 0.05, 0.1, 0.2, 0.5)]
+            for tau in _DRIFT_TAUS_S]
+    out += [Member({"shape": "logarithmic", "time_constant_s": tau},
+                   chain=_drift_cols(lambda t, tau=tau: np.log1p(t / tau)[:, None]))
+            for tau in _DRIFT_TAUS_S]
     return tuple(out)
 
 
+_DRIFT_TAUS_S = tuple(round(0.005 * 2.0 ** (k / 2), 4) for k in range(16))  # 5 ms to 0.9 s, √2 apart
+
+
 def _describe_drift(m: Member, c, ctx) -> dict:
-    if m.params["shape"] == "exponential":
+    if m.params["shape"] in ("exponential", "logarithmic"):  # amplitude × (1 − e^(−t/τ)) or × ln(1 + t/τ)
         return {**dict(m.params), "amplitude_n": float(c[0])}
+    if m.params["shape"] == "power":  # amplitude × (t / 100 ms)^exponent
+        return {**dict(m.params), "amplitude_at_100_ms_n": float(c[0])}
     return {**dict(m.params), "rate_n_per_s": float(c[0])}
 
 
@@ -745,8 +755,9 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "contact speed or to the force step. Signature: a decaying oscillation after contact.",
            _ringing_members, _describe_ringing),
     Effect("force_drift", "chain", "time",
-           "The force offset drifts during the run (linear, quadratic or exponential in time since the "
-           "release). Signature: a misfit growing with time, in flight as much as in the material.",
+           "The force offset drifts during the run (linear, quadratic, a power, exponential or logarithmic in "
+           "time since the release). Signature: a misfit growing with time, in flight as much as in the "
+           "material.",
            _drift_members, _describe_drift),
     Effect("propulsion_loss", "drive", "flight",
            "The launcher delivers less energy than modelled (efficiency × (1 − loss)). Signature: measured "
