@@ -2,6 +2,7 @@
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
      [--two-slopes] [--drift-friction] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs] [--short-gradients] [--bessel-lags] [--s-gradients]
+     [--few-coloured]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -17,6 +18,7 @@ truth shapes 3 and 4; its own stream).
 15–40 mm (its own stream).
 ``--bessel-lags``: every sensor lag a fourth-order Bessel low-pass (sim truth shape 3) of group delay 0.2–0.8 ms
 (its own stream; ``--varied`` draws one or two poles or a pure delay).
+``--few-coloured``: every campaign cut to four runs, its noise mostly AR(1) (its own stream).
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
 random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
@@ -154,10 +156,27 @@ def ringing_pairs(campaigns, seed):
     return _redrawn(campaigns, seed, 8, change)
 
 
+def few_coloured(campaigns, seed):
+    """The campaigns cut to their first four runs, with noise that is mostly coloured: white 0.3–1 N and an AR(1)
+    part of 1–4 N whose time constant (0.02–0.15 ms) gives a sample-to-sample correlation of about 0.3–0.9 at
+    30–60 kHz (its own stream).  Few runs and coloured noise leave the fewest held-out folds and the most
+    drift-like wander in each run."""
+    own = np.random.default_rng([seed, 14])
+    out = []
+    for label, material, effects, truth, nuisances in campaigns:
+        n = len(nuisances["shots"])
+        cut = {k: (v[:4] if isinstance(v, list) and len(v) == n else v) for k, v in nuisances.items()}
+        cut["rig_extra"] = dict(nuisances["rig_extra"], force_noise_n=float(own.uniform(0.3, 1.0)),
+                                correlated_noise_n=float(own.uniform(1.0, 4.0)),
+                                correlated_noise_ms=float(own.uniform(0.02, 0.15)))
+        out.append((label, material, effects, truth, cut))
+    return out
+
+
 REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--slow-speeds": slow_speeds,
            "--wide-friction": wide_friction, "--wide-plugs": wide_plugs,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
-           "--short-gradients": short_gradients}
+           "--short-gradients": short_gradients, "--few-coloured": few_coloured}
 """The scratch sets' flags and what each redraws (see the module's doc)."""
 
 
