@@ -685,6 +685,9 @@ def _drift_cols(profile: Callable[[np.ndarray], np.ndarray]) -> Callable[[Diagno
     return lambda run, b: Columns(profile(np.maximum(b.t, 0.0)))
 
 
+_DRIFT_TAUS_S = tuple(round(0.005 * 2.0 ** (k / 2), 4) for k in range(16))  # 5 ms to 0.9 s, √2 apart
+
+
 def _drift_members() -> tuple[Member, ...]:
     out = [Member({"shape": "linear"}, chain=_drift_cols(lambda t: t[:, None])),
            Member({"shape": "quadratic"}, chain=_drift_cols(lambda t: np.column_stack([t, t * t])))]
@@ -697,9 +700,6 @@ def _drift_members() -> tuple[Member, ...]:
                    chain=_drift_cols(lambda t, tau=tau: np.log1p(t / tau)[:, None]))
             for tau in _DRIFT_TAUS_S]
     return tuple(out)
-
-
-_DRIFT_TAUS_S = tuple(round(0.005 * 2.0 ** (k / 2), 4) for k in range(16))  # 5 ms to 0.9 s, √2 apart
 
 
 def _describe_drift(m: Member, c, ctx) -> dict:
