@@ -158,7 +158,7 @@ def ringing_pairs(campaigns, seed):
 
 def few_coloured(campaigns, seed):
     """The campaigns cut to their first four runs, with noise that is mostly coloured: white 0.3–1 N and an AR(1)
-    part of 1–4 N whose time constant (0.02–0.15 ms) gives a sample-to-sample correlation of about 0.3–0.9 at
+    part of 1–4 N whose time constant (0.02–0.15 ms) gives a sample-to-sample correlation of about 0.2–0.9 at
     30–60 kHz (its own stream).  Few runs and coloured noise leave the fewest held-out folds and the most
     drift-like wander in each run."""
     own = np.random.default_rng([seed, 14])
