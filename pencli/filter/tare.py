@@ -331,6 +331,8 @@ def _first_departure(force_n: np.ndarray, lo: int, hi: int, reference: int) -> i
 
 
 def _robust_sd(values: np.ndarray) -> float:
+    """1.4826 × the median absolute deviation: the standard deviation of a normal sample, unmoved by a few
+    outliers (a mode's peaks, a step). [units of ``values``]"""
     return 1.4826 * float(np.median(np.abs(values - np.median(values))))
 
 
