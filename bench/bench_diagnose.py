@@ -2,7 +2,7 @@
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
      [--two-slopes] [--drift-friction] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs] [--short-gradients] [--bessel-lags] [--s-gradients]
-     [--few-coloured]
+     [--few-coloured] [--unknown-material]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -19,6 +19,9 @@ truth shapes 3 and 4; its own stream).
 ``--bessel-lags``: every sensor lag a fourth-order Bessel low-pass (sim truth shape 3) of group delay 0.2–0.8 ms
 (its own stream; ``--varied`` draws one or two poles or a pure delay).
 ``--few-coloured``: every campaign cut to four runs, its noise mostly AR(1) (its own stream).
+``--unknown-material``: every campaign in a simulant no table holds: density 100–600 kg/m³, strength
+1–9 MPa, friction 0.2–0.9, strength factor 0.4–1.4, sidewall pressure 5–40 kPa, inertia coefficient 20–60, and
+half of them damped (0.2–3 kPa·s/m; the tabled simulants are not), recorded as they are true (its own stream).
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
 random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
@@ -173,10 +176,28 @@ def few_coloured(campaigns, seed):
     return out
 
 
+def unknown_material(campaigns, seed):
+    """The campaigns in a simulant no table holds, with damping in half of them (its own stream; see the doc)."""
+    own = np.random.default_rng([seed, 15])
+    out = []
+    for label, material, effects, truth, nuisances in campaigns:
+        damping = float(own.uniform(0.2, 3.0)) if own.uniform() < 0.5 else 0.0
+        record = {"density_kg_m3": float(own.uniform(100, 600)),
+                  "microstructure_strength_kpa": float(own.uniform(1000, 9000)),
+                  "friction_coefficient": float(own.uniform(0.2, 0.9)),
+                  "coefficients": {"strength_factor": float(own.uniform(0.4, 1.4)),
+                                   "sidewall_pressure_kpa": float(own.uniform(5, 40)),
+                                   "damping_kpa_s_m": damping,
+                                   "inertia_coefficient": float(own.uniform(20, 60))}}
+        out.append((label, material, effects, truth, dict(nuisances, record_material=record)))
+    return out
+
+
 REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--slow-speeds": slow_speeds,
            "--wide-friction": wide_friction, "--wide-plugs": wide_plugs,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
-           "--short-gradients": short_gradients, "--few-coloured": few_coloured}
+           "--short-gradients": short_gradients, "--few-coloured": few_coloured,
+           "--unknown-material": unknown_material}
 """The scratch sets' flags and what each redraws (see the module's doc)."""
 
 
@@ -184,7 +205,7 @@ def run_one(label, material, effects, seed, nuisances=None):
     with tempfile.TemporaryDirectory() as tmp:
         nuisances = {"shots": SIX, **(nuisances or {})}
         db = make_campaign(Path(tmp), material, seed=seed, effects=effects,
-                           block_kpa=BLOCKS if material == "mpacs_c" else None, **nuisances)
+                           block_kpa=BLOCKS if material == "mpacs_c" and "record_material" not in nuisances else None, **nuisances)
         api.tare_runs(db, ["all"])
         api.subtract_inertia_runs(db, ["all"])
         t0 = time.perf_counter()
@@ -226,6 +247,7 @@ def main() -> None:
               f"{result.verdict_effects} pair={result.baseline.get('best_pair', {}).get('effects')} "
               f"share={result.baseline.get('best_pair', {}).get('share_of_remainder')} {seconds:.1f}s", flush=True)
     nulls = [r for r in rows if r[1] == {"none"}]
+    extra = [r[0] for r in rows if len(r[1]) == 1 and r[1] < set(r[2].verdict_effects)]  # the truth and more
     effects = [r for r in rows if r[1] not in ({"none"}, {"unexplained"})]
     singles = [r for r in effects if len(r[1]) == 1]
     top1 = sum(r[3] for r in singles) / max(len(singles), 1)
@@ -235,6 +257,7 @@ def main() -> None:
     print(f"single-effect verdicts right:                                 {top1:.0%} of {len(singles)}")
     print(f"two-effect campaigns with both effects found:                 {sum(r[3] for r in effects if len(r[1]) > 1)} "
           f"of {sum(len(r[1]) > 1 for r in effects)}")
+    print(f"single-effect campaigns with a wrong effect beside the right: {len(extra)} {extra}")
     print(f"false-positive rate on nulls:                                 {fp:.0%} of {len(nulls)}")
     print(f"outside-catalogue effect called unexplained:                  "
           f"{[r[3] for r in rows if r[1] == {'unexplained'}]}")
