@@ -359,6 +359,23 @@ def test_a_friction_beside_a_drift_between_the_old_time_constants_is_a_pair(tmp_
     assert set(result.verdict_effects) == {"force_drift", "velocity_friction"}, result.baseline.get("best_pair")
 
 
+@pytest.mark.slow
+def test_an_exponential_gradient_between_the_old_lengths_is_named_alone(tmp_path):
+    """Issue 11: a strength growing as 3.95^(x/100 mm) (e-folding over 73 mm) fell between the gradient family's
+    exponential lengths (40, 80 and 160 mm); fitted at 80 mm it left 5 × the null floor, and a strength layer
+    beside it took that mismatch and was reported as a second effect.  With lengths 2^¼ apart the gradient
+    leaves 1.6 × the floor and stands alone.  Campaign 17 of ``--varied 28 106000`` (7 grill-brick runs, a
+    0.32 mm encoder, white and AR(1) noise)."""
+    from tests.campaigns import varied_campaigns
+
+    _, material, effects, truth, nuisances = varied_campaigns(28, 106000)[17]
+    assert truth == {"strength_gradient"} and effects[0]["shape"] == 0.0 and material == "grill_brick"
+    db = conditioned(make_campaign(tmp_path, material, seed=106017, effects=effects, **nuisances))
+    result = api.diagnose(db, ["all"])
+    assert list(result.verdict_effects) == ["strength_gradient"], result.baseline.get("best_pair")
+    assert result.effects[0].shrink_pct > 94.0, [(e.name, e.shrink_pct) for e in result.effects[:3]]
+
+
 def test_a_delay_whose_late_rise_falls_outside_the_stand_off_tolerance_is_a_lag(tmp_path):
     """Issue 11: a pure delay of 0.44 ms with block surfaces up to 3.9 mm off the file's stand-off moved one run's
     force rise past where its contact was looked for, the window took the step in, and the campaign was named a

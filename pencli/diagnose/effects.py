@@ -342,6 +342,11 @@ def _describe_layer(m: Member, c, ctx) -> dict:
 
 _LENGTHS_MM = (5.0, 10.0, 20.0, 40.0, 80.0, 160.0)
 _EXPONENTS = (0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0)
+_GRADIENT_LENGTHS_MM = tuple(round(5.0 * 2.0 ** (k / 4), 1) for k in range(25))
+"""A gradient's saturating and exponential lengths, a factor 2^¼ (19 %) apart from 5 to 320 mm (exponentials from
+40 mm).  A factor 2 apart (5–160 mm), an exponential of 73 mm (strength ×3.95 at 100 mm) fitted at 80 mm left
+5 × the null floor, and a strength layer beside it took that as a second effect (dev gradient-17 of
+``--varied 28 106000``)."""
 
 
 _MONOTONE_CENTRES_MM = (0.0, 50.0, 100.0)
@@ -394,9 +399,9 @@ def _gradient_members() -> tuple[Member, ...]:
     out = [law("strength", (lambda x, v, p=p: (x / 0.1) ** p), exponent=p, shape="power") for p in _EXPONENTS]
     out.append(law("strength", lambda x, v: x / 0.1, lambda x, v: (x / 0.1) ** 2, shape="quadratic"))
     out += [law("strength", (lambda x, v, L=L * 1e-3: -np.expm1(-x / L)), length_mm=L, shape="saturating")
-            for L in _LENGTHS_MM]
+            for L in _GRADIENT_LENGTHS_MM]
     out += [law("strength", (lambda x, v, L=L * 1e-3: np.expm1(x / L)), length_mm=L, shape="exponential")
-            for L in _LENGTHS_MM[3:]]
+            for L in _GRADIENT_LENGTHS_MM if L >= 40.0]
     out += [law("strength", _s_rise(c * 1e-3, w * 1e-3), centre_mm=float(c), width_mm=w, shape="s_rise",
                 reach_m=(c + w) * 1e-3)  # past the S's centre by a width: 88 % risen, its top constrained
             for c in _RISE_CENTRES_MM for w in _RISE_WIDTHS_MM if c >= w]
