@@ -54,8 +54,8 @@ from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the l
 from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of,
                                      column_strength_factor, surfaces)
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
-from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_anti_alias, fit_noise, gumbel_quantile,
-                                  normal_quantile, replicate_campaign, student_quantile)
+from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_anti_alias, fit_noise, gev_quantile,
+                                  gumbel_quantile, normal_quantile, replicate_campaign, student_quantile)
 from pencli.errors import FitError, ModelError
 from pencli.filter.tare import Events
 from pencli.fit.resistance import with_coefficients
@@ -261,9 +261,14 @@ HELD_OUT_SCALE_GUARD = 0.5
 
 
 def familywise_threshold(improvements: np.ndarray, floor: float, alpha: float) -> float:
-    """The z the data's largest standardised improvement must beat: the Gumbel tail, at ``alpha``, of the
-    largest z over the families (columns) on the null replicates (rows 1…; row 0 is the data), one test for
-    the whole set.
+    """The z the data's largest standardised improvement must beat: the upper ``alpha`` quantile of the largest
+    z over the families (columns) on the null replicates (rows 1…; row 0 is the data), one test for the whole
+    set.  The quantile is the larger of a Gumbel fitted by moments and a generalised extreme-value law fitted by
+    probability-weighted moments (:func:`gev_quantile`): where the largest z has a heavy tail (a sign-bounded
+    family fitting on a few replicates) the Gumbel falls short.  By simulation at 1/300 with 200 replicates and
+    11 families (``python -m bench.bench_null_calibration 1500 7 --engine``, the same draws for both rules):
+    false alarms 1.40 → 0.20 % on a point mass with 5 % χ²₁, 0.60 → 0.13 % on t₃, 0.13 % either way on normal
+    and χ²₁.  Where the tail is bounded the GEV's lower quantile is not used.
 
     Each replicate is standardised as the data is, by the *other* replicates' centre and scale
     (:func:`_standardise`): the data's z is out of sample, and standardising the replicates by a scale they
@@ -274,7 +279,8 @@ def familywise_threshold(improvements: np.ndarray, floor: float, alpha: float) -
     replicate among a point mass cannot stand that replicate a million z out and blind the test to every
     family.
     """
-    return gumbel_quantile(replicate_z(improvements, floor).max(axis=0), alpha)
+    largest = replicate_z(improvements, floor).max(axis=0)
+    return max(gumbel_quantile(largest, alpha), gev_quantile(largest, alpha))
 
 
 def replicate_z(improvements: np.ndarray, floor: float) -> np.ndarray:
