@@ -204,8 +204,9 @@ REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--sl
 def run_one(label, material, effects, seed, nuisances=None):
     with tempfile.TemporaryDirectory() as tmp:
         nuisances = {"shots": SIX, **(nuisances or {})}
-        db = make_campaign(Path(tmp), material, seed=seed, effects=effects,
-                           block_kpa=BLOCKS if material == "mpacs_c" and "record_material" not in nuisances else None, **nuisances)
+        tabled = material == "mpacs_c" and "record_material" not in nuisances  # its blocks' measured strengths
+        db = make_campaign(Path(tmp), material, seed=seed, effects=effects, block_kpa=BLOCKS if tabled else None,
+                           **nuisances)
         api.tare_runs(db, ["all"])
         api.subtract_inertia_runs(db, ["all"])
         t0 = time.perf_counter()

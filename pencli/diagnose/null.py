@@ -504,7 +504,8 @@ def gumbel_quantile(samples: np.ndarray, p: float) -> float:
 
 def gev_quantile(samples: np.ndarray, p: float) -> float:
     """Upper ``p``-quantile of a generalised extreme-value law fitted to maxima ``samples`` by probability-weighted
-    moments (Hosking, Wallis & Wood 1985, the shape solved exactly), or the Gumbel one where the shape is 0.
+    moments (Hosking, Wallis & Wood 1985, the shape k solved exactly; k < 0 is a heavy, Fréchet-type tail, k > 0
+    a bounded one), or the Gumbel one where the shape is 0.
 
     A maximum over statistics with a heavy upper tail (a family at its sign bound that fits on a few
     replicates, a noise correlated over milliseconds) has a Fréchet-type law, whose tail a Gumbel fitted by
@@ -530,7 +531,7 @@ def gev_quantile(samples: np.ndarray, p: float) -> float:
         return (math.log(3.0) / math.log(2.0) if abs(k) < 1e-9 else (1 - 3.0 ** -k) / (1 - 2.0 ** -k)) - ratio
 
     lo, hi = -0.95, 5.0
-    if gap(lo) * gap(hi) > 0:  # beyond the shapes with a finite mean: take the heaviest
+    if gap(lo) * gap(hi) > 0:  # outside the bracket (the heaviest shape with a finite mean): its nearer end
         k = lo if abs(gap(lo)) < abs(gap(hi)) else hi
     else:
         k = float(brentq(gap, lo, hi, xtol=1e-8))
