@@ -1,15 +1,16 @@
 """Are development nulls exchangeable with their own null replicates?  The rank of the data among them.
 
-Run: python -m bench.bench_null_ranks N SEED [--out FILE.jsonl]
+Run: python -m bench.bench_null_ranks N SEED [--out FILE.jsonl] [any of bench_diagnose's redraw flags, e.g.
+     --few-coloured --unknown-material]
 
 For each of N null campaigns of the development world (``tests.campaigns.varied_campaigns``, nulls only,
 every nuisance varied), the diagnosis scores every effect family on the data and on its 60 replicates.  If
 the replicates are the data's null, the data's standardised improvement of each family is one more draw of
 the replicates' (each replicate standardised by the others, as the family-wise threshold does), and its rank
-among them is uniform: beaten by k of the 60 replicates with probability 1/61 for each k.  Printed per
-family: the median rank (30 expected) and how often 2 or fewer replicates beat the data (3/61 of the
+among them is uniform: beaten by k of the B replicates with probability 1/(B+1) for each k.  Printed per
+family: the median rank (B/2 expected) and how often 2 or fewer replicates beat the data (3/(B+1) of the
 campaigns expected); and for the largest z over the families, which decides, how often 1 or fewer beat
-it (2/61 expected).  A family whose data rank sits low is one whose null the replicates miss, whatever
+it (2/(B+1) expected).  A family whose data rank sits low is one whose null the replicates miss, whatever
 the threshold; this is how the sub-sample contact (README, "Null replicates meet the material between
 samples") was found.  Tuned on: this is the development world.
 """
@@ -23,12 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.bench_diagnose import run_one
+from bench.bench_diagnose import REDRAWS, run_one
 from pencli.diagnose import engine
 from tests.campaigns import varied_campaigns
 
 
-def main(count: int, seed: int, out: Path | None) -> None:
+def main(count: int, seed: int, out: Path | None, flags: tuple[str, ...] = ()) -> None:
     seen: list[dict] = []
     threshold = engine.familywise_threshold
 
@@ -41,7 +42,11 @@ def main(count: int, seed: int, out: Path | None) -> None:
     engine.familywise_threshold = recording
     names = [n for n, e in engine.EFFECTS.items() if e.side != "drive"]
     ranks, top_ranks = [], []
-    for i, (label, material, effects, _, nuisances) in enumerate(varied_campaigns(count, seed, only="nulls")):
+    campaigns = varied_campaigns(count, seed, only="nulls")
+    for flag, redraw in REDRAWS.items():  # in bench_diagnose's order
+        if flag in flags:
+            campaigns = redraw(campaigns, seed)
+    for i, (label, material, effects, _, nuisances) in enumerate(campaigns):
         seen.clear()
         result, seconds = run_one(label, material, effects, seed + i, nuisances)
         data, reps = np.array(seen[0]["data_z"]), np.array(seen[0]["replicate_z"])
@@ -56,14 +61,18 @@ def main(count: int, seed: int, out: Path | None) -> None:
                 f.write(json.dumps({"label": label, "verdict": result.verdict, "names": names, **seen[0]}) + "\n")
     ranks = np.array(ranks)
     n = len(top_ranks)
-    print(f"\n{n} development nulls (tuned on), 60 replicates each; expected: median rank 30, "
-          f"rank <= 2 in {3 * n / 61:.1f}, largest z beaten by <= 1 in {2 * n / 61:.1f}")
-    print(f"largest z beaten by <= 1 replicate: {sum(r <= 1 for r in top_ranks)} of {n}")
+    b = len(seen[0]["replicate_z"][0]) if seen else 0
+    print(f"\n{n} development nulls (tuned on) {' '.join(flags)}, {b} replicates each; expected: median rank "
+          f"{b / 2:.0f}, rank <= 2 in {3 * n / (b + 1):.1f}, largest z beaten by <= 1 in {2 * n / (b + 1):.1f}")
+    print(f"largest z beaten by <= 1 replicate: {sum(r <= 1 for r in top_ranks)} of {n}; by <= 10: "
+          f"{sum(r <= 10 for r in top_ranks)} ({11 * n / (b + 1):.1f} expected)")
     for j, name in enumerate(names):
-        print(f"  {name:26s} median rank {statistics.median(ranks[:, j]):4.0f}   rank <= 2: {int((ranks[:, j] <= 2).sum())}")
+        print(f"  {name:26s} median rank {statistics.median(ranks[:, j]):4.0f}   rank <= 2: {int((ranks[:, j] <= 2).sum())}"
+              f"   rank <= 10: {int((ranks[:, j] <= 10).sum())}")
 
 
 if __name__ == "__main__":
     args = sys.argv[1:]
     target = Path(args[args.index("--out") + 1]) if "--out" in args else None
-    main(int(args[0]) if args else 30, int(args[1]) if len(args) > 1 else 43000, target)
+    main(int(args[0]) if args else 30, int(args[1]) if len(args) > 1 else 43000, target,
+         tuple(a for a in args if a in REDRAWS))
