@@ -16,7 +16,8 @@ chain, as read from its data:
   derivative method re-derives velocity and acceleration from it, so
   derivative errors are the pipeline's own;
 - the force channel adds noise of the colour and level measured on the
-  pre-trigger span (its spectrum, :class:`NoiseModel`), and where that
+  pre-trigger span (its spectrum, :class:`NoiseModel`; each replicate with
+  a spectrum that measurement's own error allows, :meth:`NoiseModel.spectra`), and where that
   spectrum shows an anti-alias low-pass (:func:`fit_anti_alias`), the
   replicate's force passes through that filter as the data's did;
 - the resistance is the baseline fit's, so a replicate holds no effect.
@@ -61,19 +62,43 @@ class NoiseModel:
     psd: np.ndarray
     level_n: float
     """Standard deviation of the noise itself. [N]"""
+    samples: int = 0
+    """Length of the record the spectrum was read from (0: not read from a record, taken as exact). [samples]"""
 
     @classmethod
     def white(cls, level_n: float) -> "NoiseModel":
         """White noise of standard deviation ``level_n`` [N]."""
         return cls(np.array([0.0, 0.5]), np.full(2, 2.0 * level_n ** 2), float(level_n))
 
-    def simulate(self, n: int, rng: np.random.Generator, count: int = 1) -> np.ndarray:
+    def simulate(self, n: int, rng: np.random.Generator, count: int = 1, psd: np.ndarray | None = None
+                 ) -> np.ndarray:
         """``count`` independent noise records of ``n`` samples (n, count), stationary from the start (made
-        circularly on twice the length, the first half kept). [N]"""
+        circularly on twice the length, the first half kept); ``psd``: one spectrum per record (bins, count) on
+        this model's frequencies instead of its own. [N]"""
         size = 2 * max(n, 2 * (self.frequency.size - 1))
-        gain = np.sqrt(0.5 * np.interp(np.fft.rfftfreq(size), self.frequency, self.psd))  # white σ²: psd 2σ²
+        at = np.fft.rfftfreq(size)
+        if psd is None:
+            gain = np.sqrt(0.5 * np.interp(at, self.frequency, self.psd))[:, None]  # white σ²: psd 2σ²
+        else:  # linear in frequency between the model's bins, as np.interp, for every record at once
+            k = np.clip(np.searchsorted(self.frequency, at, side="right") - 1, 0, self.frequency.size - 2)
+            w = np.clip((at - self.frequency[k]) / (self.frequency[k + 1] - self.frequency[k]), 0.0, 1.0)[:, None]
+            gain = np.sqrt(0.5 * ((1.0 - w) * psd[k] + w * psd[k + 1]))
         white = np.fft.rfft(rng.normal(0.0, 1.0, (size, count)), axis=0)
-        return np.fft.irfft(white * gain[:, None], n=size, axis=0)[:n]
+        return np.fft.irfft(white * gain, n=size, axis=0)[:n]
+
+    def spectra(self, count: int, rng: np.random.Generator) -> np.ndarray | None:
+        """``count`` spectra (bins, count) the noise may have, given that this one was read from a record of
+        :attr:`samples`: this spectrum times 2 / ŵ, ŵ the same estimate (:func:`noise_spectrum`) read from a
+        record of that length of white noise of unit variance (true spectrum 2), one per spectrum.  Read from
+        0.2 s, a bin scatters by about 30 % (log standard deviation) at 0–60 Hz, where three bins are averaged
+        into one, and 27 % above, and the replicates are what the estimate's own error at white noise says
+        the noise may be: the slowly varying columns see in them the low frequencies the data may have, not
+        one estimate of them taken as exact.  None when the spectrum is taken as exact (no record, or one too
+        short to read a spectrum from)."""
+        if self.samples < 64 or self.frequency.size <= 2:
+            return None
+        white = noise_spectrum(rng.standard_normal((self.samples, count)))[1]
+        return self.psd[:, None] * np.clip(2.0 / np.maximum(white, 1e-12), *SPECTRUM_RATIO_RANGE)
 
     def to_dict(self) -> dict:
         return {"kind": "spectrum", "level_n": self.level_n, "segment_samples": int(2 * (self.frequency.size - 1)),
@@ -83,28 +108,44 @@ class NoiseModel:
 NOISE_SEGMENTS = 4
 """Welch segments the pre-trigger span is cut into (halves overlapping): about 20 Hz of resolution from
 0.2 s of record, each frequency averaged over about 7 segments. [–]"""
+SPECTRUM_RATIO_RANGE = (0.2, 5.0)
+"""A replicate's spectrum is kept within these factors of the one read (:meth:`NoiseModel.spectra`: one bin's
+ratio scatters by about 30 %, so this only guards against a near-empty bin). [–]"""
+
+
+def noise_spectrum(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(frequency, psd) of noise records (along the first axis; one or many columns): Welch's spectrum on
+    :data:`NOISE_SEGMENTS` segments, averaged over three neighbouring frequencies, and flat below the first
+    frequency above 0 at the mean of the three lowest (the records' mean is taken off, which empties the zero
+    bin; the noise this rig sees is flat there).  The segments are not detrended one by one: that took each
+    segment's own mean off too, and 8–10 % of the power at 20–40 Hz with it (white and AR(1) noise of 1–1.5 ms,
+    0.2 s at 30 and 60 kHz; the zero bin 5–8 % low too, from the bins it is filled from)."""
+    from scipy.signal import welch
+
+    e = np.asarray(samples, dtype=float)
+    e = e - e.mean(axis=0)
+    frequency, psd = welch(e, fs=1.0, nperseg=max(64, e.shape[0] // NOISE_SEGMENTS), detrend=False, axis=0)
+    psd = np.array(psd, dtype=float)
+    if frequency[-1] == 0.5:
+        psd[-1] = psd[-2]  # Welch halves the Nyquist bin too
+    # each bin averages ~7 segments (±38 %); three bins together, ±22 %, and the zero bin from the three above
+    psd[0] = np.mean(psd[1:4], axis=0)
+    padded = np.concatenate([psd[:1], psd, psd[-1:]], axis=0)
+    smooth = (padded[:-2] + padded[1:-1] + padded[2:]) / 3.0
+    smooth[0] = psd[0]
+    return frequency, smooth
 
 
 def fit_noise(samples: np.ndarray) -> NoiseModel:
-    """The noise model of a noise record (its pre-trigger span): Welch's spectrum on :data:`NOISE_SEGMENTS`
-    segments, averaged over three neighbouring frequencies, and flat below the first frequency above 0 at the
-    mean of the three lowest (Welch's detrending empties the zero-frequency bin, and the noise this rig sees is
-    flat there); white for a record under 64 samples."""
-    from scipy.signal import welch
-
+    """The noise model of a noise record (its pre-trigger span): :func:`noise_spectrum`; white for a record
+    under 64 samples."""
     e = np.asarray(samples, dtype=float)
     e = e - e.mean() if e.size else e
     level = float(e.std()) if e.size else 0.0
     if e.size < 64 or level == 0.0:
         return NoiseModel.white(level)
-    frequency, psd = welch(e, fs=1.0, nperseg=max(64, e.size // NOISE_SEGMENTS))
-    psd = np.asarray(psd, dtype=float)
-    psd[-1] = psd[-2] if frequency[-1] == 0.5 else psd[-1]  # Welch halves the Nyquist bin too
-    # each bin averages ~7 segments (±38 %); three bins together, ±22 %, and the zero bin from the three above
-    psd[0] = float(np.mean(psd[1:4]))
-    smooth = np.convolve(np.r_[psd[0], psd, psd[-1]], np.ones(3) / 3.0, mode="valid")
-    smooth[0] = psd[0]
-    return NoiseModel(frequency, smooth, level)
+    frequency, psd = noise_spectrum(e)
+    return NoiseModel(frequency, psd, level, int(e.size))
 
 
 ANTI_ALIAS_ORDERS = (2, 3, 4, 5, 6, 8)
@@ -425,7 +466,8 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
         truth = smooth[:, None]  # one motion for every replicate
         reference = derivatives(smooth, rate, motion_breaks(t, motion), null.method, count_m=step,
                                 joins=motion_joins(t, motion))[1][:, None]
-    noise = null.noise.simulate(t.size, rng, count)
+    # the noise, each replicate with a spectrum the run's may have (its own stream: the rest is drawn as before)
+    noise = null.noise.simulate(t.size, rng, count, null.noise.spectra(count, np.random.default_rng([seed, 7])))
     shifts = step * fractions
     moved = truth + shifts
     if jitter > 0.0:  # the encoder's own position error, where the blade moves (at rest the record is its own)
