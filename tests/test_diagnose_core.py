@@ -234,7 +234,7 @@ def test_replicate_spectra_cover_the_noise_the_pre_trigger_span_was_drawn_from()
     (:meth:`NoiseModel.spectra`) must say so: over many records of noise of a known spectrum (white plus AR(1)
     of 1 ms at 30 kHz, its spectrum written down here), the true power at 0–100 Hz lies within the central
     90 % of the replicates' in about 90 % of the records (with one spectrum taken as exact: in none), and the
-    estimate is not biased low there as Welch's per-segment detrending made it (20–40 Hz: 0.89 of the truth)."""
+    estimate is not biased low there as Welch's per-segment detrending made it (20–40 Hz: 0.88 of the truth)."""
     rng = np.random.default_rng(44)
     a, n = math.exp(-1.0 / (1e-3 * 30000)), 6000
 

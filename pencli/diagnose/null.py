@@ -77,12 +77,8 @@ class NoiseModel:
         this model's frequencies instead of its own. [N]"""
         size = 2 * max(n, 2 * (self.frequency.size - 1))
         at = np.fft.rfftfreq(size)
-        if psd is None:
-            gain = np.sqrt(0.5 * np.interp(at, self.frequency, self.psd))[:, None]  # white σ²: psd 2σ²
-        else:  # linear in frequency between the model's bins, as np.interp, for every record at once
-            k = np.clip(np.searchsorted(self.frequency, at, side="right") - 1, 0, self.frequency.size - 2)
-            w = np.clip((at - self.frequency[k]) / (self.frequency[k + 1] - self.frequency[k]), 0.0, 1.0)[:, None]
-            gain = np.sqrt(0.5 * ((1.0 - w) * psd[k] + w * psd[k + 1]))
+        spectra = self.psd[:, None] if psd is None else psd
+        gain = np.sqrt(0.5 * np.column_stack([np.interp(at, self.frequency, p) for p in spectra.T]))  # σ²: psd 2σ²
         white = np.fft.rfft(rng.normal(0.0, 1.0, (size, count)), axis=0)
         return np.fft.irfft(white * gain, n=size, axis=0)[:n]
 
