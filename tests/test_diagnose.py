@@ -15,6 +15,7 @@ import pytest
 
 from pencli import api
 from pencli.diagnose.effects import EFFECTS
+from pencli.errors import PenNotice
 from tests.campaigns import make_campaign
 from tests.conftest import invoke
 
@@ -201,7 +202,8 @@ def test_varied_null_campaign_is_none_and_says_what_it_would_have_seen(tmp_path)
     api.tare_runs(db, ["all"])
     api.subtract_inertia_runs(db, ["all"])
     loose = api.diagnose(db, ["all"], false_alarm=0.2, bootstrap=40)
-    strict = api.diagnose(db, ["all"], false_alarm=0.001, bootstrap=40)
+    with pytest.warns(PenNotice, match=r"75 × beyond .* --bootstrap 600 or more"):  # 1/3000 per test, 40 seen
+        strict = api.diagnose(db, ["all"], false_alarm=0.001, bootstrap=40)
     assert strict.verdict == "none", (strict.verdict, strict.notes)
     # a stricter false-alarm rate asks for more evidence
     assert strict.decision["effect_threshold_z"] > loose.decision["effect_threshold_z"]

@@ -256,6 +256,22 @@ def test_replicate_spectra_cover_the_noise_the_pre_trigger_span_was_drawn_from()
     assert fit_noise(rng.normal(0.0, 1.0, 40)).spectra(10, rng) is None  # too short a record: taken as exact
 
 
+def test_a_strict_rate_with_few_replicates_is_told_how_many_it_needs():
+    """At a third of the stated rate per test, B replicates see the largest score's law down to about 1/B;
+    asked for a rate whose threshold lies more than 5 × beyond that, the diagnosis says so and how many
+    replicates would do (1 / (5 × rate / 3)).  The default (1 %, 200 replicates: 1.5 × beyond) says nothing."""
+    from pencli.diagnose import BOOTSTRAP, FALSE_ALARM
+    from pencli.diagnose.engine import tail_reach_notice
+
+    assert tail_reach_notice(FALSE_ALARM, BOOTSTRAP) is None
+    assert tail_reach_notice(0.006, 100) is None  # 1/500 per test, 100 replicates: 5 × past, the limit
+    note = tail_reach_notice(0.003, 100)  # 1/1000 per test: 10 × past; 200 replicates would be 5 ×
+    assert note is not None and "10 ×" in note and "--bootstrap 200 " in note
+    note = tail_reach_notice(0.001, 100)  # 1/3000 per test: 30 × past; 600 replicates would be 5 ×
+    assert note is not None and "30 ×" in note and "--bootstrap 600 " in note
+    assert tail_reach_notice(0.001, 600) is None
+
+
 def test_gumbel_tail_matches_the_law():
     rng = np.random.default_rng(2)
     mu, beta = 4.0, 0.7

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import asdict, dataclass, field, replace
 from typing import Callable, Mapping, Sequence
 
@@ -56,7 +57,7 @@ from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, 
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
 from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_anti_alias, fit_noise, gev_quantile,
                                   gumbel_quantile, normal_quantile, replicate_campaign, student_quantile)
-from pencli.errors import FitError, ModelError
+from pencli.errors import FitError, ModelError, PenNotice
 from pencli.filter.tare import Events
 from pencli.fit.resistance import with_coefficients
 from pencli.model.dynamics import flight_of, simulate
@@ -66,7 +67,25 @@ EXPLAIN_SHARE = 0.5
 AMBIGUITY_Z = 1.96
 """Effects whose held-out improvements differ by less than this many null standard deviations are alike."""
 
+TAIL_REACH = 5.0
+"""How far past its replicates the family-wise threshold may reach before a diagnosis says so: each of the three
+tests runs at a third of the false-alarm rate, B replicates see the largest score's law down to a tail
+probability of about 1/B, and a threshold further out than this factor rests on the fitted tail law alone
+(40 replicates at 1/3000, 24 × past them: a threshold of 42 z where the Gumbel's was 9.9; README, the
+thirty-first session). [–]"""
+
 Progress = Callable[[str, float], None]
+
+
+def tail_reach_notice(false_alarm: float, bootstrap: int) -> str | None:
+    """What to tell a user whose ``false_alarm`` rate asks more of ``bootstrap`` null replicates than
+    :data:`TAIL_REACH` allows (None when it does not)."""
+    alpha = false_alarm / 3.0
+    if alpha * bootstrap * TAIL_REACH >= 1.0 - 1e-9:
+        return None
+    return (f"--false-alarm {false_alarm:g} with --bootstrap {bootstrap}: each test's threshold lies "
+            f"{1.0 / (alpha * bootstrap):.0f} × beyond what the replicates see and rests on the fitted tail law; "
+            f"--bootstrap {math.ceil(1.0 / (alpha * TAIL_REACH) - 1e-9)} or more would see within {TAIL_REACH:g} × of it")
 
 
 # ----------------------------------------------------------------------------- the candidate matrix
@@ -681,6 +700,9 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     if unknown:
         raise FitError(f"unknown effect {unknown[0]!r}; the catalogue: {', '.join(EFFECTS)}")
     alpha = false_alarm / 3.0
+    notice = tail_reach_notice(false_alarm, bootstrap)
+    if notice:
+        warnings.warn(PenNotice(notice), stacklevel=2)
     say("baseline", 0.0)
 
     # ---- baseline on the measured data (to build the frontal column and the null replicates)
