@@ -71,7 +71,7 @@ TAIL_REACH = 5.0
 """How far past its replicates the family-wise threshold may reach before a diagnosis says so: each of the three
 tests runs at a third of the false-alarm rate, B replicates see the largest score's law down to a tail
 probability of about 1/B, and a threshold further out than this factor rests on the fitted tail law alone
-(40 replicates at 1/3000, 24 × past them: a threshold of 42 z where the Gumbel's was 9.9; README, the
+(40 replicates at 1/3000, 75 × past them: a threshold of 42 z where the Gumbel's was 9.9; README, the
 thirty-first session). [–]"""
 
 Progress = Callable[[str, float], None]
@@ -83,9 +83,10 @@ def tail_reach_notice(false_alarm: float, bootstrap: int) -> str | None:
     alpha = false_alarm / 3.0
     if alpha * bootstrap * TAIL_REACH >= 1.0 - 1e-9:
         return None
+    enough = math.ceil(1.0 / (alpha * TAIL_REACH) - 1e-9)
     return (f"--false-alarm {false_alarm:g} with --bootstrap {bootstrap}: each test's threshold lies "
             f"{1.0 / (alpha * bootstrap):.0f} × beyond what the replicates see and rests on the fitted tail law; "
-            f"--bootstrap {math.ceil(1.0 / (alpha * TAIL_REACH) - 1e-9)} or more would see within {TAIL_REACH:g} × of it")
+            f"--bootstrap {enough} or more would see within {TAIL_REACH:g} × of it")
 
 
 # ----------------------------------------------------------------------------- the candidate matrix
