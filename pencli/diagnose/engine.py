@@ -67,6 +67,9 @@ EXPLAIN_SHARE = 0.5
 AMBIGUITY_Z = 1.96
 """Effects whose held-out improvements differ by less than this many null standard deviations are alike."""
 
+TESTS = 3
+"""The campaign's false-alarm rate is split equally between this many tests: the effects, the shared misfit's
+probes and the drive view. [–]"""
 TAIL_REACH = 5.0
 """How far past its replicates the family-wise threshold may reach before a diagnosis says so: each of the three
 tests runs at a third of the false-alarm rate, B replicates see the largest score's law down to a tail
@@ -80,7 +83,7 @@ Progress = Callable[[str, float], None]
 def tail_reach_notice(false_alarm: float, bootstrap: int) -> str | None:
     """What to tell a user whose ``false_alarm`` rate asks more of ``bootstrap`` null replicates than
     :data:`TAIL_REACH` allows (None when it does not)."""
-    alpha = false_alarm / 3.0
+    alpha = false_alarm / TESTS
     if alpha * bootstrap * TAIL_REACH >= 1.0 - 1e-9:
         return None
     enough = math.ceil(1.0 / (alpha * TAIL_REACH) - 1e-9)
@@ -700,7 +703,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     unknown = [n for n in names if n not in EFFECTS]
     if unknown:
         raise FitError(f"unknown effect {unknown[0]!r}; the catalogue: {', '.join(EFFECTS)}")
-    alpha = false_alarm / 3.0
+    alpha = false_alarm / TESTS
     notice = tail_reach_notice(false_alarm, bootstrap)
     if notice:
         warnings.warn(PenNotice(notice), stacklevel=2)
