@@ -257,7 +257,7 @@ def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str,
     replicates) and the threshold its z must beat (:func:`familywise_threshold`); ``absent``: the reference per
     run, a choice of every fold (:func:`_score_family`)."""
     tested = {}
-    roundoff = _roundoff(reference)
+    roundoff = _roundoff(reference, stats)
     for name, specs in families.items():
         family, fit = _score_family(stats, specs, absent)
         tested[name] = _Tested(family, fit, *_standardise(reference - family.heldout, roundoff))
@@ -267,9 +267,25 @@ def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str,
     return tested, familywise_threshold(improvements, roundoff, alpha)
 
 
-def _roundoff(reference: np.ndarray) -> float:
-    """Held-out mean squares (or their differences) below this are the solver's round-off. [N²]"""
-    return 1e-9 * float(np.median(np.abs(reference)))
+def _roundoff(reference: np.ndarray, stats: Statistics) -> float:
+    """Held-out mean squares (or their differences) below this resolve nothing: the solver's round-off, or the
+    change a coefficient fitted to the noise alone makes (:func:`noise_resolution`), whichever is larger. [N²]
+
+    It floors the null scale an improvement is standardised by.  A sign-bounded family sits at its bound on
+    nearly every replicate, and their improvements then spread by round-off alone: on a development null
+    (``bench_null_ranks 40 121000``, null-1) a sidewall pressure growth gained 1.4·10⁻⁴ N² on the data, a
+    shrink of 0.003 %, against a null scale of 1.9·10⁻⁶ N², and was called at z 74; the noise (2.1 N, 6 runs
+    of ~10⁴ samples) resolves no change below about 4·10⁻⁴ N²."""
+    return max(1e-9 * float(np.median(np.abs(reference))), stats.resolution)
+
+
+def noise_resolution(levels_n: Sequence[float], samples: Sequence[int]) -> float:
+    """The change of a held-out score (a mean over runs of each run's mean squared residual) that one coefficient
+    fitted to white noise makes, σ²/N: the noise's mean variance over the runs, over the samples of all of them.
+    Fitted on the other runs, the coefficient's variance is about σ²/(N·G) for a column of mean square G, and it
+    moves the held-out run's score by its square times G. [N²]"""
+    total = int(np.sum(samples))
+    return float(np.mean(np.square(levels_n))) / total if total > 0 else 0.0
 
 
 def _share_of_remainder(reference: np.ndarray, better: np.ndarray, S0: np.ndarray) -> float:
@@ -754,7 +770,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         for e in (*law_effects, *PROBES.values())}
     matrices = columns.matrices()
     stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(ys, replicates)],
-                       np.array(columns.nonnegative), varying)
+                       np.array(columns.nonnegative), varying,
+                       noise_resolution([n.noise.level_n for n in nulls], [y.size for y in ys]))
     baseline, _ = _score_family(stats, [base_spec])
     S0 = baseline.heldout
     z_gap = _standardise(np.log(np.maximum(S0, 1e-300)), 1e-9)[0]
@@ -981,7 +998,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
         # that extrapolates wildly on a few replicates puts them at −10¹⁵ N², which says nothing of the upper
         # tail, and the plain sd then blinded the test (dev pair-2 of --pairs 12 60000: a layer beating a
         # second ringing shape by 11,902 N² against a null sd of 4·10¹⁴ and a MAD of 10)
-        beyond_own = _standardise(diff, _roundoff(own.heldout))[0] > AMBIGUITY_Z
+        beyond_own = _standardise(diff, _roundoff(own.heldout, stats))[0] > AMBIGUITY_Z
         over_own = _over_own_pair(stats, _Candidate(lead.member, own_specs[own.best]), candidates[name], base_spec,
                                   own, S0, threshold)
         adds = bool(over_own and over_own["adds"])
@@ -1009,7 +1026,7 @@ def _over_own_pair(stats: Statistics, own_pair: _Candidate, cands: Sequence[_Can
         return None
     S_own = own.heldout
     third, _ = _score_family(stats, specs, own.per_run)
-    z = _standardise(S_own - third.heldout, _roundoff(S_own))[0]
+    z = _standardise(S_own - third.heldout, _roundoff(S_own, stats))[0]
     share = _share_of_remainder(S_own, third.heldout, S0)
     return {"z": round(z, 2), "threshold": round(threshold, 3), "share_of_remainder": round(share, 3),
             "adds": bool(z > threshold and share >= EXPLAIN_SHARE)}

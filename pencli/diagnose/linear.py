@@ -79,7 +79,9 @@ class Statistics:
     """
 
     def __init__(self, matrices: list[np.ndarray], targets: list[np.ndarray], nonnegative: np.ndarray | None = None,
-                 varying: dict[int, list[np.ndarray]] | None = None):
+                 varying: dict[int, list[np.ndarray]] | None = None, resolution: float = 0.0):
+        self.resolution = float(resolution)
+        """The smallest change of a held-out score that the targets' noise resolves (0: none given). [N²]"""
         self.nonnegative = (np.zeros(matrices[0].shape[1], dtype=bool) if nonnegative is None
                             else np.asarray(nonnegative, dtype=bool))
         self.gram = np.stack([W.T @ W / W.shape[0] for W in matrices])  # (R, Q, Q)
