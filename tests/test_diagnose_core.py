@@ -816,3 +816,31 @@ def test_each_blocks_surface_is_read_from_its_force_less_the_campaigns_common_la
     read = np.array(surfaces(api.load_diagnosis_runs(db, ["all"]))) * 1e3
     truth = np.array(errors)
     assert np.abs((read - np.median(read)) - (truth - np.median(truth))).max() < 0.35, (read, truth)
+
+
+def test_noise_resolution_is_what_one_coefficient_fitted_to_noise_moves_a_held_out_score():
+    """The floor of every improvement's null scale (:func:`engine.noise_resolution`, σ²/N) against its meaning,
+    simulated here with plain least squares: runs of white noise of their own level and length, one column of
+    its own shape per run, the coefficient fitted on the other runs (each run's squares over its own length, as
+    the diagnosis weighs them) and the held-out run's mean square compared with and without it, averaged over
+    runs as a held-out score is.  Its typical size (root mean square over draws) is at least σ²/N and within
+    4 × it: the floor is the smaller side of what the noise makes (2.4 × here, the cross term with the held-out
+    run's own noise and the noisiest runs taking most)."""
+    from pencli.diagnose.engine import noise_resolution
+
+    rng = np.random.default_rng(11)
+    lengths = np.array([900, 1400, 2000, 1100, 2600, 1700])
+    levels = np.array([0.8, 2.0, 1.2, 3.0, 1.5, 2.4])
+    shapes = [np.cos(np.linspace(0.0, 1.0 + r, n)) + 0.3 for r, n in enumerate(lengths)]
+    changes = []
+    for _ in range(1500):
+        noise = [level * rng.standard_normal(n) for level, n in zip(levels, lengths)]
+        gram = np.array([g @ g / n for g, n in zip(shapes, lengths)])
+        cross = np.array([g @ e / n for g, e, n in zip(shapes, noise, lengths)])
+        change = []
+        for k in range(lengths.size):
+            theta = (cross.sum() - cross[k]) / (gram.sum() - gram[k])
+            change.append(theta ** 2 * gram[k] - 2.0 * theta * cross[k])  # held-out mean square, with − without
+        changes.append(np.mean(change))
+    typical = float(np.sqrt(np.mean(np.square(changes))))
+    assert 1.0 <= typical / noise_resolution(levels, lengths) <= 4.0, (typical, noise_resolution(levels, lengths))

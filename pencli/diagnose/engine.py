@@ -281,9 +281,11 @@ def _roundoff(reference: np.ndarray, stats: Statistics) -> float:
 
 def noise_resolution(levels_n: Sequence[float], samples: Sequence[int]) -> float:
     """The change of a held-out score (a mean over runs of each run's mean squared residual) that one coefficient
-    fitted to white noise makes, σ²/N: the noise's mean variance over the runs, over the samples of all of them.
-    Fitted on the other runs, the coefficient's variance is about σ²/(N·G) for a column of mean square G, and it
-    moves the held-out run's score by its square times G. [N²]"""
+    fitted to white noise makes, on its smaller side: σ²/N, the noise's mean variance over the runs, over the
+    samples of all of them.  Fitted on the other runs, the coefficient's variance is about σ²/(N·G) for a column
+    of mean square G, and it moves the held-out run's score by its square times G and by its product with the
+    held-out run's own noise; simulated, the typical change is 1–4 × σ²/N (2.4 × on six runs of unequal noise,
+    ``tests/test_diagnose_core.py``). [N²]"""
     total = int(np.sum(samples))
     return float(np.mean(np.square(levels_n))) / total if total > 0 else 0.0
 
