@@ -274,8 +274,8 @@ def _roundoff(reference: np.ndarray, stats: Statistics) -> float:
     It floors the null scale an improvement is standardised by.  A sign-bounded family sits at its bound on
     nearly every replicate, and their improvements then spread by round-off alone: on a development null
     (``bench_null_ranks 40 121000``, null-1) a sidewall pressure growth gained 1.4·10⁻⁴ N² on the data, a
-    shrink of 0.003 %, against a null scale of 1.9·10⁻⁶ N², and was called at z 74; the noise (2.1 N, 6 runs
-    of ~10⁴ samples) resolves no change below about 4·10⁻⁴ N²."""
+    shrink of 0.003 %, against a null scale of 1.9·10⁻⁶ N², and was called at z 74; the noise (1.6 N before
+    the trigger, 15,184 samples over 6 runs) resolves no change below about 1.7·10⁻⁴ N² (z 0.84 with it)."""
     return max(1e-9 * float(np.median(np.abs(reference))), stats.resolution)
 
 
