@@ -257,17 +257,17 @@ def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str,
     replicates) and the threshold its z must beat (:func:`familywise_threshold`); ``absent``: the reference per
     run, a choice of every fold (:func:`_score_family`)."""
     tested = {}
-    roundoff = _roundoff(reference, stats)
+    floor = _score_floor(reference, stats)
     for name, specs in families.items():
         family, fit = _score_family(stats, specs, absent)
-        tested[name] = _Tested(family, fit, *_standardise(reference - family.heldout, roundoff))
+        tested[name] = _Tested(family, fit, *_standardise(reference - family.heldout, floor))
     if not tested:
         return tested, math.inf
     improvements = np.column_stack([reference - t.family.heldout for t in tested.values()])
-    return tested, familywise_threshold(improvements, roundoff, alpha)
+    return tested, familywise_threshold(improvements, floor, alpha)
 
 
-def _roundoff(reference: np.ndarray, stats: Statistics) -> float:
+def _score_floor(reference: np.ndarray, stats: Statistics) -> float:
     """Held-out mean squares (or their differences) below this resolve nothing: the solver's round-off, or the
     change a coefficient fitted to the noise alone makes (:func:`noise_resolution`), whichever is larger. [N²]
 
@@ -1000,7 +1000,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
         # that extrapolates wildly on a few replicates puts them at −10¹⁵ N², which says nothing of the upper
         # tail, and the plain sd then blinded the test (dev pair-2 of --pairs 12 60000: a layer beating a
         # second ringing shape by 11,902 N² against a null sd of 4·10¹⁴ and a MAD of 10)
-        beyond_own = _standardise(diff, _roundoff(own.heldout, stats))[0] > AMBIGUITY_Z
+        beyond_own = _standardise(diff, _score_floor(own.heldout, stats))[0] > AMBIGUITY_Z
         over_own = _over_own_pair(stats, _Candidate(lead.member, own_specs[own.best]), candidates[name], base_spec,
                                   own, S0, threshold)
         adds = bool(over_own and over_own["adds"])
@@ -1028,7 +1028,7 @@ def _over_own_pair(stats: Statistics, own_pair: _Candidate, cands: Sequence[_Can
         return None
     S_own = own.heldout
     third, _ = _score_family(stats, specs, own.per_run)
-    z = _standardise(S_own - third.heldout, _roundoff(S_own, stats))[0]
+    z = _standardise(S_own - third.heldout, _score_floor(S_own, stats))[0]
     share = _share_of_remainder(S_own, third.heldout, S0)
     return {"z": round(z, 2), "threshold": round(threshold, 3), "share_of_remainder": round(share, 3),
             "adds": bool(z > threshold and share >= EXPLAIN_SHARE)}
