@@ -17,7 +17,7 @@ import pytest
 from scipy.optimize import lsq_linear
 from scipy.signal import lfilter
 
-from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
+from pencli.diagnose.linear import Spec, Statistics, bounded_solve, heldout_residuals
 from pencli.diagnose.null import encoder_phase, fit_noise, gumbel_quantile
 from pencli.filter.derivatives import encoder_step_m
 from pencli.filter.tare import force_onset
@@ -105,6 +105,45 @@ def test_an_effect_whose_sign_is_fixed_is_fitted_with_its_bound_as_stacked_bound
     for k in range(len(mats)):
         expected, _ = _direct_heldout(mats, ys, k, bounded=True, nonnegative_extra=(1,))
         assert scores.heldout[0, k, 0] == pytest.approx(expected, rel=1e-6)
+
+
+def test_bounded_solve_is_the_active_set_rule_solved_system_by_system():
+    """The compiled active-set rounds against the rule written out here with numpy's solve on each system's
+    free rows and columns alone: fix every bounded coefficient that came out negative at 0, solve the rest
+    again, until none is negative.  Collinear and empty columns, several bounds active at once."""
+    rng = np.random.default_rng(46)
+    active = 0
+    for trial in range(40):
+        M, q, T = int(rng.integers(1, 8)), int(rng.integers(2, 10)), int(rng.integers(1, 30))
+        X = rng.normal(size=(M, 4 * q, q)) * rng.uniform(0.01, 100.0, size=q)
+        if trial % 4 == 0:
+            X[:, :, -1] = 0.0  # a column no run reaches
+        if trial % 4 == 1:
+            X[:, :, 1] = X[:, :, 0] + 1e-4 * rng.normal(size=(M, 4 * q))  # nearly collinear
+        A = np.einsum("mnp,mnq->mpq", X, X)
+        b = np.einsum("mnp,mnt->mpt", X, rng.normal(size=(M, 4 * q, T)) - 0.5)
+        bounded = rng.uniform(size=(M, q)) < 0.7
+        got = bounded_solve(A, b, bounded)
+        for m in range(M):
+            scale = np.sqrt(np.diag(A[m]))
+            scale[scale == 0] = 1.0
+            As = A[m] / np.outer(scale, scale) + 1e-10 * np.eye(q)
+            for t in range(T):
+                bs = b[m, :, t] / scale
+                theta, fixed = np.linalg.solve(As, bs), np.zeros(q, dtype=bool)
+                while (bounded[m] & ~fixed & (theta < 0)).any():
+                    fixed |= bounded[m] & (theta < 0)
+                    free = ~fixed
+                    theta = np.zeros(q)
+                    theta[free] = np.linalg.solve(As[np.ix_(free, free)], bs[free])
+                active += int(fixed.any())
+                mine = got[m, :, t] * scale
+                assert np.array_equal(mine[fixed], np.zeros(fixed.sum())) and (got[m, bounded[m], t] >= 0).all()
+                free = ~fixed  # the free rows' equations hold (backward error), whatever the conditioning
+                assert np.allclose(As[np.ix_(free, free)] @ mine[free], bs[free], atol=1e-9 * np.abs(bs).max())
+                if trial % 4 != 1:  # and where the columns are not nearly collinear, the coefficients agree
+                    assert np.allclose(mine, theta, rtol=1e-9, atol=1e-9 * np.abs(theta).max())
+    assert active > 100  # the rounds were exercised, not only the unconstrained solve
 
 
 def _scattered_blocks(rng, scatter):
