@@ -41,6 +41,16 @@ def dev_campaign(tmp_path, seed, index, only, effects=None):
     return material, effects, nuisances, api.diagnose(db, ["all"])
 
 
+def catalogue_campaign(tmp_path, index):
+    """Campaign ``index`` of the quick catalogue set (:func:`tests.campaigns.diagnosis_campaigns`), made from
+    seed 900 + ``index`` and conditioned."""
+    from tests.campaigns import diagnosis_campaigns
+
+    _, material, effects, _ = diagnosis_campaigns(quick=True)[index]
+    return conditioned(make_campaign(tmp_path, material, seed=900 + index, shots=SIX, effects=effects,
+                                     block_kpa=BLOCKS if material == "mpacs_c" else None))
+
+
 def conditioned(db):
     """The campaign tared and inertia-subtracted, as the README's diagnosis needs it."""
     api.tare_runs(db, ["all"])
@@ -235,12 +245,8 @@ def test_the_whole_catalogue_nulls_a_pair_and_an_outside_effect(tmp_path):
     from tests.campaigns import diagnosis_campaigns, judge
 
     outcomes = []
-    for i, (label, material, effects, truth) in enumerate(diagnosis_campaigns(quick=True)):
-        db = make_campaign(tmp_path / label, material, seed=900 + i, shots=SIX, effects=effects,
-                           block_kpa=BLOCKS if material == "mpacs_c" else None)
-        api.tare_runs(db, ["all"])
-        api.subtract_inertia_runs(db, ["all"])
-        result = api.diagnose(db, ["all"])
+    for i, (label, _, _, truth) in enumerate(diagnosis_campaigns(quick=True)):
+        result = api.diagnose(catalogue_campaign(tmp_path / label, i), ["all"])
         ok, shrink = judge(result, truth)
         outcomes.append((label, truth, result.verdict, ok, shrink))
     singles = [o for o in outcomes if len(o[1]) == 1 and o[1] not in ({"none"}, {"unexplained"})]
@@ -260,10 +266,8 @@ def test_a_family_no_other_test_shows_alone_is_named_and_closes_the_gap(tmp_path
     error."""
     from tests.campaigns import diagnosis_campaigns, judge
 
-    i, (material, effects, truth) = next((i, c[1:]) for i, c in enumerate(diagnosis_campaigns(quick=True))
-                                            if c[0] == label)
-    db = conditioned(make_campaign(tmp_path, material, seed=900 + i, shots=SIX, effects=effects, block_kpa=BLOCKS))
-    result = api.diagnose(db, ["all"])
+    i, truth = next((i, c[3]) for i, c in enumerate(diagnosis_campaigns(quick=True)) if c[0] == label)
+    result = api.diagnose(catalogue_campaign(tmp_path, i), ["all"])
     ok, shrink = judge(result, truth)
     assert ok, (result.verdict, [(e.name, e.z, e.shrink_pct) for e in result.effects[:3]])
     assert shrink >= 60, shrink
