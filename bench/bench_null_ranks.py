@@ -29,18 +29,35 @@ from pencli.diagnose import engine
 from tests.campaigns import varied_campaigns
 
 
-def main(count: int, seed: int, out: Path | None, flags: tuple[str, ...] = ()) -> None:
+FAMILIES = [n for n, e in engine.EFFECTS.items() if e.side != "drive"]
+"""The effect families whose standardised improvements the family-wise threshold sees, in its order."""
+
+
+def record_ranks() -> list[dict]:
+    """Make every diagnosis append, at its family-wise threshold, each family's data z and replicate z's to
+    the returned list (one dict per diagnosis; the probes' call, with 2 columns, is left out)."""
     seen: list[dict] = []
     threshold = engine.familywise_threshold
 
-    def recording(improvements, floor, alpha):  # the effect families' call (the probes' has 2 columns)
+    def recording(improvements, floor, alpha):
         if improvements.shape[1] > len(engine.PROBES):
             seen.append({"data_z": [engine._standardise(column, floor)[0] for column in improvements.T],
                          "replicate_z": engine.replicate_z(improvements, floor).tolist()})
         return threshold(improvements, floor, alpha)
 
     engine.familywise_threshold = recording
-    names = [n for n, e in engine.EFFECTS.items() if e.side != "drive"]
+    return seen
+
+
+def data_ranks(record: dict) -> np.ndarray:
+    """Per family, how many replicates' z reach the data's."""
+    data, reps = np.array(record["data_z"]), np.array(record["replicate_z"])
+    return (reps >= data[:, None]).sum(axis=1)
+
+
+def main(count: int, seed: int, out: Path | None, flags: tuple[str, ...] = ()) -> None:
+    seen = record_ranks()
+    names = FAMILIES
     ranks, top_ranks = [], []
     campaigns = varied_campaigns(count, seed, only="nulls")
     for flag, redraw in REDRAWS.items():  # in bench_diagnose's order
@@ -50,7 +67,7 @@ def main(count: int, seed: int, out: Path | None, flags: tuple[str, ...] = ()) -
         seen.clear()
         result, seconds = run_one(label, material, effects, seed + i, nuisances)
         data, reps = np.array(seen[0]["data_z"]), np.array(seen[0]["replicate_z"])
-        rank = (reps >= data[:, None]).sum(axis=1)
+        rank = data_ranks(seen[0])
         top = int((reps.max(axis=0) >= data.max()).sum())
         ranks.append(rank)
         top_ranks.append(top)
