@@ -27,13 +27,13 @@ from tests.campaigns import varied_campaigns
 def main(count: int, seed: int, index: int, phases: list[float]) -> None:
     seen = record_ranks()
     label, material, effects, _, nuisances = varied_campaigns(count, seed, only="nulls")[index]
-    shots = len(nuisances.get("encoder_phase", [0.0]))
-    print(f"{label} of --nulls {count} {seed}: drawn phases {np.round(nuisances.get('encoder_phase', [0.0]), 3)}")
+    drawn = nuisances.get("encoder_phase", [0.0])
+    print(f"{label} of --nulls {count} {seed}: drawn phases {np.round(drawn, 3)}")
     print("phase  verdict                  " + " ".join(f"{n[:8]:>8s}" for n in FAMILIES))
     ranks = []
     for phase in phases:
         seen.clear()
-        result, _ = run_one(label, material, effects, seed + index, {**nuisances, "encoder_phase": [phase] * shots})
+        result, _ = run_one(label, material, effects, seed + index, {**nuisances, "encoder_phase": [phase] * len(drawn)})
         ranks.append(data_ranks(seen[0]))
         print(f"{phase:5.2f}  {result.verdict:24s} " + " ".join(f"{r:8d}" for r in ranks[-1]), flush=True)
     ranks = np.array(ranks)

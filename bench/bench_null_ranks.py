@@ -57,7 +57,6 @@ def data_ranks(record: dict) -> np.ndarray:
 
 def main(count: int, seed: int, out: Path | None, flags: tuple[str, ...] = ()) -> None:
     seen = record_ranks()
-    names = FAMILIES
     ranks, top_ranks = [], []
     campaigns = varied_campaigns(count, seed, only="nulls")
     for flag, redraw in REDRAWS.items():  # in bench_diagnose's order
@@ -72,10 +71,10 @@ def main(count: int, seed: int, out: Path | None, flags: tuple[str, ...] = ()) -
         ranks.append(rank)
         top_ranks.append(top)
         print(f"{label:10s} verdict={result.verdict:24s} largest z {data.max():6.2f} beaten by {top:2d} of "
-              f"{reps.shape[1]} replicates ({names[int(data.argmax())]}) {seconds:.1f}s", flush=True)
+              f"{reps.shape[1]} replicates ({FAMILIES[int(data.argmax())]}) {seconds:.1f}s", flush=True)
         if out is not None:
             with out.open("a") as f:
-                f.write(json.dumps({"label": label, "verdict": result.verdict, "names": names, **seen[0]}) + "\n")
+                f.write(json.dumps({"label": label, "verdict": result.verdict, "names": FAMILIES, **seen[0]}) + "\n")
     ranks = np.array(ranks)
     n = len(top_ranks)
     b = len(seen[0]["replicate_z"][0]) if seen else 0
@@ -83,7 +82,7 @@ def main(count: int, seed: int, out: Path | None, flags: tuple[str, ...] = ()) -
           f"{b / 2:.0f}, rank <= 2 in {3 * n / (b + 1):.1f}, largest z beaten by <= 1 in {2 * n / (b + 1):.1f}")
     print(f"largest z beaten by <= 1 replicate: {sum(r <= 1 for r in top_ranks)} of {n}; by <= 10: "
           f"{sum(r <= 10 for r in top_ranks)} ({11 * n / (b + 1):.1f} expected)")
-    for j, name in enumerate(names):
+    for j, name in enumerate(FAMILIES):
         print(f"  {name:26s} median rank {statistics.median(ranks[:, j]):4.0f}   rank <= 2: {int((ranks[:, j] <= 2).sum())}"
               f"   rank <= 10: {int((ranks[:, j] <= 10).sum())}")
 
