@@ -38,6 +38,13 @@ np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
 # ----------------------------------------------------------------------------- run data
 
 
+STOP_MARGIN_S = 2e-3
+"""At a hard stop (``end == "full_depth"``) the diagnosis's window ends this long before the stop, not the tare's
+0.5 ms: over the last counts before the hard stops the acceleration read from the encoder carries an error the
+null replicates do not reproduce.  An arrest keeps the tare's end: its last milliseconds hold the lowest speeds,
+which tell the speed laws apart (README, the thirty-sixth and thirty-seventh sessions). [s]"""
+
+
 @dataclass(frozen=True)
 class DiagnosisRun:
     """One conditioned run as the diagnosis sees it (SI, whole record)."""
@@ -95,10 +102,14 @@ class DiagnosisRun:
 
     @property
     def window(self) -> np.ndarray:
-        """The analysis window, starting no sooner than 0.5 ms after the latest contact or a late force rise."""
+        """The analysis window, starting no sooner than 0.5 ms after the latest contact or a late force rise and
+        ending no later than :data:`STOP_MARGIN_S` before a hard stop (runs longer than four margins)."""
         start = max(self.window_start_s, self.contact_span_s[1] + 0.5e-3,
                     -math.inf if self.force_rise_s is None else self.force_rise_s + 0.5e-3)
-        return (self.time_s >= start) & (self.time_s <= self.window_end_s)
+        end = self.window_end_s
+        if self.end == "full_depth" and self.stop_s - self.contact_s > 4 * STOP_MARGIN_S:
+            end = min(end, self.stop_s - STOP_MARGIN_S)
+        return (self.time_s >= start) & (self.time_s <= end)
 
     @property
     def context(self) -> np.ndarray:
