@@ -908,3 +908,29 @@ def test_noise_resolution_is_what_one_coefficient_fitted_to_noise_moves_a_held_o
         changes.append(np.mean(change))
     typical = float(np.sqrt(np.mean(np.square(changes))))
     assert 1.0 <= typical / noise_resolution(levels, lengths) <= 4.0, (typical, noise_resolution(levels, lengths))
+
+
+def test_a_profile_standing_above_its_null_while_it_worsens_the_datas_fit_is_no_shared_gap():
+    """A generic profile's z measures its improvement of the data's held-out error against the null replicates'.
+    Where the replicates' fits get much worse with it (it extrapolates badly to their held-out runs), a profile
+    that worsens the data's fit too stands far above them; that is no evidence of a misfit the runs share.  The
+    same profile lowering the data's error is one.  (Thirty-eighth session: a depth profile at z 3.78 against
+    3.77 with a held-out shrink of −21 % made a propulsion-loss campaign `unexplained`.)"""
+    from pencli.diagnose.engine import _Family, _shared_gap, _standardise, _Tested, familywise_threshold
+
+    rng = np.random.default_rng(3)
+    runs, replicates = 6, 200
+    reference = np.full(1 + replicates, 100.0)  # the baseline's held-out mean square, data then replicates [N²]
+    null = 100.0 + 200.0 + 5.0 * rng.standard_normal(replicates)  # the profile worsens every replicate's by ~200
+
+    def tested(data_heldout):
+        heldout = np.concatenate([[data_heldout], null])
+        family = _Family(np.repeat(heldout[None], runs, axis=0), 0, [0] * runs)
+        return _Tested(family, {}, *_standardise(reference - heldout))
+
+    worse, better = tested(121.0), tested(79.0)  # the data's error 21 % up, or 21 % down
+    threshold = familywise_threshold(np.column_stack([reference - worse.family.heldout]), 0.0, 0.01)
+    assert worse.z > threshold  # the z alone would call it
+    assert not _shared_gap(reference, {"depth_profile": worse}, threshold)
+    assert _shared_gap(reference, {"depth_profile": better}, threshold)
+    assert _shared_gap(reference, {"depth_profile": worse, "time_profile": better}, threshold)

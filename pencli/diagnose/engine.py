@@ -267,6 +267,24 @@ def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str,
     return tested, familywise_threshold(improvements, floor, alpha)
 
 
+def _improves(reference: np.ndarray, tested: _Tested) -> bool:
+    """Whether a tested family lowers the data's held-out error below ``reference``'s (target 0).
+
+    The z says how far the data's improvement stands above the null replicates'; where the replicates' fits get
+    much worse with the family (it extrapolates badly to held-out null runs), a family that makes the data's fit
+    worse too can stand above them.  That is no evidence of the family: an effect present in the data lowers the
+    data's held-out error.  (With the window ending 1 ms before the hard stops, tried and not kept in the
+    thirty-eighth session, the suite's propulsion-loss campaign was called `unexplained` by a depth profile at
+    z 3.78 against 3.77 that made the data's held-out error 21 % worse.)"""
+    return float(reference[0]) > float(tested.family.heldout[0])
+
+
+def _shared_gap(reference: np.ndarray, probes: Mapping[str, _Tested], threshold: float) -> bool:
+    """Whether the runs share a misfit: a generic profile beats its null (z above ``threshold``) and lowers the
+    data's held-out error (:func:`_improves`)."""
+    return any(t.z > threshold and _improves(reference, t) for t in probes.values())
+
+
 def _score_floor(reference: np.ndarray, stats: Statistics) -> float:
     """Held-out mean squares (or their differences) below this resolve nothing: the solver's round-off, or the
     change a coefficient fitted to the noise alone makes (:func:`noise_resolution`), whichever is larger. [N²]
@@ -786,7 +804,9 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     # runs beyond what it closes on the null replicates
     probes, gap_threshold = _familywise(stats, S0, {n: [c.spec for c in candidates[n]] for n in PROBES}, alpha)
     z_probe = max(t.z for t in probes.values())
-    resistance_gap = z_probe > gap_threshold
+    # a gap only where a probe beats its null *and* lowers the data's held-out error: a probe can stand above
+    # its replicates while it makes the data's fit worse, when the replicates' fits get worse still
+    resistance_gap = _shared_gap(S0, probes, gap_threshold)
 
     # ---- drive view
     measured = np.array([r.contact_speed_m_s for r in runs])
@@ -815,7 +835,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                      "shapes_chosen_per_fold": _shape_spread(chosen)}
         reports[e.name] = EffectReport(
             e.name, e.side, "resistance", e.describe(cand.member, coefs, _own_context(context, fit)), intervals,
-            math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), bool(t.z > z_threshold), round(t.z, 2),
+            math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), bool(t.z > z_threshold and _improves(S0, t)),
+            round(t.z, 2),
             (S0[0] - family.heldout[0]) / excess if excess > 0 else None,
             math.sqrt(max(t.centre + z_threshold * t.scale, 0.0)))
     dyn_base = None
