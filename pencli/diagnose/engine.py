@@ -804,8 +804,6 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     # runs beyond what it closes on the null replicates
     probes, gap_threshold = _familywise(stats, S0, {n: [c.spec for c in candidates[n]] for n in PROBES}, alpha)
     z_probe = max(t.z for t in probes.values())
-    # a gap only where a probe beats its null *and* lowers the data's held-out error: a probe can stand above
-    # its replicates while it makes the data's fit worse, when the replicates' fits get worse still
     resistance_gap = _shared_gap(S0, probes, gap_threshold)
 
     # ---- drive view
