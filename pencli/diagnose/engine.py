@@ -279,10 +279,15 @@ def _improves(reference: np.ndarray, tested: _Tested) -> bool:
     return float(reference[0]) > float(tested.family.heldout[0])
 
 
+def _counts(reference: np.ndarray, tested: _Tested, threshold: float) -> bool:
+    """Whether a tested family (an effect, or a generic profile) counts: its z beats ``threshold`` and it lowers
+    the data's held-out error (:func:`_improves`)."""
+    return tested.z > threshold and _improves(reference, tested)
+
+
 def _shared_gap(reference: np.ndarray, probes: Mapping[str, _Tested], threshold: float) -> bool:
-    """Whether the runs share a misfit: a generic profile beats its null (z above ``threshold``) and lowers the
-    data's held-out error (:func:`_improves`)."""
-    return any(t.z > threshold and _improves(reference, t) for t in probes.values())
+    """Whether the runs share a misfit: a generic profile counts (:func:`_counts`)."""
+    return any(_counts(reference, t, threshold) for t in probes.values())
 
 
 def _score_floor(reference: np.ndarray, stats: Statistics) -> float:
@@ -833,8 +838,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                      "shapes_chosen_per_fold": _shape_spread(chosen)}
         reports[e.name] = EffectReport(
             e.name, e.side, "resistance", e.describe(cand.member, coefs, _own_context(context, fit)), intervals,
-            math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), bool(t.z > z_threshold and _improves(S0, t)),
-            round(t.z, 2),
+            math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), _counts(S0, t, z_threshold), round(t.z, 2),
             (S0[0] - family.heldout[0]) / excess if excess > 0 else None,
             math.sqrt(max(t.centre + z_threshold * t.scale, 0.0)))
     dyn_base = None
