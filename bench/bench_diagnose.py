@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.args import check_options
 from pencli import api
 from pencli.errors import FitError
 from tests.campaigns import BLOCKS, SIX, diagnosis_campaigns, judge, make_campaign, random_effect, varied_campaigns
@@ -215,6 +216,7 @@ def run_one(label, material, effects, seed, nuisances=None):
 
 
 def main() -> None:
+    check_options(__doc__, ("--quick", "--varied", "--nulls", "--pairs", "--only", *REDRAWS))
     quick = "--quick" in sys.argv
     option = next((o for o in ("--varied", "--nulls", "--pairs") if o in sys.argv), None)
     if option:  # random forms and nuisances: python -m bench.bench_diagnose --varied|--nulls|--pairs 28 [SEED]

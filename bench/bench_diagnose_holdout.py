@@ -36,6 +36,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench.args import check_options
 from pencli import api
 from tests.holdout_world import CATALOGUE, OUTSIDE, make_campaign
 
@@ -109,6 +110,7 @@ def show(label: str, row: dict) -> None:
 
 def main() -> None:
     global OUT
+    check_options(__doc__, ("--base", "--no-ladder", "--out", "--quick", "--summary"))
     if "--summary" in sys.argv:
         rows: dict[str, list] = {"accuracy": [], "nulls": [], "ladder": []}
         for line in Path(sys.argv[sys.argv.index("--summary") + 1]).read_text().splitlines():

@@ -19,6 +19,7 @@ import sys
 
 import numpy as np
 
+from bench.args import check_options
 from bench.bench_diagnose import run_one
 from bench.bench_null_ranks import FAMILIES, data_ranks, record_ranks
 from tests.campaigns import varied_campaigns
@@ -44,6 +45,7 @@ def main(count: int, seed: int, index: int, phases: list[float]) -> None:
 
 
 if __name__ == "__main__":
+    check_options(__doc__, ())
     args = sys.argv[1:]
     grid = [float(a) for a in args[3:]] or [k / 10 for k in range(10)]
     main(int(args[0]), int(args[1]), int(args[2]), grid)

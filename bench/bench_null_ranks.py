@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.args import check_options
 from bench.bench_diagnose import REDRAWS, run_one
 from pencli.diagnose import engine
 from tests.campaigns import varied_campaigns
@@ -88,6 +89,7 @@ def main(count: int, seed: int, out: Path | None, flags: tuple[str, ...] = ()) -
 
 
 if __name__ == "__main__":
+    check_options(__doc__, ("--out", *REDRAWS))
     args = sys.argv[1:]
     target = Path(args[args.index("--out") + 1]) if "--out" in args else None
     main(int(args[0]) if args else 30, int(args[1]) if len(args) > 1 else 43000, target,

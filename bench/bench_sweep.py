@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 
+from bench.args import check_options
 from bench.bench_predict import baseline_rk45
 from pencli import api
 from pencli.model.design import Design, design_from_sets
@@ -38,6 +39,7 @@ VARY = ["blade_width_mm=+50%,-50%", "blade_thickness_mm=+50%,-50%", "spring_stif
 
 
 def main() -> None:
+    check_options(__doc__, ("--designs", "--rounds"))
     n = int(sys.argv[sys.argv.index("--designs") + 1]) if "--designs" in sys.argv else 1_000_000
     rounds = int(sys.argv[sys.argv.index("--rounds") + 1]) if "--rounds" in sys.argv else 7
     base = design_from_sets(load_preset("appendix_c", "penetrator"), load_preset("mpacs_c", "material"),
