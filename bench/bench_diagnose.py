@@ -1,12 +1,14 @@
 """Diagnosis on a larger set of simulated campaigns whose truth the diagnoser never sees.
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
-     [--two-slopes] [--drift-friction] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs] [--short-gradients] [--bessel-lags] [--s-gradients]
+     [--two-slopes] [--drift-friction] [--weak-drifts] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs]
+     [--short-gradients] [--bessel-lags] [--s-gradients]
      [--few-coloured] [--unknown-material]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
 ``--drift-friction``: every pair is a force drift with a velocity friction (random forms, their own stream).
+``--weak-drifts``: every force drift of amplitude 3–30 N, log-uniform (its own stream; ``--varied`` draws 60–150 N).
 ``--slow-speeds``: every rate strength and velocity friction takes a characteristic speed of 0.5–2 m/s (its own
 stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
 ``--wide-friction``: every velocity friction a power law in speed or a Stribeck fall with a viscous rise (sim
@@ -78,6 +80,16 @@ def drift_friction(campaigns, seed):
                 {"force_drift", "velocity_friction"})
 
     return _redrawn(campaigns, seed, 5, change)
+
+
+def weak_drifts(campaigns, seed):
+    """The campaigns with every force drift's amplitude drawn log-uniform in 3–30 N (``--varied`` draws 60–150 N,
+    which puts a drift first with z in the thousands beside any second effect)."""
+    def change(effects, truth, own):
+        return [dict(e, amplitude_n=float(np.exp(own.uniform(np.log(3.0), np.log(30.0)))))
+                if e["name"] == "force_drift" else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 14, change)
 
 
 def slow_speeds(campaigns, seed):
@@ -194,7 +206,8 @@ def unknown_material(campaigns, seed):
     return out
 
 
-REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--slow-speeds": slow_speeds,
+REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--weak-drifts": weak_drifts,
+           "--slow-speeds": slow_speeds,
            "--wide-friction": wide_friction, "--wide-plugs": wide_plugs,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
            "--short-gradients": short_gradients, "--few-coloured": few_coloured,
