@@ -33,7 +33,12 @@ null distribution:
   than their scatter allows, after the measurement bias the replicates show
   (one-sided t-test), and the launcher loss fitted to them brings the
   predicted motion closer to the measured one (a loss that makes it worse
-  explains nothing).
+  explains nothing);
+- a force drift joins a verdict that names another effect when the rest
+  after the stops shows it (:mod:`pencli.diagnose.rest`: the drift family
+  fitted to the change of the resting force, against noise made from each
+  run's pre-trigger spectrum, at the effects' per-test rate).  It makes no
+  verdict alone, so the rate on campaigns without effect stays the three's.
 
 The campaign's false-alarm rate ``false_alarm`` is split equally between the
 three.  One constant is a definition, not a tuning: an effect (or pair)
@@ -55,6 +60,7 @@ from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the l
 from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of,
                                      column_strength_factor, surfaces)
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
+from pencli.diagnose.rest import rest_drift
 from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_anti_alias, fit_noise, gev_quantile,
                                   gumbel_quantile, normal_quantile, replicate_campaign, student_quantile)
 from pencli.errors import FitError, ModelError, PenNotice
@@ -357,6 +363,23 @@ def replicate_z(improvements: np.ndarray, floor: float) -> np.ndarray:
     centre, scale = _null_scale(others, floor)  # (families, replicates): each replicate without itself
     full = _null_scale(null, floor)[1]
     return (null - centre) / np.maximum(scale, HELD_OUT_SCALE_GUARD * full[:, None])
+
+
+def _rest_evidence(runs: Sequence[DiagnosisRun], nulls: Sequence[RunNull], bootstrap: int, seed: int,
+                   alpha: float) -> dict | None:
+    """The force drift as the rest after each run's stop shows it (:func:`pencli.diagnose.rest.rest_drift`): its
+    z against the campaign's own noise, the family-wise threshold at ``alpha``, and the shape and change it
+    reads.  None when no run rests long enough after its stop."""
+    members = EFFECTS["force_drift"].members
+    test = rest_drift(runs, members, [n.noise for n in nulls], bootstrap, seed)
+    if test is None:
+        return None
+    floor = noise_resolution([n.noise.level_n for n in nulls], [test.samples])
+    z = _standardise(test.improvements, floor)[0]
+    threshold = familywise_threshold(test.improvements[:, None], floor, alpha)
+    return {"z": round(z, 2), "threshold": round(threshold, 3), "significant": bool(z > threshold),
+            "runs": test.runs, "samples": test.samples, "shape": dict(members[test.member].params),
+            "rms_n": round(float(np.sqrt(max(test.improvements[0], 0.0))), 4)}
 
 
 # ----------------------------------------------------------------------------- drive side
@@ -883,6 +906,17 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         verdict = "unexplained"
         notes.append(f"the runs share a misfit (a generic profile closes it on held-out runs: z {z_probe:.1f} against "
                      f"{gap_threshold:.1f}) that no catalogue effect reduces significantly; see where and axes")
+    # ---- a drift the rest after the stop shows beside the window's first effect (README, the fortieth session)
+    rest = _rest_evidence(runs, nulls, bootstrap, seed, alpha) if "force_drift" in names else None
+    if rest is not None:
+        rest["beside_first_z"] = pair["beside"].get("force_drift") if pair else None
+    if (rest is not None and rest["significant"] and verdict not in ("none", "unexplained")
+            and "force_drift" not in verdict_effects):
+        verdict_effects.append("force_drift")
+        reports["force_drift"] = replace(reports["force_drift"], significant=True)
+        notes.append(f"force_drift is significant in the rest after the stop (z {rest['z']:.1f} against "
+                     f"{rest['threshold']:.1f} over {rest['runs']} runs; {rest['rms_n']:.2g} N RMS of change), "
+                     f"where no speed or depth law acts")
     if drive_gap:
         if verdict == "none":
             verdict, verdict_effects = "propulsion_loss", ["propulsion_loss"]
@@ -899,6 +933,10 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                            if r.detectable_rms_n is not None)
         notes.append(f"nothing found at a false-alarm rate of {false_alarm:g}; effects leaving at least this RMS "
                      f"after the baseline refit would have been seen: {limits}")
+        if rest is not None and rest["significant"]:
+            notes.append(f"the force drifts in the rest after the stop (z {rest['z']:.1f} against "
+                         f"{rest['threshold']:.1f}; {rest['rms_n']:.2g} N RMS of change), too little within the "
+                         f"windows to matter to the resistance model")
 
     # ---- how far: trajectory change of the reported effects
     say("trajectories", 0.94)
@@ -944,6 +982,8 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         "late_force_rise_ms": late,
         "surface_mm": {r.run_id: round(r.surface_m * 1e3, 3) for r in runs},
     }
+    if rest is not None:
+        baseline_out["rest_drift"] = rest
     if pair is not None:
         baseline_out["best_pair"] = {"effects": [significant[0].name, pair["effect"]], "shrink_pct": pair["shrink_pct"],
                                      "z": pair["z"], "share_of_remainder": pair["share_of_remainder"],
@@ -1031,7 +1071,8 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
             "threshold": threshold, "share_of_remainder": round(share, 3), "beyond_own_family": bool(beyond_own or adds),
             "over_own_pair": over_own,
             "significant": bool(second.z > threshold and ((share >= EXPLAIN_SHARE and beyond_own) or adds)),
-            "shrink_pct": round(100.0 * (1.0 - math.sqrt(max(second.family.heldout[0], 0.0) / S0[0])), 2)}
+            "shrink_pct": round(100.0 * (1.0 - math.sqrt(max(second.family.heldout[0], 0.0) / S0[0])), 2),
+            "beside": {n: round(t.z, 2) for n, t in scored.items()}}
 
 
 def _over_own_pair(stats: Statistics, own_pair: _Candidate, cands: Sequence[_Candidate], base_spec: Spec,
