@@ -64,7 +64,9 @@ def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
             "significant": [e.name for e in result.effects if e.significant],
             "shrink_of_truth": next((e.shrink_pct for e in result.effects if e.name in effects), None),
             "baseline_ms_n2": result.baseline["heldout_rms_n"] ** 2, "noise_n": campaign.nuisances["noise_n"],
-            "nuisances": campaign.nuisances, "forms": campaign.effects, "seconds": seconds}
+            "nuisances": campaign.nuisances, "forms": campaign.effects, "seconds": seconds,
+            "notes": list(result.notes), "rest_drift": result.baseline.get("rest_drift"),
+            "best_pair": result.baseline.get("best_pair")}
 
 
 def with_size(row: dict) -> dict:
