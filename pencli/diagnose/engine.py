@@ -377,7 +377,7 @@ def _rest_evidence(runs: Sequence[DiagnosisRun], nulls: Sequence[RunNull], boots
     floor = noise_resolution([n.noise.level_n for n in nulls], [test.samples])
     z = _standardise(test.improvements, floor)[0]
     threshold = familywise_threshold(test.improvements[:, None], floor, alpha)
-    return {"z": round(z, 2), "threshold": round(threshold, 3), "significant": bool(z > threshold),
+    return {"z": round(z, 2), "threshold": round(float(threshold), 3), "significant": bool(z > threshold),
             "runs": test.runs, "samples": test.samples, "shape": dict(members[test.member].params),
             "rms_n": round(float(np.sqrt(max(test.improvements[0], 0.0))), 4)}
 
