@@ -30,7 +30,7 @@ def _ar1(rng, n, level, lag_one):
     return out
 
 
-def _runs(rng, drift=None, n_runs=6):
+def _runs(rng, drift=None, n_runs=6, transient=None):
     """Runs at rest from 0.2 s before the release to 0.8 s after it, stopped at 40–70 ms; their force is a rest
     level after the stop, noise (white and AR(1), each run its own level) and ``drift(t)`` from the release on."""
     runs, nulls = [], []
@@ -42,6 +42,8 @@ def _runs(rng, drift=None, n_runs=6):
         force = force + np.where(t > stop, rng.uniform(0.0, 20.0), 0.0)  # the weight the material holds
         if drift is not None:
             force = force + drift(np.maximum(t, 0.0))
+        if transient is not None:  # something that starts at the stop: a settling force chain, a struck mode
+            force = force + np.where(t > stop, transient(np.maximum(t - stop, 0.0)), 0.0)
         run = SimpleNamespace(time_s=t, stop_s=stop, resistance_n=force)
         runs.append(run)
         nulls.append(SimpleNamespace(noise=fit_noise(force[t < -0.005])))
@@ -104,3 +106,24 @@ def test_a_drift_too_slow_for_the_windows_is_noted_not_a_verdict(tmp_path):
     assert result.verdict == "none", (result.verdict_effects, result.notes)
     assert result.baseline["rest_drift"]["significant"], result.baseline["rest_drift"]
     assert any("rest after the stop" in n for n in result.notes), result.notes
+
+
+def test_a_transient_that_starts_at_the_stop_is_not_read_as_a_drift(monkeypatch):
+    """A force chain settling after the stop's step (60 N × e^(−t/8 ms) from the stop) and a struck mode still
+    ringing (40 N at 300 Hz, decaying in 10 ms): 20 ms after the stop they are 4.9 N and up to 5.4 N, 50 ms after
+    it 0.1 N and 0.3 N.  Read from 20 ms on, every shape allowed, the transient was a "drift" in 10 of 10
+    campaigns; the rest span starts 50 ms after the stop, and a shape all but finished before it is not read."""
+    import pencli.diagnose.rest as rest
+
+    def transient(s):
+        return 60.0 * np.exp(-s / 0.008) + 40.0 * np.exp(-s / 0.01) * np.sin(2 * np.pi * 300.0 * s)
+
+    def calls():
+        rng = np.random.default_rng(12)
+        return sum(_rest_evidence(*_runs(rng, transient=transient), bootstrap=60, seed=k, alpha=0.01)["significant"]
+                   for k in range(10))
+
+    assert calls() <= 1
+    monkeypatch.setattr(rest, "SETTLE_S", 0.02)
+    monkeypatch.setattr(rest, "REST_CHANGE_MIN", 0.0)
+    assert calls() >= 8

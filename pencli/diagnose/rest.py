@@ -12,9 +12,14 @@ goes on.  This module tests that span alone for the drift family's shapes
 ``force_drift`` members):
 
 - each run's span starts :data:`SETTLE_S` after its stop (a lag, an arrest's
-  rebound and the smoother's reach at the stop have died away by then) and
-  ends :data:`EDGE_S` before the record's end, at most :data:`REST_MAX_S`
-  long; a run with less than :data:`REST_MIN_S` of it takes no part;
+  rebound, a struck mode and the smoother's reach at the stop have died away
+  by then) and ends :data:`EDGE_S` before the record's end, at most
+  :data:`REST_MAX_S` long; a run with less than :data:`REST_MIN_S` of it
+  takes no part;
+- a drift shape is read there only where it still changes (at least
+  :data:`REST_CHANGE_MIN` of its change since the release falls in the
+  span): one all but finished before it fits, there, only a transient at the
+  span's start;
 - each run keeps its own rest level (a free constant: the weight the material
   holds, or what the stops leave, is not the model's business), so only the
   *change* of the force over the span is evidence;
@@ -41,7 +46,7 @@ import numpy as np
 from pencli.diagnose.effects import DiagnosisRun, Member
 from pencli.diagnose.null import NoiseModel
 
-SETTLE_S = 0.02
+SETTLE_S = 0.05
 """The rest span starts this long after the stop. [s]"""
 EDGE_S = 0.002
 """…and ends this long before the record's end. [s]"""
@@ -49,6 +54,10 @@ REST_MAX_S = 0.5
 """Longest rest span used per run. [s]"""
 REST_MIN_S = 0.05
 """A run with a shorter rest span takes no part. [s]"""
+REST_CHANGE_MIN = 0.05
+"""A drift shape is read at rest only where at least this share of its change since the release happens over the
+rest span (mean over the runs): a shape all but finished before the rest is, there, a transient at the span's
+start, which a struck mode still ringing or a force chain settling after the stop's step makes as well. [–]"""
 
 
 def rest_span(run: DiagnosisRun) -> np.ndarray:
@@ -82,6 +91,13 @@ def _demeaned(columns: np.ndarray) -> np.ndarray:
     return columns - columns.mean(axis=0, keepdims=True)
 
 
+def _rest_change(columns: np.ndarray) -> float:
+    """The share of a drift shape's change since the release (its value there is 0) that happens over a rest span
+    (``columns``: its columns on the span, (n, k)); the largest over its columns."""
+    end = np.abs(columns[-1])
+    return float(np.max(np.abs(columns[-1] - columns[0]) / np.maximum(end, 1e-300)))
+
+
 def rest_drift(runs: Sequence[DiagnosisRun], members: Sequence[Member], noises: Sequence[NoiseModel],
                count: int, seed: int) -> RestTest | None:
     """The drift statistic of :class:`RestTest` over the runs' rest spans, with ``count`` noise replicates drawn
@@ -93,7 +109,7 @@ def rest_drift(runs: Sequence[DiagnosisRun], members: Sequence[Member], noises: 
     used = [i for i, s in enumerate(spans) if s.any()]
     if not used:
         return None
-    targets, shapes = [], []
+    targets, shapes, keep = [], [], []
     for i in used:
         run, span = runs[i], spans[i]
         n = int(span.sum())
@@ -103,10 +119,13 @@ def rest_drift(runs: Sequence[DiagnosisRun], members: Sequence[Member], noises: 
         y = np.column_stack([run.resistance_n[span], replicas])
         targets.append(_demeaned(y))
         t = SimpleNamespace(t=np.maximum(run.time_s[span], 0.0))
-        shapes.append([_demeaned(np.asarray(m.chain(run, t).extra, dtype=float).reshape(n, -1)) for m in members])
+        raw = [np.asarray(m.chain(run, t).extra, dtype=float).reshape(n, -1) for m in members]
+        keep.append([_rest_change(X) for X in raw])
+        shapes.append([_demeaned(X) for X in raw])
     best = np.full(count + 1, -np.inf)
     best_member, best_coef = 0, np.zeros(0)
-    for j in range(len(members)):
+    readable = np.mean(keep, axis=0) >= REST_CHANGE_MIN
+    for j in np.flatnonzero(readable):
         k = shapes[0][j].shape[1]
         A = np.zeros((k, k))
         b = np.zeros((k, count + 1))
