@@ -102,7 +102,7 @@ def rest_drift(runs: Sequence[DiagnosisRun], members: Sequence[Member], noises: 
                count: int, seed: int) -> RestTest | None:
     """The drift statistic of :class:`RestTest` over the runs' rest spans, with ``count`` noise replicates drawn
     from ``noises`` (one model per run, read from its pre-trigger span) by a generator seeded with ``seed``.
-    None when no run has a rest span.  ``members``: the drift family's shapes (chain members of the time since
+    None when no run has a rest span or no shape still changes there.  ``members``: the drift family's shapes (chain members of the time since
     the release, built on the rest span's times)."""
     rng = np.random.default_rng([seed, 7919])
     spans = [rest_span(r) for r in runs]
@@ -124,8 +124,10 @@ def rest_drift(runs: Sequence[DiagnosisRun], members: Sequence[Member], noises: 
         shapes.append([_demeaned(X) for X in raw])
     best = np.full(count + 1, -np.inf)
     best_member, best_coef = 0, np.zeros(0)
-    readable = np.mean(keep, axis=0) >= REST_CHANGE_MIN
-    for j in np.flatnonzero(readable):
+    readable = np.flatnonzero(np.mean(keep, axis=0) >= REST_CHANGE_MIN)
+    if not readable.size:
+        return None
+    for j in readable:
         k = shapes[0][j].shape[1]
         A = np.zeros((k, k))
         b = np.zeros((k, count + 1))
