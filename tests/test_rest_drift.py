@@ -94,10 +94,10 @@ def test_a_weak_drift_beside_a_friction_is_found_in_the_rest_after_the_stop(tmp_
 
 @pytest.mark.slow
 def test_a_drift_too_slow_for_the_windows_is_noted_not_a_verdict(tmp_path):
-    """A linear drift of 1 N per 0.1 s: under 0.6 N from the release to stops at 35–60 ms, beside 2 N of noise, 1.8 N
-    over the 0.18 s of rest these records keep after the stops.  The rest test sees it, but a drift the windows
-    do not feel is no gap of the resistance model: the verdict stays `none` and a note says what the rest
-    showed."""
+    """A linear drift of 1 N per 0.1 s: under 0.6 N from the release to stops at 35–60 ms, beside 2 N of noise, and
+    about 1.5 N over the 0.15 s of rest read after the stops (from 50 ms after each to 2 ms before these records
+    end, 0.2 s after it).  The rest test sees it, but a drift the windows do not feel is no gap of the resistance
+    model: the verdict stays `none` and a note says what the rest showed."""
     from tests.test_diagnose import campaign
 
     effects = [{"name": "force_drift", "amplitude_n": 1.0, "time_constant_s": 0.1, "shape": 1.0}]
