@@ -397,6 +397,24 @@ def test_a_friction_beside_a_drift_between_the_old_time_constants_is_a_pair(tmp_
 
 @pytest.mark.campaign
 @pytest.mark.slow
+def test_a_friction_that_closes_more_than_a_plug_growth_the_familywise_test_passes_is_named(tmp_path):
+    """Issue 11, forty-first session: a velocity friction (a linear fall of 46 % to 3.5 m/s) on five grill-brick
+    runs at mixed rates behind an anti-alias filter, a 0.32 mm encoder, 4.3 N white and 1.2 N correlated noise.
+    A plug growth passed the family-wise test (z 7.9 against 7.7) closing 7.7 % of the held-out error and was
+    named; the friction closed 19.4 % at z 5.3 (its null wide: a speed law on a coarse encoder's speeds).  The
+    family-wise test now says there is an effect, the fit says which.  Campaign 22 of ``--varied 24 161000
+    --only velocity_friction``."""
+    from tests.campaigns import varied_campaigns
+
+    _, material, effects, truth, nuisances = varied_campaigns(24, 161000, only="velocity_friction")[22]
+    assert truth == {"velocity_friction"} and material == "grill_brick" and nuisances["encoder_mm"] == 0.32
+    db = conditioned(make_campaign(tmp_path, material, seed=161022, effects=effects, **nuisances))
+    result = api.diagnose(db, ["all"])
+    assert result.verdict == "velocity_friction", (result.baseline.get("naming"), result.notes)
+
+
+@pytest.mark.campaign
+@pytest.mark.slow
 def test_an_exponential_gradient_between_the_old_lengths_is_named_alone(tmp_path):
     """Issue 11: a strength growing as 3.95^(x/100 mm) (e-folding over 73 mm) fell between the gradient family's
     exponential lengths (40, 80 and 160 mm); fitted at 80 mm it left 5 × the null floor, and a strength layer

@@ -23,6 +23,10 @@ null distribution:
 - an effect is significant when its held-out improvement, standardised by
   its own null spread, exceeds the null distribution of the *largest* such
   score over all effects (a family-wise test; Gumbel tail);
+- once one is, the verdict names first the effect that improves the data's
+  held-out error most among the significant ones and those whose
+  improvement is beyond every replicate's (:func:`_named_first`): the test
+  says whether an effect is there, the fit which one;
 - the resistance view has a gap the runs share when a generic profile (any
   force profile in depth, or in time since contact, common to the runs)
   closes part of the baseline's misfit on held-out runs beyond what it
@@ -879,11 +883,18 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
 
     # ---- verdict
     say("pairs", 0.88)
-    significant = sorted((r for r in reports.values() if r.significant and r.view == "resistance"),
-                         key=lambda r: -(S0[0] - tested[r.name].family.heldout[0]))
-    verdict, verdict_effects, notes, pair = "none", [], [], None
+    significant = [r for r in reports.values() if r.significant and r.view == "resistance"]
+    verdict, verdict_effects, notes, pair, naming = "none", [], [], None, None
     if significant:
-        top = significant[0]
+        top = _named_first(reports, tested, S0)
+        gate = max(significant, key=lambda r: float(S0[0] - tested[r.name].family.heldout[0]))
+        naming = {"familywise_first": gate.name, "named_first": top.name}
+        if not top.significant:
+            reports[top.name] = top = replace(top, significant=True)
+            notes.append(f"{top.name} is named first: it closes most of the gap (held-out shrink {top.shrink_pct:.0f} %; "
+                         f"its improvement beyond all {bootstrap} null replicates'); "
+                         f"{gate.name} shows there is a gap (z {gate.z:.1f} against {z_threshold:.1f} over all "
+                         f"effects) but closes less ({gate.shrink_pct:.0f} %)")
         pair = _best_second(stats, {e.name: candidates[e.name] for e in law_effects}, tested, top.name, base_spec,
                             S0, alpha)
         top_share = reports[top.name].explained_share
@@ -984,8 +995,10 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     }
     if rest is not None:
         baseline_out["rest_drift"] = rest
+    if naming is not None:
+        baseline_out["naming"] = naming
     if pair is not None:
-        baseline_out["best_pair"] = {"effects": [significant[0].name, pair["effect"]], "shrink_pct": pair["shrink_pct"],
+        baseline_out["best_pair"] = {"effects": [top.name, pair["effect"]], "shrink_pct": pair["shrink_pct"],
                                      "z": pair["z"], "share_of_remainder": pair["share_of_remainder"],
                                      "beyond_own_family": pair["beyond_own_family"],
                                      "significant": pair["significant"], "over_own_pair": pair["over_own_pair"]}
@@ -1019,6 +1032,34 @@ def _shape_spread(chosen: Sequence[Mapping]) -> dict:
             out.setdefault(key, []).append(value)
     return {k: ([min(v), max(v)] if all(isinstance(x, (int, float)) for x in v) else sorted(set(map(str, v))))
             for k, v in out.items()}
+
+
+def _named_first(reports: Mapping[str, EffectReport], tested: Mapping[str, _Tested], S0: np.ndarray
+                 ) -> EffectReport:
+    """The effect a verdict names first, once the family-wise test has found one: of the resistance-view effects
+    that are significant (family-wise), or whose improvement of the data's held-out error is positive and beyond
+    every null replicate's (a rank test at 1/(B + 1)), the one that improves it most.
+
+    Whether an effect is present is the family-wise test's; which one it is, is the fit's.  A family of few,
+    similar shapes has a narrow null and stands far out on a slight fit, a wide one (the speed laws on a coarse
+    encoder's speeds) a broad one: dev campaign 22 of ``--varied 24 161000 --only velocity_friction`` (README,
+    the forty-first session) had a plug growth at z 7.9 against 7.7 family-wise closing 7.7 % of the held-out
+    error, and the true friction at z 5.3 closing 19.4 % (11.6 N², its replicates at most 0.6 N²).  Neither a
+    threshold fitted to one family's replicates nor its z is the bar here: a wide family extrapolates badly to
+    held-out replicate runs, and that long *lower* tail sets a moment fit's scale (the friction's own threshold
+    8.7 z where 99 % of its replicates lay below 0.9) and splits the null in two (dev campaign 6 of ``--varied
+    24 162000``: median −22 N², a cluster up to 19.7 N²), so the true friction improving by 44.4 N² stood at
+    z 2.0.  The rate on campaigns without effect is unchanged: a verdict still needs the family-wise test."""
+    def improvement(r: EffectReport) -> float:
+        return float(S0[0] - tested[r.name].family.heldout[0])
+
+    def beyond_every_replicate(t: _Tested) -> bool:
+        gain = S0 - t.family.heldout
+        return bool(gain[0] > 0.0 and gain[0] > np.max(gain[1:]))
+
+    eligible = [r for r in reports.values()
+                if r.view == "resistance" and (r.significant or beyond_every_replicate(tested[r.name]))]
+    return max(eligible, key=improvement)
 
 
 def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], tested: Mapping[str, _Tested],
