@@ -964,7 +964,9 @@ def test_the_effect_named_first_is_the_one_that_closes_most_of_a_gap_the_familyw
         tests = {"plug_growth": plug, "velocity_friction": friction}
         reports = {name: EffectReport(name, "law", "resistance", {}, {}, 0.0, 0.0, name == "plug_growth", t.z)
                    for name, t in tests.items()}
-        return _named_first(reports, tests, reference).name
+        familywise_first, named = _named_first(reports, tests, reference)
+        assert familywise_first.name == "plug_growth"
+        return named.name
 
     plug = tested(5.0, narrow_null)
     friction = tested(44.4, wide_null)

@@ -886,8 +886,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     significant = [r for r in reports.values() if r.significant and r.view == "resistance"]
     verdict, verdict_effects, notes, pair, naming = "none", [], [], None, None
     if significant:
-        top = _named_first(reports, tested, S0)
-        gate = max(significant, key=lambda r: float(S0[0] - tested[r.name].family.heldout[0]))
+        gate, top = _named_first(reports, tested, S0)
         naming = {"familywise_first": gate.name, "named_first": top.name}
         if not top.significant:
             reports[top.name] = top = replace(top, significant=True)
@@ -1035,10 +1034,11 @@ def _shape_spread(chosen: Sequence[Mapping]) -> dict:
 
 
 def _named_first(reports: Mapping[str, EffectReport], tested: Mapping[str, _Tested], S0: np.ndarray
-                 ) -> EffectReport:
-    """The effect a verdict names first, once the family-wise test has found one: of the resistance-view effects
-    that are significant (family-wise), or whose improvement of the data's held-out error is positive and beyond
-    every null replicate's (a rank test at 1/(B + 1)), the one that improves it most.
+                 ) -> tuple[EffectReport, EffectReport]:
+    """(the family-wise first, the effect a verdict names first), once the family-wise test has found an effect:
+    of the resistance-view effects that are significant (family-wise), the one that improves the data's held-out
+    error most; and of those and the ones whose improvement is positive and beyond every null replicate's (a
+    rank test at 1/(B + 1)), the one that improves it most.
 
     Whether an effect is present is the family-wise test's; which one it is, is the fit's.  A family of few,
     similar shapes has a narrow null and stands far out on a slight fit, a wide one (the speed laws on a coarse
@@ -1057,9 +1057,9 @@ def _named_first(reports: Mapping[str, EffectReport], tested: Mapping[str, _Test
         gain = S0 - t.family.heldout
         return bool(gain[0] > 0.0 and gain[0] > np.max(gain[1:]))
 
-    eligible = [r for r in reports.values()
-                if r.view == "resistance" and (r.significant or beyond_every_replicate(tested[r.name]))]
-    return max(eligible, key=improvement)
+    resistance = [r for r in reports.values() if r.view == "resistance"]
+    eligible = [r for r in resistance if r.significant or beyond_every_replicate(tested[r.name])]
+    return max((r for r in resistance if r.significant), key=improvement), max(eligible, key=improvement)
 
 
 def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], tested: Mapping[str, _Tested],
