@@ -87,6 +87,11 @@ def right(row: dict) -> bool:
     return truth <= set(row["verdict_effects"])
 
 
+def false_second(row: dict) -> bool:
+    """A single effect named right, beside an effect that is not there."""
+    return len(row["truth"]) == 1 and right(row) and bool(set(row["verdict_effects"]) - set(row["truth"]))
+
+
 def detected(row: dict) -> bool:
     name = row["truth"][0]
     return name in row["verdict_effects"] or (row["first"] == name and row["first_significant"])
@@ -179,6 +184,9 @@ def summarise(rows: dict, n_nulls: int) -> None:
               + (", ".join(f"{'+'.join(r['truth'])} {r['size']:.2f} ({'right' if right(r) else r['verdict']})"
                            for r in sized if r not in seen) or "none"))
     print(f"single effects right:                                {sum(map(right, singles))} of {len(singles)}")
+    print(f"right singles that also name an effect not there:    {sum(map(false_second, singles))} of "
+          f"{sum(map(right, singles))}" + "".join(f"; {r['truth'][0]} + {', '.join(sorted(set(r['verdict_effects']) - set(r['truth'])))}"
+                                                  for r in singles if false_second(r)))
     print(f"pairs with both effects found:                       {sum(map(right, pair_rows))} of {len(pair_rows)}")
     print(f"null campaigns called anything but none:             {sum(not right(r) for r in nulls)} of {len(nulls)} "
           f"(false-alarm rate {sum(not right(r) for r in nulls) / len(nulls):.3f}; stated 0.01)")
