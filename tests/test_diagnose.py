@@ -415,6 +415,24 @@ def test_a_friction_that_closes_more_than_a_plug_growth_the_familywise_test_pass
 
 @pytest.mark.campaign
 @pytest.mark.slow
+def test_a_gradient_whose_slope_falls_to_a_sixth_at_a_depth_is_a_gradient(tmp_path):
+    """Issue 11, forty-second session: strength rising ×3.5 by 100 mm, steeply to 57 mm and at a sixth of that
+    slope after it (sim truth shape 3), on eight grill-brick runs, was named a strength layer: a step at the kink
+    was the nearest other shape.  The gradient family now holds two straight slopes meeting at a depth.
+    Campaign 6 of ``--varied 12 181000 --only strength_gradient --two-slopes``."""
+    from bench.bench_diagnose import two_slopes
+    from tests.campaigns import varied_campaigns
+
+    _, material, effects, truth, nuisances = two_slopes(varied_campaigns(12, 181000, only="strength_gradient"),
+                                                        181000)[6]
+    assert truth == {"strength_gradient"} and effects[0]["shape"] == 3.0 and material == "grill_brick"
+    db = conditioned(make_campaign(tmp_path, material, seed=181006, effects=effects, **nuisances))
+    result = api.diagnose(db, ["all"])
+    assert result.verdict == "strength_gradient", [(e.name, e.shrink_pct) for e in result.effects[:3]]
+
+
+@pytest.mark.campaign
+@pytest.mark.slow
 def test_an_exponential_gradient_between_the_old_lengths_is_named_alone(tmp_path):
     """Issue 11: a strength growing as 3.95^(x/100 mm) (e-folding over 73 mm) fell between the gradient family's
     exponential lengths (40, 80 and 160 mm); fitted at 80 mm it left 5 × the null floor, and a strength layer

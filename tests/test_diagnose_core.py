@@ -776,6 +776,31 @@ def test_the_monotone_gradients_elements_rise_from_0_to_1_and_never_fall():
         assert np.array_equal(np.asarray(fall(x, 0.0)), -values)
 
 
+def test_a_two_slope_gradient_is_a_straight_rise_and_a_second_slope_from_its_kink():
+    """Each two-slope member's columns against the profile written out: x/100 mm, and 0 down to the kink, then
+    (x − kink)/100 mm; a sum of them is continuous at the kink and changes its slope there by the second's
+    coefficient.  Each enters only where every fold's training runs pass the kink by 20 mm."""
+    from pencli.diagnose.effects import EFFECTS
+
+    members = [m for m in EFFECTS["strength_gradient"].members if m.params.get("shape") == "two_slopes"]
+    assert sorted(m.params["kink_mm"] for m in members) == [10.0 * k for k in range(1, 10)]
+    x = np.linspace(0.0, 0.2, 2001)
+    for m in members:
+        kink = m.params["kink_mm"] * 1e-3
+        first, second = (np.asarray(p(x, 0.0), dtype=float) for p in m.profiles)
+        assert np.allclose(first, x / 0.1, atol=1e-15)
+        expected = [0.0 if xi <= kink else (xi - kink) / 0.1 for xi in x]
+        assert np.allclose(second, expected, atol=1e-15)
+        profile = 1.5 * first - 2.0 * second  # steepening or flattening: a slope of 15, then −5, per metre
+        slopes = np.diff(profile) / np.diff(x)
+        assert np.allclose(slopes[x[1:] <= kink], 15.0) and np.allclose(slopes[x[:-1] >= kink], -5.0)
+        assert m.reach_m == pytest.approx(kink + 0.02)
+        # its report: the change at 100 mm over the mean strength factor, and the slopes' ratio
+        described = EFFECTS["strength_gradient"].describe(m, np.array([1.5, -2.0]), {"cs_mean": 2.0})
+        assert described["change_per_100mm"] == pytest.approx(profile[np.searchsorted(x, 0.1)] / 2.0)
+        assert described["slope_ratio"] == pytest.approx(-5.0 / 15.0)
+
+
 def test_each_folds_member_is_chosen_by_held_out_error_not_by_training_fit():
     """A family of a straight line and a quintic in depth, on runs that each cover their own depth span, each
     with its own slope about a common one: the quintic fits every fold's training runs better (it holds the

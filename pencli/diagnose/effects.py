@@ -406,6 +406,18 @@ def _s_rise(centre_m: float, width_m: float) -> Profile:
     return lambda x, v: step(x, v) - at_surface
 
 
+_KINKS_MM = tuple(float(d) for d in range(10, 100, 10))
+"""Where a two-slope gradient's slope changes: every 10 mm.  Each member enters only where every fold's training
+runs pass its kink by 20 mm (:attr:`Member.reach_m`), so that the second slope is fitted on every fold.  Added
+for the development gradients of two slopes (``--two-slopes``, sim truth shape 3): at 677911c 5 of
+``--varied 12 176000``'s 12 were named a strength layer, a step at the kink being the nearest other shape."""
+
+
+def _two_slopes(kink_m: float) -> tuple[Profile, Profile]:
+    """A straight rise, and a second slope from the kink on: x/100 mm and max(x − kink, 0)/100 mm."""
+    return (lambda x, v: x / 0.1), (lambda x, v: np.maximum(x - kink_m, 0.0) / 0.1)
+
+
 def _gradient_members() -> tuple[Member, ...]:
     out = [law("strength", (lambda x, v, p=p: (x / 0.1) ** p), exponent=p, shape="power") for p in _EXPONENTS]
     out.append(law("strength", lambda x, v: x / 0.1, lambda x, v: (x / 0.1) ** 2, shape="quadratic"))
@@ -416,12 +428,17 @@ def _gradient_members() -> tuple[Member, ...]:
     out += [law("strength", _s_rise(c * 1e-3, w * 1e-3), centre_mm=float(c), width_mm=w, shape="s_rise",
                 reach_m=(c + w) * 1e-3)  # past the S's centre by a width: 88 % risen, its top constrained
             for c in _RISE_CENTRES_MM for w in _RISE_WIDTHS_MM if c >= w]
+    out += [law("strength", *_two_slopes(d * 1e-3), kink_mm=d, shape="two_slopes", reach_m=(d + 20.0) * 1e-3)
+            for d in _KINKS_MM]
     return tuple(out + _monotone_members())
 
 
 def _describe_gradient(m: Member, c, ctx) -> dict:
     change = sum(float(k) * float(p(np.float64(0.1), np.float64(0.0))) for k, p in zip(c, m.profiles))
-    return {"change_per_100mm": change / ctx["cs_mean"], **{k: v for k, v in m.params.items()}}
+    out = {"change_per_100mm": change / ctx["cs_mean"], **{k: v for k, v in m.params.items()}}
+    if m.params["shape"] == "two_slopes":  # the slope past the kink over the slope above it
+        out["slope_ratio"] = (float(c[0]) + float(c[1])) / float(c[0]) if float(c[0]) != 0.0 else None
+    return out
 
 
 _PLUG_LENGTHS_MM = tuple(round(5.0 * 2.0 ** (i / 4), 1) for i in range(21))
@@ -733,9 +750,9 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "whatever its speed.",
            _layer_members, _describe_layer),
     Effect("strength_gradient", "law", "depth",
-           "Strength varies smoothly and monotonically with depth (power, quadratic, exponential or saturating "
-           "profiles, an S-shaped rise or fall wider than a layer's edge, or any non-negative sum of smooth rises, "
-           "or of falls, 150 mm wide and 50 mm apart). "
+           "Strength varies continuously with depth (power, quadratic, exponential or saturating "
+           "profiles, an S-shaped rise or fall wider than a layer's edge, two straight slopes meeting at a depth, "
+           "or any non-negative sum of smooth rises, or of falls, 150 mm wide and 50 mm apart). "
            "Signature: a misfit growing smoothly with depth in proportion to the blade's frontal area.",
            _gradient_members, _describe_gradient),
     Effect("plug_growth", "law", "depth",
