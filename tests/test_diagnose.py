@@ -335,12 +335,16 @@ def test_a_strong_gradient_in_scattered_blocks_is_a_gradient(tmp_path):
 @pytest.mark.campaign
 @pytest.mark.slow
 def test_a_gradient_of_two_slopes_is_a_gradient(tmp_path):
-    """Issue 11: a gradient no one curve of the family matches (steepening threefold at 50 mm) was named a
-    plateau layer (74 % shrink against the best curve's 67 %) until the family held smooth monotone sums."""
+    """Issue 11: a gradient no one curve of the family matched (steepening threefold at 50 mm) was named a
+    plateau layer (74 % shrink against the best curve's 67 %) until the family held smooth monotone sums, which
+    carried it until the forty-second session.  The family now holds two straight slopes meeting at a depth, and
+    the fit must find the truth's: the kink at 50 mm, the slope tripling there, the strength ×2.5 at 100 mm."""
     gradient = {"name": "strength_gradient", "change_per_100mm": 1.5, "shape": 3, "kink_mm": 50, "slope_ratio": 3}
     result = api.diagnose(campaign(tmp_path, [gradient], seed=62), ["all"])
     assert result.verdict == "strength_gradient", [(e.name, e.shrink_pct) for e in result.effects[:3]]
-    assert result.effects[0].params["shape"] == "monotone" and result.effects[0].params["direction"] == "rising"
+    found = result.effects[0].params
+    assert found["shape"] == "two_slopes" and found["kink_mm"] == 50.0, found
+    assert found["slope_ratio"] == pytest.approx(3.0, rel=0.1) and found["change_per_100mm"] == pytest.approx(1.5, rel=0.1)
 
 
 def test_a_drift_with_a_velocity_friction_is_a_pair(tmp_path):
