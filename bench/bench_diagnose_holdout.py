@@ -87,9 +87,14 @@ def right(row: dict) -> bool:
     return truth <= set(row["verdict_effects"])
 
 
+def not_there(row: dict) -> list[str]:
+    """The verdict's effects that the campaign does not hold."""
+    return sorted(set(row["verdict_effects"]) - set(row["truth"]))
+
+
 def false_second(row: dict) -> bool:
     """A single effect named right, beside an effect that is not there."""
-    return len(row["truth"]) == 1 and right(row) and bool(set(row["verdict_effects"]) - set(row["truth"]))
+    return len(row["truth"]) == 1 and right(row) and bool(not_there(row))
 
 
 def detected(row: dict) -> bool:
@@ -185,7 +190,7 @@ def summarise(rows: dict, n_nulls: int) -> None:
                            for r in sized if r not in seen) or "none"))
     print(f"single effects right:                                {sum(map(right, singles))} of {len(singles)}")
     print(f"right singles that also name an effect not there:    {sum(map(false_second, singles))} of "
-          f"{sum(map(right, singles))}" + "".join(f"; {r['truth'][0]} + {', '.join(sorted(set(r['verdict_effects']) - set(r['truth'])))}"
+          f"{sum(map(right, singles))}" + "".join(f"; {r['truth'][0]} + {', '.join(not_there(r))}"
                                                   for r in singles if false_second(r)))
     print(f"pairs with both effects found:                       {sum(map(right, pair_rows))} of {len(pair_rows)}")
     print(f"null campaigns called anything but none:             {sum(not right(r) for r in nulls)} of {len(nulls)} "
