@@ -907,6 +907,31 @@ def test_each_blocks_surface_is_read_from_its_force_less_the_campaigns_common_la
     assert np.abs((read - np.median(read)) - (truth - np.median(truth))).max() < 0.35, (read, truth)
 
 
+def test_under_a_lagging_force_chain_each_surface_is_read_from_the_late_rise(tmp_path):
+    """A force channel 0.65 ms late puts every run's rise past where the stand-off tolerance lets the force's
+    contact be looked for (0.48 ms at 10.5 m/s); the narrow search then returns a change point in the noise
+    before the rise.  Read from those points, the surfaces of dev sensor lag 1 of ``--varied 16 190000 --only
+    sensor_lag`` were off by up to 4.3 mm and the campaign was named a load-cell mass error.  Read from the late
+    rises, each surface less their median is the true stand-off error less its median to within the blade's
+    travel in one sample at contact (0.35 mm), as without a lag
+    (:func:`test_each_blocks_surface_is_read_from_its_force_less_the_campaigns_common_lag`)."""
+    from pencli import api
+    from pencli.diagnose.effects import surfaces
+    from tests.campaigns import make_campaign
+
+    errors = [1.5, -1.0, 0.0, 0.6]
+    db = make_campaign(tmp_path, "mpacs_c", seed=11, shots=[("1.5", 4)] * 4, encoder_mm=0.08, standoff_mm=errors,
+                       effects=[{"name": "sensor_lag", "tau_ms": 0.65, "shape": 2.0}],
+                       rig_extra={"force_noise_n": 2.0})
+    api.tare_runs(db, ["all"])
+    api.subtract_inertia_runs(db, ["all"])
+    runs = api.load_diagnosis_runs(db, ["all"])
+    assert sum(r.force_rise_s is not None for r in runs) >= 3  # the case: rises past the narrow search
+    read = np.array(surfaces(runs)) * 1e3
+    truth = np.array(errors)
+    assert np.abs((read - np.median(read)) - (truth - np.median(truth))).max() < 0.35, (read, truth)
+
+
 def test_noise_resolution_is_what_one_coefficient_fitted_to_noise_moves_a_held_out_score():
     """The floor of every improvement's null scale (:func:`engine.noise_resolution`, σ²/N) against its meaning,
     simulated here with plain least squares: runs of white noise of their own level and length, one column of

@@ -168,8 +168,14 @@ def surfaces(runs: Sequence[DiagnosisRun]) -> list[float]:
     ``unexplained``).  Each run's surface is where the blade was when its force rose *less the campaign's
     median lag* behind the position's contact: on average the file's stand-off, for each run its own scatter
     about it.  A lag of the force chain itself, common to the runs, moves no surface.
+
+    Where the rise came later than the narrow search looks (:attr:`DiagnosisRun.force_rise_s`), the rise is
+    when the force rose: the narrow search's change point lies before it, in the noise.  Read from those points,
+    dev sensor lag 1 of ``--varied 16 190000 --only sensor_lag`` (a 0.65 ms delay; five runs' points at −0.26 to
+    −0.01 ms, the sixth's, whose slower contact widened its search, at +0.50 ms) had that sixth run's surface
+    put 4.3 mm deep, the right delay scored 2,986 N² on it, and the campaign was named a load-cell mass error.
     """
-    lags = [r.seen_contact_s - r.contact_s for r in runs]
+    lags = [(r.seen_contact_s if r.force_rise_s is None else r.force_rise_s) - r.contact_s for r in runs]
     common = float(np.median(lags))
     return [float(np.interp(r.contact_s + lag - common, r.time_s, r.depth_m) - np.interp(r.contact_s, r.time_s,
                                                                                         r.depth_m))
@@ -630,6 +636,12 @@ def _delay(delay_ms: float) -> Callable[[DiagnosisRun, Basis], Columns]:
 
 
 _TAUS_MS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.45, 0.7, 1.0, 1.5)
+_DELAYS_MS = (0.05, 0.075, 0.1, 0.125, 0.15, 0.2, 0.25, 0.3, 0.375, 0.45, 0.55, 0.7, 0.85, 1.0, 1.25, 1.5)
+"""Pure delays 20–25 % apart past 0.1 ms (the time constants stay 50 % apart): a delay moves the whole force step,
+and between 0.45 and 0.7 ms each fold of dev sensor lags 1 and 2 of ``--varied 16 190000 --only sensor_lag`` (0.65
+and 0.58 ms) picked one or the other, the odd pick scoring 45–67 N² on its run against a baseline of 21–28 N²;
+both were named a load-cell mass error.  A finer grid for every lag shape (101 members, 12 % apart) had called
+lags on development nulls (README, "Lag members on a finer grid"); this adds 7 members."""
 LAG_SPAN_S = max(_TAUS_MS) * 1e-3
 """The longest delay or time constant of the lag members: how late a lagging force chain can show contact. [s]"""
 
@@ -649,7 +661,7 @@ def _lag_members() -> tuple[Member, ...]:
     # had been hiding a lag-like feature of the data that the replicates lack (README, the eighteenth session).
     out = [Member({"tau_ms": t, "order": 1, "shape": "first_order"}, chain=_poles(t, 1)) for t in _TAUS_MS]
     out += [Member({"tau_ms": t, "order": 2, "shape": "second_order"}, chain=_poles(t, 2)) for t in _TAUS_MS[:-1]]
-    out += [Member({"delay_ms": t, "shape": "delay"}, chain=_delay(t)) for t in _TAUS_MS]
+    out += [Member({"delay_ms": t, "shape": "delay"}, chain=_delay(t)) for t in _DELAYS_MS]
     return tuple(out)
 
 
