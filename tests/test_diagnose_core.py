@@ -908,9 +908,9 @@ def test_each_blocks_surface_is_read_from_its_force_less_the_campaigns_common_la
 
 
 def test_under_a_lagging_force_chain_each_surface_is_read_from_the_late_rise(tmp_path):
-    """A force channel 0.65 ms late puts every run's rise past where the stand-off tolerance lets the force's
-    contact be looked for (0.48 ms at 10.5 m/s); the narrow search then returns a change point in the noise
-    before the rise.  Read from those points, the surfaces of dev sensor lag 1 of ``--varied 16 190000 --only
+    """A force channel 0.65 ms late puts the runs' rises past where the stand-off tolerance lets the force's
+    contact be looked for (0.48 ms at 10.5 m/s; at least three of the four, whatever their surfaces); the narrow
+    search then returns a change point in the noise before the rise.  Read from those points, the surfaces of dev sensor lag 1 of ``--varied 16 190000 --only
     sensor_lag`` were off by up to 4.3 mm and the campaign was named a load-cell mass error.  Read from the late
     rises, each surface less their median is the true stand-off error less its median to within the blade's
     travel in one sample at contact (0.35 mm), as without a lag

@@ -75,7 +75,8 @@ class DiagnosisRun:
     ``contact_s`` when the block's surface is not at the file's stand-off. [s]"""
     force_rise_s: float | None = None
     """The force's rise at contact where a lagging force chain puts it later than ``force_contact_s`` is looked
-    for (:func:`pencli.filter.inertia.late_force_rise`), else None: the window starts after it. [s]"""
+    for (:func:`pencli.filter.inertia.late_force_rise`), else None: the window starts after it, and the block's
+    surface is read from it (:func:`surfaces`). [s]"""
     surface_m: float = 0.0
     """Where the block's surface lies on the depth record (0: at the file's stand-off); the Eq. 9 columns and the
     depth laws are evaluated at the depth below it (:func:`surfaces`). [m]"""
