@@ -643,7 +643,7 @@ and between 0.45 and 0.7 ms each fold of dev sensor lags 1 and 2 of ``--varied 1
 and 0.58 ms) picked one or the other, the odd pick scoring 45–67 N² on its run against a baseline of 21–28 N²;
 both were named a load-cell mass error.  A finer grid for every lag shape (101 members, 12 % apart) had called
 lags on development nulls (README, "Lag members on a finer grid"); this adds 7 members."""
-LAG_SPAN_S = max(_TAUS_MS) * 1e-3
+LAG_SPAN_S = max(_TAUS_MS + _DELAYS_MS) * 1e-3
 """The longest delay or time constant of the lag members: how late a lagging force chain can show contact. [s]"""
 
 
