@@ -692,6 +692,24 @@ def test_a_plug_that_drives_the_baselines_strength_factor_below_zero_is_still_a_
 
 @pytest.mark.campaign
 @pytest.mark.slow
+def test_a_plug_that_forms_slowly_then_fast_is_not_taken_by_a_staircase_of_two_layer_edges(tmp_path):
+    """Issue 11: a plug 2.2 mm wide that forms as (x/18.1 mm)^2.48 and then stays was named a strength layer: the
+    layer family's "plateau" 5–15 mm had both edges rising (+0.70 and +1.02 of the strength), a two-step
+    staircase, a graded profile no layer has, and it fitted the plug's rise better than the plug family did
+    (996 against 1,060 N² held out).  A plateau is now a band (its bottom edge goes back).  Campaign 2 of
+    ``--varied 12 99300 --only plug_growth --wide-plugs`` (its nuisances; the form written out)."""
+    capped = [{"name": "plug_growth", "shape": 3, "growth_mm": 2.24, "length_mm": 18.1, "exponent": 2.48}]
+    *_, result = dev_campaign(tmp_path, 99300, 2, "plug_growth", capped)
+    ranked = [(e.name, e.z, e.shrink_pct, e.params.get("shape")) for e in result.effects[:3]]
+    assert result.verdict == "plug_growth", ranked
+    layer = next(e for e in result.effects if e.name == "strength_layer")
+    if layer.params["shape"] == "plateau":  # a band: below it the strength goes back
+        back = layer.params["ratio_below"] - layer.params["ratio"]
+        assert back * (layer.params["ratio"] - 1.0) <= 1e-9, layer.params
+
+
+@pytest.mark.campaign
+@pytest.mark.slow
 def test_a_plug_that_forms_as_the_square_root_of_depth_is_a_plug(tmp_path):
     """Issue 11: a plug 2.8 mm wide that forms as (x/14.5 mm)^0.44 and then stays: steep at the surface, a corner
     at 14.5 mm.  None of the exponential, hyperbolic or straight capped rises follows both, and the campaign was

@@ -884,8 +884,55 @@ def test_a_layers_members_enter_only_where_every_folds_training_runs_pass_their_
     for member in EFFECTS["strength_layer"].members:
         last = member.params.get("bottom_mm", member.params["depth_mm"])
         assert member.reach_m == pytest.approx((last + member.params["edge_mm"]) * 1e-3), member.params
-        # at its reach the last edge has risen to tanh(1): 88 % of its step
-        assert float(member.profiles[-1](np.float64(member.reach_m), 0.0)) == pytest.approx(0.5 * (1 + np.tanh(1.0)))
+        # at its reach the last edge has risen to tanh(1): 88 % of its step (a plateau's bottom edge, signed)
+        assert abs(float(member.profiles[-1](np.float64(member.reach_m), 0.0))) == pytest.approx(
+            0.5 * (1 + np.tanh(1.0)))
+
+
+def test_a_plateau_layers_bottom_edge_goes_back_never_on():
+    """A layer is a band of other strength: its bottom edge changes the strength back (or past where it was),
+    never further the top edge's way.  With free signs two edges also made two-step staircases, graded profiles
+    that fitted an S-shaped gradient better than any one-coefficient gradient shape (dev S-gradients of
+    ``--varied 8 84000 --only strength_gradient --s-gradients``: 3 of 8 named layers).  Each plateau member's
+    bounded (≥ 0) coefficients must give a band: any fit of it has top and bottom steps of opposite sign, and a
+    least-squares fit of the family's best plateau to a staircase leaves a large part of it, where a plateau with
+    free signs fits it exactly; a band itself is fitted exactly, its ratios read back as they were made."""
+    from scipy.optimize import nnls
+
+    from pencli.diagnose.effects import EFFECTS
+
+    x = np.linspace(0.0, 0.12, 1201)
+    v = np.zeros_like(x)
+    plateaus = [m for m in EFFECTS["strength_layer"].members if m.params["shape"] == "plateau"]
+    assert plateaus and all(m.nonnegative for m in plateaus)
+
+    def step(depth_mm, edge_mm):
+        return 0.5 * (1.0 + np.tanh((x - depth_mm * 1e-3) / (edge_mm * 1e-3)))
+
+    def best(target, members):
+        fits = []
+        for m in members:
+            A = np.column_stack([p(x, v) for p in m.profiles])
+            c, r = nnls(A, target)
+            fits.append((r / np.linalg.norm(target), m, c))
+        return min(fits, key=lambda f: f[0])
+
+    same = [m for m in plateaus if m.params["edge_mm"] == 4.0]
+    for m in same:  # top and bottom edges of opposite sign, whatever the (non-negative) coefficients
+        top, bottom = (float(p(np.float64(0.2), 0.0)) for p in m.profiles)
+        assert top * bottom < 0, m.params
+    staircase = -0.3 * step(30, 4) - 0.2 * step(60, 4)  # strength falls at 30 mm and falls again at 60 mm
+    A = np.column_stack([p(x, v) for p in next(m for m in same if (m.params["depth_mm"], m.params["bottom_mm"]) ==
+                                                (30.0, 60.0)).profiles])
+    free = np.linalg.norm(A @ np.linalg.lstsq(A, staircase, rcond=None)[0] - staircase)
+    assert free < 1e-9 * np.linalg.norm(staircase)  # with its signs free, the member 30–60 mm fits it exactly
+    assert best(staircase, same)[0] > 0.1  # as a band, the best leaves > 10 % of it (one step's worth)
+    band = 0.4 * step(30, 4) - 0.4 * step(60, 4) - 0.1 * step(60, 4)  # stronger in 30–60 mm, weaker below
+    err, m, c = best(band, same)
+    assert err < 1e-6 and (m.params["depth_mm"], m.params["bottom_mm"], m.params["band"]) == (30.0, 60.0, "stronger")
+    described = EFFECTS["strength_layer"].describe(m, c, {"cs_mean": 2.0})
+    assert described["ratio"] == pytest.approx(1.0 + 0.4 / 2.0) and described["ratio_below"] == pytest.approx(
+        1.0 - 0.1 / 2.0)
 
 
 def test_each_blocks_surface_is_read_from_its_force_less_the_campaigns_common_lag(tmp_path):

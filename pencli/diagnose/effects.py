@@ -343,18 +343,36 @@ def _layer_members() -> tuple[Member, ...]:
     # z 0.7 against a shrink of 94 %)
     out = [law("strength", _step(d * 1e-3, e * 1e-3), depth_mm=d, edge_mm=e, shape="step", reach_m=(d + e) * 1e-3)
            for e in _LAYER_EDGES_MM for d in _LAYER_DEPTHS_MM]
-    out += [law("strength", _step(d1 * 1e-3, e * 1e-3), _step(d2 * 1e-3, e * 1e-3), depth_mm=d1, bottom_mm=d2,
-                edge_mm=e, shape="plateau", reach_m=(d2 + e) * 1e-3)
+    # a plateau is a band of other strength: its bottom edge goes back (or beyond), never on in the top's
+    # direction, which would be a two-step staircase, a graded profile (PLATEAU_SIGNS)
+    out += [law("strength", _signed(_step(d1 * 1e-3, e * 1e-3), top), _signed(_step(d2 * 1e-3, e * 1e-3), -top),
+                nonnegative=True, depth_mm=d1, bottom_mm=d2, edge_mm=e, shape="plateau", band=band,
+                reach_m=(d2 + e) * 1e-3)
+            for band, top in PLATEAU_SIGNS.items()
             for e in _LAYER_EDGES_MM for i, d1 in enumerate(_LAYER_DEPTHS_MM) for d2 in _LAYER_DEPTHS_MM[i + 2:]]
     return tuple(out)
 
 
+PLATEAU_SIGNS = {"stronger": 1.0, "weaker": -1.0}
+"""A plateau layer's band and the sign of its top edge; the bottom edge has the other sign, and both coefficients
+are ≥ 0.  With free signs the two edges also made staircases (both steps one way), which fitted graded profiles
+better than the gradients' one-coefficient shapes: dev S-shaped gradients of ``--varied 8 84000 --only
+strength_gradient --s-gradients`` (tanh widths 17–26 mm) were named layers in 3 of 8, one of them a falling S taken
+by a "plateau" 25–45 mm whose edges both fell (−0.40 and −0.13 of the strength)."""
+
+
+def _signed(profile: Profile, sign: float) -> Profile:
+    return lambda x, v: sign * profile(x, v)
+
+
 def _describe_layer(m: Member, c, ctx) -> dict:
-    out = {"depth_mm": m.params["depth_mm"], "ratio": 1.0 + float(c[0]) / ctx["cs_mean"],
+    top = PLATEAU_SIGNS.get(m.params.get("band"), 1.0)  # the coefficients' signs (a step's is free)
+    out = {"depth_mm": m.params["depth_mm"], "ratio": 1.0 + top * float(c[0]) / ctx["cs_mean"],
            "edge_mm": m.params["edge_mm"], "shape": m.params["shape"]}
     if m.params["shape"] == "plateau":
         out["bottom_mm"] = m.params["bottom_mm"]
-        out["ratio_below"] = 1.0 + (float(c[0]) + float(c[1])) / ctx["cs_mean"]
+        out["band"] = m.params["band"]
+        out["ratio_below"] = 1.0 + top * (float(c[0]) - float(c[1])) / ctx["cs_mean"]
     return out
 
 
