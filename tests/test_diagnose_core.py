@@ -893,7 +893,8 @@ def test_a_plateau_layers_bottom_edge_goes_back_never_on():
     """A layer is a band of other strength: its bottom edge changes the strength back (or past where it was),
     never further the top edge's way.  With free signs two edges also made two-step staircases, graded profiles
     that fitted an S-shaped gradient better than any one-coefficient gradient shape (dev S-gradients of
-    ``--varied 8 84000 --only strength_gradient --s-gradients``: 3 of 8 named layers).  Each plateau member's
+    ``--varied 8 84000 --only strength_gradient --s-gradients``: 3 of 8 named layers) and a plug's rise better
+    than the plug family (dev wide plug 2 of ``--varied 12 99300``).  Each plateau member's
     bounded (≥ 0) coefficients must give a band: any fit of it has top and bottom steps of opposite sign, and a
     least-squares fit of the family's best plateau to a staircase leaves a large part of it, where a plateau with
     free signs fits it exactly; a band itself is fitted exactly, its ratios read back as they were made."""

@@ -3,7 +3,7 @@ r"""The effect catalogue of CONTRACT §4: each unmodelled effect as a *family* o
 An effect is an extra term of the resistance-mode model (measured x, v and
 a drive Eq. 9; the load cell reads R plus what the force chain adds).  A
 family is wide enough to cover the effect's physical meaning, not one curve:
-a strength layer is any step (sharp or with a soft edge) or plateau in depth;
+a strength layer is any step (sharp or with a soft edge) or plateau (a band) in depth;
 velocity friction is any of several speed laws; sensor lag is a first-order,
 second-order or pure-delay channel; ringing is one or two decaying modes.
 Each family is a list of :class:`Member` shapes.  A member's nonlinear
@@ -355,10 +355,12 @@ def _layer_members() -> tuple[Member, ...]:
 
 PLATEAU_SIGNS = {"stronger": 1.0, "weaker": -1.0}
 """A plateau layer's band and the sign of its top edge; the bottom edge has the other sign, and both coefficients
-are ≥ 0.  With free signs the two edges also made staircases (both steps one way), which fitted graded profiles
-better than the gradients' one-coefficient shapes: dev S-shaped gradients of ``--varied 8 84000 --only
-strength_gradient --s-gradients`` (tanh widths 17–26 mm) were named layers in 3 of 8, one of them a falling S taken
-by a "plateau" 25–45 mm whose edges both fell (−0.40 and −0.13 of the strength)."""
+are ≥ 0.  With free signs the two edges also made staircases (both steps one way), graded profiles that took other
+families' effects: dev wide plug 2 of ``--varied 12 99300 --only plug_growth --wide-plugs`` was named a layer by a
+"plateau" 5–15 mm whose edges both rose (+0.70 and +1.02 of the strength; 996 N² held out against the plug's
+1,060), and the best layer member of each S-shaped gradient that ``--varied 8 84000 --only strength_gradient
+--s-gradients`` names a layer was such a staircase (as bands, 2 of those 3 stay layers: README, forty-fourth
+session)."""
 
 
 def _signed(profile: Profile, sign: float) -> Profile:
