@@ -411,7 +411,7 @@ def _monotone_members() -> list[Member]:
     (sim truth shape 3; seed 53000): 7 of 10 named a gradient with them, 3 of 10 without (the others a
     plateau layer or a capped-ramp plug)."""
     rises = [_rise(c * 1e-3, 75e-3) for c in _MONOTONE_CENTRES_MM]
-    falls = [(lambda x, v, r=r: -r(x, v)) for r in rises]
+    falls = [_signed(r, -1.0) for r in rises]
     return [law("strength", *rises, nonnegative=True, shape="monotone", direction="rising"),
             law("strength", *falls, nonnegative=True, shape="monotone", direction="falling")]
 
