@@ -1,6 +1,12 @@
 """The diagnosis measured on the hold-out truth world (tests/holdout_world.py), which it was never tuned on.
 
-Run: python -m bench.bench_diagnose_holdout [--quick] [--base SEED] [--no-ladder] [--out FILE.jsonl]
+Run: python -m bench.bench_diagnose_holdout [--quick] [--base SEED] [--no-ladder] [--out FILE.jsonl] [--world three]
+     [--ladder-only]
+
+``--world three`` measures on world three (tests/world_three.py) instead, written by the fifty-ninth session
+after the method was frozen and drawn once blind (README): its own pairs, three draws of every effect and three
+outside campaigns.  ``--ladder-only`` runs part 3 alone (with the two nulls it is twinned on), so that it can run
+beside parts 1-2 in a second process.
 
 Every campaign is written as CONTRACT §3 run folders and goes through
 ingest → tare → subtract-inertia → diagnose, as the README says.  Parts:
@@ -38,7 +44,13 @@ from pathlib import Path
 
 from bench.args import check_options
 from pencli import api
-from tests.holdout_world import CATALOGUE, OUTSIDE, make_campaign
+from tests import holdout_world, world_three
+
+WORLDS = {"holdout": holdout_world, "three": world_three}
+WORLD = holdout_world
+CATALOGUE, OUTSIDE = holdout_world.CATALOGUE, holdout_world.OUTSIDE
+PAIRS = (("strength_layer", "load_cell_mass_error"), ("rig_ringing", "sidewall_pressure_growth"),
+         ("propulsion_loss", "strength_gradient"), ("force_drift", "velocity_friction"))
 
 LADDER = (0.04, 0.08, 0.16, 0.32, 0.64)
 SEEN = 0.5
@@ -49,7 +61,7 @@ SIZE_BINS = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, math.inf)
 
 def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
-        campaign = make_campaign(Path(tmp), seed, effects, intensity=intensity)
+        campaign = WORLD.make_campaign(Path(tmp), seed, effects, intensity=intensity)
         db = Path(tmp) / "runs.duckdb"
         api.ingest(campaign.folders, db)
         api.tare_runs(db, ["all"])
@@ -121,8 +133,16 @@ def show(label: str, row: dict) -> None:
 
 
 def main() -> None:
-    global OUT
-    check_options(__doc__, ("--base", "--no-ladder", "--out", "--quick", "--summary"))
+    global OUT, WORLD, OUTSIDE, PAIRS
+    check_options(__doc__, ("--base", "--no-ladder", "--out", "--quick", "--summary", "--world", "--ladder-only"))
+    name = sys.argv[sys.argv.index("--world") + 1] if "--world" in sys.argv else "holdout"
+    if name not in WORLDS:
+        print(f"bench_diagnose_holdout: unknown world {name!r}; expected one of {', '.join(WORLDS)}", file=sys.stderr)
+        raise SystemExit(2)
+    WORLD = WORLDS[name]
+    OUTSIDE = WORLD.OUTSIDE
+    PAIRS = getattr(WORLD, "PAIRS", PAIRS)
+    draws, outside_draws = (3, 3) if WORLD is world_three else (2, 2)
     if "--summary" in sys.argv:
         rows: dict[str, list] = {"accuracy": [], "nulls": [], "ladder": []}
         for line in Path(sys.argv[sys.argv.index("--summary") + 1]).read_text().splitlines():
@@ -136,35 +156,38 @@ def main() -> None:
     rows = {"accuracy": [], "nulls": [], "ladder": []}
     base = int(sys.argv[sys.argv.index("--base") + 1]) if "--base" in sys.argv else 70000
     no_ladder = "--no-ladder" in sys.argv
-    n_nulls = 4 if quick else 20
+    ladder_only = "--ladder-only" in sys.argv
+    if ladder_only and (no_ladder or quick):
+        print("bench_diagnose_holdout: --ladder-only runs the whole ladder; it takes neither --no-ladder nor --quick",
+              file=sys.stderr)
+        raise SystemExit(2)
+    n_nulls = 2 if ladder_only else 4 if quick else 20
     for i in range(n_nulls):
         rows["accuracy"].append(keep("accuracy", run(base + i)))
         show(f"null {i}", rows["accuracy"][-1])
-    for k, name in enumerate(CATALOGUE):
-        for rep in range(1 if quick else 2):
-            rows["accuracy"].append(keep("accuracy", with_size(run(base + 100 + 2 * k + rep, [name]))))
-            show(f"{name} {rep}", rows["accuracy"][-1])
-    pairs = [("strength_layer", "load_cell_mass_error"), ("rig_ringing", "sidewall_pressure_growth"),
-             ("propulsion_loss", "strength_gradient"), ("force_drift", "velocity_friction")]
-    for k, pair in enumerate(pairs[:1] if quick else pairs):
+    for k, effect in enumerate(() if ladder_only else CATALOGUE):
+        for rep in range(1 if quick else draws):
+            rows["accuracy"].append(keep("accuracy", with_size(run(base + 100 + draws * k + rep, [effect]))))
+            show(f"{effect} {rep}", rows["accuracy"][-1])
+    for k, pair in enumerate(() if ladder_only else PAIRS[:1] if quick else PAIRS):
         rows["accuracy"].append(keep("accuracy", with_size(run(base + 200 + k, list(pair)))))
         show(f"pair {k}", rows["accuracy"][-1])
-    for k in range(1 if quick else 2):
+    for k in range(0 if ladder_only else 1 if quick else outside_draws):
         rows["accuracy"].append(keep("accuracy", with_size(run(base + 300 + k, [OUTSIDE]))))
         show(f"outside {k}", rows["accuracy"][-1])
-    if not quick:
+    if not (quick or ladder_only):
         for i in range(40):
             rows["nulls"].append(keep("nulls", run(base + 1000 + i)))
             show(f"extra null {i}", rows["nulls"][-1])
     ladder_seeds = [] if no_ladder else [base + i for i in range(2)]  # twins of the first accuracy nulls
     null_ms = {r["seed"]: r["baseline_ms_n2"] for r in rows["accuracy"] if not r["truth"]}
-    for name in CATALOGUE:
+    for effect in CATALOGUE:
         for seed in ladder_seeds:
             for intensity in (LADDER[1:4:2] if quick else LADDER):
-                row = run(seed, [name], intensity)
+                row = run(seed, [effect], intensity)
                 row["size"] = math.sqrt(max(row["baseline_ms_n2"] - null_ms[seed], 0.0)) / row["noise_n"]
                 rows["ladder"].append(keep("ladder", row))
-                show(f"ladder {name} x{intensity} (size {row['size']:.2f})", row)
+                show(f"ladder {effect} x{intensity} (size {row['size']:.2f})", row)
     summarise(rows, n_nulls)
 
 
@@ -176,9 +199,9 @@ def summarise(rows: dict, n_nulls: int) -> None:
     effect_rows = [r for r in acc if r["truth"]]
     shrinks = [r["shrink_of_truth"] for r in singles if r["shrink_of_truth"] is not None and right(r)]
     print()
-    print("HOLD-OUT WORLD (never tuned on)")
+    print("WORLD THREE (drawn blind once, README)" if WORLD is world_three else "HOLD-OUT WORLD (never tuned on)")
     print(f"verdicts right (effect, pair and outside campaigns): {sum(map(right, effect_rows))} of {len(effect_rows)} "
-          f"({100 * sum(map(right, effect_rows)) / len(effect_rows):.0f} %)")
+          f"({100 * sum(map(right, effect_rows)) / max(len(effect_rows), 1):.0f} %)")
     print(f"verdicts right, all campaigns incl. {n_nulls} nulls:        {sum(map(right, acc))} of {len(acc)} "
           f"({100 * sum(map(right, acc)) / len(acc):.0f} %)")
     sized = [r for r in effect_rows if "size" in r]
