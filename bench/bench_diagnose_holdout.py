@@ -3,7 +3,7 @@
 Run: python -m bench.bench_diagnose_holdout [--quick] [--base SEED] [--no-ladder] [--out FILE.jsonl] [--world three]
      [--ladder-only]
 
-``--world three`` measures on world three (tests/world_three.py) instead, written by the fifty-ninth session
+``--world three`` measures on world three (tests/world_three.py) instead, written by the forty-sixth session
 after the method was frozen and drawn once blind (README): its own pairs, three draws of every effect and three
 outside campaigns.  ``--ladder-only`` runs part 3 alone (with the two nulls it is twinned on), so that it can run
 beside parts 1-2 in a second process.
@@ -235,9 +235,13 @@ def summarise(rows: dict, n_nulls: int) -> None:
         print(f"{name:26s} " + " ".join(f"{c:>7s}" for c in cells))
     drive = [r for r in rows["ladder"] if r["truth"] == ["propulsion_loss"]]
     if drive:
+        def lost(row: dict) -> float:  # the share of the launcher's energy lost, as each world names it
+            form = row["forms"][0]
+            return form["loss"] if "loss" in form else form["energy_lost"]
+
         print("propulsion_loss by energy lost (its size above is ~0: the resistance view does not see it): "
-              + ", ".join(f"{100 * r['forms'][0]['loss']:.1f} % {'found' if detected(r) else 'missed'}"
-                          for r in sorted(drive, key=lambda r: r["forms"][0]["loss"])))
+              + ", ".join(f"{100 * lost(r):.1f} % {'found' if detected(r) else 'missed'}"
+                          for r in sorted(drive, key=lost)))
 
 
 if __name__ == "__main__":

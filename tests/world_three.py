@@ -4,12 +4,17 @@ The development world (pencli/acquire/truth.py, sim.py) and the hold-out
 world (tests/holdout_world.py) were both written by the sessions that
 developed the diagnosis, and the hold-out world has been drawn more than
 sixty times with its misses read after each draw.  This world was written
-by the fifty-ninth session, which had not developed the method, from the
-CONTRACT and the paper alone, to stand in for the outside check's
-independent simulator: other code, another sensor chain, other effect
-forms.  Its first measurement (bench/bench_diagnose_holdout.py --world
-three) is the one reported as blind; anything drawn from it after a
-change that was made while looking at its results is not.
+by the forty-sixth session of issue 11, which had not developed the method,
+to stand in for the outside check's independent simulator: other code,
+another sensor chain, other effect forms.  It is not innocent of the
+method: its author had read the README's description of the families and
+the other two worlds' effect lists, and chose forms by their physical
+meaning, neither to match nor to dodge a family.  Its one sanity check
+through pen before the draw was `pen fit` on null campaigns (which found
+a DC gain error of its Chebyshev filter, see `_anti_alias`); no diagnosis was run on it before
+its first measurement (bench/bench_diagnose_holdout.py --world three),
+which is the one reported as blind.  Anything drawn from it after a change
+made while looking at its results is not.
 
 Nothing here is imported by pen.  What it does differently:
 
