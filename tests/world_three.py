@@ -152,7 +152,11 @@ def draw_effect(name: str, rng: np.random.Generator, intensity: float = 1.0) -> 
 
 @dataclass
 class Shot:
-    """One run's truth: blade, launcher, block and sensor chain."""
+    """One run's truth: blade, launcher, block and sensor chain.
+
+    Its first fields are those of the hold-out world's ``Shot`` (a rig has these quantities), written again on
+    purpose: the truth worlds share no code with each other or with pen, so that no change to one moves another.
+    """
 
     width_m: float
     thickness_m: float
