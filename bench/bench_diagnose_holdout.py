@@ -29,7 +29,7 @@ leave at least :data:`SEEN` × the noise after the baseline refit: a campaign wh
 always counts: the resistance view does not see it (its size is ~0), the drive view does.
 
 Prints each campaign, then the figures; ``--out FILE.jsonl`` appends every row as it is made, and
-``--summary FILE.jsonl`` prints the figures from such a file again.
+``--summary FILE.jsonl`` prints the figures from such a file again (give it the ``--world`` it was drawn on).
 """
 
 from __future__ import annotations
@@ -47,10 +47,10 @@ from pencli import api
 from tests import holdout_world, world_three
 
 WORLDS = {"holdout": holdout_world, "three": world_three}
+"""The truth worlds by ``--world`` name; each declares its CATALOGUE, OUTSIDE effect, PAIRS, DRAWS per effect,
+OUTSIDE_DRAWS and TITLE."""
 WORLD = holdout_world
-CATALOGUE, OUTSIDE = holdout_world.CATALOGUE, holdout_world.OUTSIDE
-PAIRS = (("strength_layer", "load_cell_mass_error"), ("rig_ringing", "sidewall_pressure_growth"),
-         ("propulsion_loss", "strength_gradient"), ("force_drift", "velocity_friction"))
+CATALOGUE, OUTSIDE = WORLD.CATALOGUE, WORLD.OUTSIDE
 
 LADDER = (0.04, 0.08, 0.16, 0.32, 0.64)
 SEEN = 0.5
@@ -133,16 +133,15 @@ def show(label: str, row: dict) -> None:
 
 
 def main() -> None:
-    global OUT, WORLD, OUTSIDE, PAIRS
+    global OUT, WORLD, CATALOGUE, OUTSIDE
     check_options(__doc__, ("--base", "--no-ladder", "--out", "--quick", "--summary", "--world", "--ladder-only"))
     name = sys.argv[sys.argv.index("--world") + 1] if "--world" in sys.argv else "holdout"
     if name not in WORLDS:
         print(f"bench_diagnose_holdout: unknown world {name!r}; expected one of {', '.join(WORLDS)}", file=sys.stderr)
         raise SystemExit(2)
     WORLD = WORLDS[name]
-    OUTSIDE = WORLD.OUTSIDE
-    PAIRS = getattr(WORLD, "PAIRS", PAIRS)
-    draws, outside_draws = (3, 3) if WORLD is world_three else (2, 2)
+    CATALOGUE, OUTSIDE = WORLD.CATALOGUE, WORLD.OUTSIDE
+    draws, outside_draws = WORLD.DRAWS, WORLD.OUTSIDE_DRAWS
     if "--summary" in sys.argv:
         rows: dict[str, list] = {"accuracy": [], "nulls": [], "ladder": []}
         for line in Path(sys.argv[sys.argv.index("--summary") + 1]).read_text().splitlines():
@@ -169,7 +168,7 @@ def main() -> None:
         for rep in range(1 if quick else draws):
             rows["accuracy"].append(keep("accuracy", with_size(run(base + 100 + draws * k + rep, [effect]))))
             show(f"{effect} {rep}", rows["accuracy"][-1])
-    for k, pair in enumerate(() if ladder_only else PAIRS[:1] if quick else PAIRS):
+    for k, pair in enumerate(() if ladder_only else WORLD.PAIRS[:1] if quick else WORLD.PAIRS):
         rows["accuracy"].append(keep("accuracy", with_size(run(base + 200 + k, list(pair)))))
         show(f"pair {k}", rows["accuracy"][-1])
     for k in range(0 if ladder_only else 1 if quick else outside_draws):
@@ -199,7 +198,7 @@ def summarise(rows: dict, n_nulls: int) -> None:
     effect_rows = [r for r in acc if r["truth"]]
     shrinks = [r["shrink_of_truth"] for r in singles if r["shrink_of_truth"] is not None and right(r)]
     print()
-    print("WORLD THREE (drawn blind once, README)" if WORLD is world_three else "HOLD-OUT WORLD (never tuned on)")
+    print(WORLD.TITLE)
     print(f"verdicts right (effect, pair and outside campaigns): {sum(map(right, effect_rows))} of {len(effect_rows)} "
           f"({100 * sum(map(right, effect_rows)) / max(len(effect_rows), 1):.0f} %)")
     print(f"verdicts right, all campaigns incl. {n_nulls} nulls:        {sum(map(right, acc))} of {len(acc)} "

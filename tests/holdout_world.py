@@ -38,6 +38,12 @@ CATALOGUE = ("strength_layer", "strength_gradient", "plug_growth", "sidewall_pre
              "rate_strength", "load_cell_mass_error", "sensor_lag", "rig_ringing", "force_drift", "propulsion_loss")
 OUTSIDE = "periodic_crushing"
 """An effect outside the catalogue: strength oscillating sinusoidally with depth (crushing cycles)."""
+PAIRS = (("strength_layer", "load_cell_mass_error"), ("rig_ringing", "sidewall_pressure_growth"),
+         ("propulsion_loss", "strength_gradient"), ("force_drift", "velocity_friction"))
+"""The hold-out bench's two-effect campaigns."""
+DRAWS, OUTSIDE_DRAWS = 2, 2
+"""Campaigns per catalogue effect, and outside the catalogue, in one draw of the hold-out bench."""
+TITLE = "HOLD-OUT WORLD (never tuned on)"
 
 MATERIALS = {  # measured properties and true Eq. 9 coefficients (file units)
     "mpacs_c": dict(density_kg_m3=400.0, microstructure_strength_kpa=6000.0, friction_coefficient=0.4,

@@ -66,6 +66,9 @@ PAIRS = tuple(tuple(sorted(p)) for p in (
     ("force_drift", "strength_layer"), ("load_cell_mass_error", "sidewall_pressure_growth"),
     ("propulsion_loss", "strength_layer")))
 """Two-effect campaigns: every catalogue effect in at least one pair, written down before any was run."""
+DRAWS, OUTSIDE_DRAWS = 3, 3
+"""Campaigns per catalogue effect, and outside the catalogue, in one draw of the hold-out bench."""
+TITLE = "WORLD THREE (drawn blind once at 74e4284, --base 950000; README)"
 
 TABLE_1 = {  # paper Table 1 (6061 Al blades): measured properties and the fitted Eq. 9 coefficients
     "grill_brick": dict(density=110.0, strength_kpa=1630.0, mu=0.75, Cs=1.6, P_kpa=7.07, C_kpa_s_m=0.0, K=46.0),
