@@ -112,8 +112,30 @@ def test_the_anti_alias_filter_passes_white_noise_in_its_noise_bandwidth():
     assert spread[3000.0] / spread[0.0] == pytest.approx(expected, rel=0.06)
 
 
+def test_resonant_noise_has_its_level_and_its_band_and_leaves_other_draws_alone():
+    """The narrow-band pick-up: its standard deviation as set, its power where its mode is (Welch, the peak
+    within the mode's band), and a rig without it records exactly what it did before the key existed."""
+    from scipy.signal import welch
+
+    from pencli import api
+
+    def pre_trigger(**extra):
+        rig = {"kind": "rig", "name": "rn", "seed": 9, "force_noise_n": 0.2, **extra}
+        columns = api.acquire(springs=2, penetrator="al6061_1mm", material="mpacs_c", rig=rig).run.columns
+        return columns["fz_n"][columns["time_s"] < -0.01]
+
+    plain = pre_trigger()
+    hum = pre_trigger(resonant_noise_n=3.0, resonant_noise_hz=700.0, resonant_noise_damping=0.02)
+    assert np.std(hum - plain) == pytest.approx(3.0, rel=0.15)  # 0.2 s of a narrow band: ~20 cycles of its width
+    freq, power = welch(hum - plain, fs=30000.0, nperseg=4096)
+    assert abs(freq[np.argmax(power)] - 700.0) < 2 * 0.02 * 700.0 + 30000.0 / 4096
+    assert np.array_equal(pre_trigger(resonant_noise_n=0.0, resonant_noise_hz=900.0), plain)
+
+
 @pytest.mark.parametrize("content,words", [
     ({"kind": "rig", "name": "x", "sampling_rate": 3}, "unknown key 'sampling_rate'"),
+    ({"kind": "rig", "name": "x", "resonant_noise_hz": 20000.0}, "resonant_noise_hz"),
+    ({"kind": "rig", "name": "x", "resonant_noise_damping": 1.5}, "resonant_noise_damping"),
     ({"kind": "rig", "name": "x", "effects": [{"name": "gremlins"}]}, "unknown effect 'gremlins'"),
     ({"kind": "rig", "name": "x", "effects": [{"name": "strength_layer", "depht_mm": 3}]}, "depht_mm"),
     ({"kind": "rig", "name": "x", "effects": [{"name": "strength_gradient", "shape": 3, "kink_mm": -5}]},

@@ -27,6 +27,11 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
                       "acting on signal and noise alike (0: none) [Hz]", 0.0),
     "converter_noise_n": ("white noise each force channel's converter adds after the anti-alias filter "
                           "(its own noise and quantisation), standard deviation [N]", 0.0),
+    "resonant_noise_n": ("narrow-band force noise, as a floor vibration or a pump that the load cell picks up: "
+                         "white noise through a damped mode, standard deviation [N]", 0.0),
+    "resonant_noise_hz": ("that mode's frequency [Hz]", 500.0),
+    "resonant_noise_damping": ("that mode's damping ratio (its band is about 2 × damping × frequency wide) [–]",
+                               0.05),
     "force_offsets_n": ("untared offsets of fx, fy, fz [N]", [-13.2, -9.3, -0.8]),
     "torque_offsets_nm": ("untared offsets of tx, ty, tz [N·m]", [0.07, 0.04, 0.044]),
     "lateral_fraction": ("side force as a fraction of the axial resistance [–]", 0.02),
@@ -100,6 +105,14 @@ def validate_rig(data: Any, where: str) -> RigConfig:
     for key in ("force_noise_n", "torque_noise_nm", "correlated_noise_n", "lateral_fraction", "converter_noise_n"):
         _number(where, key, values[key], minimum=0)
     _number(where, "correlated_noise_ms", values["correlated_noise_ms"], positive=True)
+    _number(where, "resonant_noise_n", values["resonant_noise_n"], minimum=0)
+    if not 0 < _number(where, "resonant_noise_hz", values["resonant_noise_hz"], positive=True) \
+            < 0.5 * float(values["sampling_rate_hz"]):
+        raise ParameterError(f"{where}: key 'resonant_noise_hz': got {values['resonant_noise_hz']!r}; expected a "
+                             f"frequency below half the sampling rate ({0.5 * float(values['sampling_rate_hz']):g} Hz)")
+    if not 0 < _number(where, "resonant_noise_damping", values["resonant_noise_damping"], positive=True) < 1:
+        raise ParameterError(f"{where}: key 'resonant_noise_damping': got {values['resonant_noise_damping']!r}; "
+                             f"expected a damping ratio between 0 and 1")
     _number(where, "position_noise_um", values["position_noise_um"], minimum=0)
     _number(where, "position_noise_ms", values["position_noise_ms"], minimum=0)
     corner = _number(where, "anti_alias_hz", values["anti_alias_hz"], minimum=0)

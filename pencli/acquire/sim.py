@@ -83,6 +83,25 @@ def _lag(signal: np.ndarray, tau_s: float, rate_hz: float, shape: int) -> np.nda
     return out
 
 
+def _resonant_noise(rng: np.random.Generator, n: int, rate_hz: float, level_n: float, frequency_hz: float,
+                    damping: float, corner_hz: float) -> np.ndarray:
+    """Three channels of white noise through one damped mode (the impulse-invariant two-pole resonator of
+    ``frequency_hz`` and ``damping``), scaled to ``level_n`` standard deviation [N] and passed through the
+    anti-alias low-pass of corner ``corner_hz`` (0: none), as the gauges' own noise is; started settled (the first
+    half second is run in and dropped)."""
+    from scipy.signal import butter, lfilter, sosfilt
+
+    w0 = 2 * math.pi * frequency_hz / rate_hz
+    r = math.exp(-damping * w0)
+    wd = w0 * math.sqrt(1 - damping * damping)
+    lead = int(0.5 * rate_hz)
+    out = lfilter([1.0], [1.0, -2 * r * math.cos(wd), r * r], rng.normal(0, 1, (n + lead, 3)), axis=0)[lead:]
+    out *= level_n / np.std(out, axis=0)
+    if corner_hz > 0:
+        out = sosfilt(butter(4, corner_hz, fs=rate_hz, output="sos"), out, axis=0)
+    return out
+
+
 def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSetup,
             position_cal: PositionCalibration, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """Encoder counts and the six calibrated channels (untared) over the whole recording."""
@@ -156,6 +175,10 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
     floor = float(rig["converter_noise_n"])
     if floor > 0:  # after the filter, and drawn after everything else for the same reason
         forces[:, :3] += rng.normal(0, floor, (n_total, 3))
+    resonant = float(rig["resonant_noise_n"])
+    if resonant > 0:  # the gauges' narrow-band pick-up: drawn last for the same reason, filtered as the rest was
+        forces[:, :3] += _resonant_noise(rng, n_total, rate, resonant, float(rig["resonant_noise_hz"]),
+                                         float(rig["resonant_noise_damping"]), corner)
     phase = float(rig["encoder_phase"])  # the counter is zeroed at rest, wherever the count edges lie
     counts = (np.round(u * 1e3 * position_cal.counts_per_mm + phase) - round(phase)).astype(np.int64)
     return counts, forces
