@@ -3,7 +3,7 @@
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
      [--two-slopes] [--drift-friction] [--weak-drifts] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs]
      [--short-gradients] [--bessel-lags] [--s-gradients]
-     [--few-coloured] [--unknown-material]
+     [--few-coloured] [--unknown-material] [--resonant-noise]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -24,6 +24,10 @@ truth shapes 3 and 4; its own stream).
 ``--unknown-material``: every campaign in a simulant no table holds: density 100–600 kg/m³, strength
 1–9 MPa, friction 0.2–0.9, strength factor 0.4–1.4, sidewall pressure 5–40 kPa, inertia coefficient 20–60, and
 half of them damped (0.2–3 kPa·s/m; the tabled simulants are not), recorded as they are true (its own stream).
+``--resonant-noise``: every campaign's gauges also pick up narrow-band noise (the sim rig's ``resonant_noise_*``):
+a level of 0.5–1.2 × its white noise, at 150–3000 Hz, damping ratio 0.02–0.3, campaign i's drawn from the stream
+``[SEED, i, 78]`` (the forty-sixth session's test of a lead from world three: ``--nulls 30 213000
+--resonant-noise`` called null 19, whose noise model reads an anti-alias filter the rig does not have).
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
 random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
@@ -206,12 +210,25 @@ def unknown_material(campaigns, seed):
     return out
 
 
+def resonant_noise(campaigns, seed):
+    """Narrow-band gauge noise added to every campaign's rig (see the module's doc)."""
+    out = []
+    for i, (label, material, effects, truth, nuisances) in enumerate(campaigns):
+        own = np.random.default_rng([seed, i, 78])
+        extra = dict(nuisances["rig_extra"])
+        level, hz, damping = own.uniform(0.5, 1.2) * extra["force_noise_n"], own.uniform(150, 3000), \
+            own.uniform(0.02, 0.3)
+        extra.update(resonant_noise_n=float(level), resonant_noise_hz=float(hz), resonant_noise_damping=float(damping))
+        out.append((label, material, effects, truth, dict(nuisances, rig_extra=extra)))
+    return out
+
+
 REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--weak-drifts": weak_drifts,
            "--slow-speeds": slow_speeds,
            "--wide-friction": wide_friction, "--wide-plugs": wide_plugs,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
            "--short-gradients": short_gradients, "--few-coloured": few_coloured,
-           "--unknown-material": unknown_material}
+           "--unknown-material": unknown_material, "--resonant-noise": resonant_noise}
 """The scratch sets' flags and what each redraws (see the module's doc)."""
 
 
