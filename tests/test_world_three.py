@@ -75,9 +75,18 @@ def test_energy_balances_to_the_integrators_accuracy():
 
 
 def test_a_propulsion_loss_takes_the_share_of_energy_it_says():
+    """Kinetic energy at contact = the spring's work over the stand-off (less the lost share: of η, or the guide
+    friction's constant force ℓ·η·n·k·stroke/2 over the stand-off) + gravity's, in closed form."""
     plain = w3.motion(_shot(springs=2))
     for form in ("efficiency", "guide_friction"):
-        lossy = w3.motion(_shot(springs=2, effects=[dict(name="propulsion_loss", form=form, energy_lost=0.2)]))
+        shot = _shot(springs=2, effects=[dict(name="propulsion_loss", form=form, energy_lost=0.2)])
+        lossy = w3.motion(shot)
+        n, k, stroke, s0 = shot.springs, shot.stiffness_n_m, shot.free_m - shot.compressed_m, shot.standoff_m
+        m_eff = shot.sprung_kg + n * shot.spring_kg / 3
+        spring = shot.efficiency * n * k * (stroke * s0 - 0.5 * s0 ** 2)
+        lost = 0.2 * spring if form == "efficiency" else 0.2 * shot.efficiency * n * 0.5 * k * stroke * s0
+        kinetic = 0.5 * m_eff * lossy.contact_speed_m_s ** 2
+        assert kinetic == pytest.approx(spring - lost + m_eff * w3.G * s0, rel=1e-8)
         # gravity's work is the same in both; the spring's and the guide's scale with the loss
         assert lossy.contact_speed_m_s < plain.contact_speed_m_s * 0.95
 

@@ -452,8 +452,9 @@ def _encoder_counts(disp: np.ndarray, enc: dict) -> np.ndarray:
     """Counts of a ×4-decoded quadrature encoder whose four edges per line are off by ``edge_error`` counts."""
     y = disp / enc["step_m"] + enc["phase"]
     k = np.floor(y)
+    line = k.astype(np.int64)
     dk = np.asarray(enc["edge_error"])
-    counts = k - 1 + (y >= k + dk[k.astype(np.int64) % 4]) + (y >= k + 1 + dk[(k.astype(np.int64) + 1) % 4])
+    counts = k - 1 + (y >= k + dk[line % 4]) + (y >= k + 1 + dk[(line + 1) % 4])
     return counts - counts[0]
 
 

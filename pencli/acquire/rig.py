@@ -106,11 +106,11 @@ def validate_rig(data: Any, where: str) -> RigConfig:
         _number(where, key, values[key], minimum=0)
     _number(where, "correlated_noise_ms", values["correlated_noise_ms"], positive=True)
     _number(where, "resonant_noise_n", values["resonant_noise_n"], minimum=0)
-    if not 0 < _number(where, "resonant_noise_hz", values["resonant_noise_hz"], positive=True) \
-            < 0.5 * float(values["sampling_rate_hz"]):
+    if _number(where, "resonant_noise_hz", values["resonant_noise_hz"], positive=True) \
+            >= 0.5 * float(values["sampling_rate_hz"]):
         raise ParameterError(f"{where}: key 'resonant_noise_hz': got {values['resonant_noise_hz']!r}; expected a "
                              f"frequency below half the sampling rate ({0.5 * float(values['sampling_rate_hz']):g} Hz)")
-    if not 0 < _number(where, "resonant_noise_damping", values["resonant_noise_damping"], positive=True) < 1:
+    if _number(where, "resonant_noise_damping", values["resonant_noise_damping"], positive=True) >= 1:
         raise ParameterError(f"{where}: key 'resonant_noise_damping': got {values['resonant_noise_damping']!r}; "
                              f"expected a damping ratio between 0 and 1")
     _number(where, "position_noise_um", values["position_noise_um"], minimum=0)
