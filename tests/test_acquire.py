@@ -112,6 +112,43 @@ def test_the_anti_alias_filter_passes_white_noise_in_its_noise_bandwidth():
     assert spread[3000.0] / spread[0.0] == pytest.approx(expected, rel=0.06)
 
 
+@pytest.mark.parametrize("kind,order", [("butterworth", 4), ("bessel", 4), ("bessel", 8), ("chebyshev", 4),
+                                        ("chebyshev", 5)])
+def test_each_kind_of_anti_alias_filter_has_its_corner_ripple_and_rest_level(kind, order):
+    """The rig's anti-alias kinds by their definitions, read from the same white noise with and without the filter
+    (the ratio of their spectra is |H|²): a Butterworth or Bessel (magnitude-normalised) is 3 dB down at its corner;
+    a Chebyshev type I of 3 dB ripple, scaled to a gain of 1 at 0 Hz, swings by a factor 2 in power over its pass
+    band (between 1 and 2 from a trough at 0 Hz for an even order, 0.5 and 1 from a peak for an odd one) and ends
+    on a trough at its corner; and every kind reads a 100 N rest level as
+    100 N (unscaled, an even-order Chebyshev reads it 29 % low)."""
+    from scipy.signal import welch
+
+    from pencli import api
+
+    def pre_trigger(**extra):
+        rig = {"kind": "rig", "name": "k", "seed": 5, "force_noise_n": 4.0, "force_offsets_n": [0.0, 0.0, 100.0],
+               "anti_alias_ripple_db": 3.0, **extra}
+        columns = api.acquire(springs=2, penetrator="al6061_1mm", material="mpacs_c", rig=rig).run.columns
+        return columns["fz_n"][columns["time_s"] < -0.01]
+
+    plain = pre_trigger()
+    filtered = pre_trigger(anti_alias_hz=3000.0, anti_alias_kind=kind, anti_alias_order=order)
+    assert np.mean(filtered) == pytest.approx(np.mean(plain), abs=0.2)
+    freq, p0 = welch(plain - plain.mean(), fs=30000.0, nperseg=1024)
+    _, p1 = welch(filtered - filtered.mean(), fs=30000.0, nperseg=1024)
+    gain = p1 / p0
+    at_corner = float(np.interp(3000.0, freq, gain))
+    passband = gain[(freq > 100.0) & (freq < 2900.0)]
+    if kind == "chebyshev":
+        top = 2.0 if order % 2 == 0 else 1.0  # an even order starts at a trough, an odd one at a peak
+        assert np.max(passband) == pytest.approx(top, rel=0.12)
+        assert np.min(passband) == pytest.approx(top / 2.0, rel=0.12)
+        assert at_corner == pytest.approx(top / 2.0, rel=0.12)
+    else:
+        assert at_corner == pytest.approx(0.5, rel=0.12)
+        assert np.max(passband) < 1.1
+
+
 def test_resonant_noise_has_its_level_and_its_band_and_leaves_other_draws_alone():
     """The narrow-band pick-up: its standard deviation as set, its power where its mode is (Welch, the peak
     within the mode's band), and a rig without it records exactly what it did before the key existed."""
@@ -144,6 +181,9 @@ def test_resonant_noise_has_its_level_and_its_band_and_leaves_other_draws_alone(
     ({"kind": "rig", "name": "x", "encoder_phase": 1.0}, "encoder_phase"),
     ({"kind": "rig", "name": "x", "anti_alias_hz": 15000.0}, "anti_alias_hz"),
     ({"kind": "rig", "name": "x", "converter_noise_n": -0.1}, "converter_noise_n"),
+    ({"kind": "rig", "name": "x", "anti_alias_kind": "elliptic"}, "anti_alias_kind"),
+    ({"kind": "rig", "name": "x", "anti_alias_order": 2.5}, "anti_alias_order"),
+    ({"kind": "rig", "name": "x", "anti_alias_ripple_db": 0}, "anti_alias_ripple_db"),
 ])
 def test_bad_rig_file_is_one_line(workspace, runner, content, words):
     rig = workspace / "rig.yaml"

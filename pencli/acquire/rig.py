@@ -23,8 +23,13 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
     "torque_noise_nm": ("white noise of each torque channel, standard deviation [N·m]", 0.01),
     "correlated_noise_n": ("low-frequency (AR(1)) force noise, standard deviation [N]", 0.0),
     "correlated_noise_ms": ("correlation time of that noise [ms]", 2.0),
-    "anti_alias_hz": ("corner of the force and torque channels' anti-alias low-pass, a 4th-order Butterworth "
-                      "acting on signal and noise alike (0: none) [Hz]", 0.0),
+    "anti_alias_hz": ("corner of the force and torque channels' anti-alias low-pass, acting on signal and noise "
+                      "alike (0: none): its -3 dB point (Butterworth, Bessel) or the end of its ripple band "
+                      "(Chebyshev) [Hz]", 0.0),
+    "anti_alias_kind": ("that low-pass's kind: butterworth, bessel or chebyshev (type I, its gain at 0 Hz "
+                        "scaled to 1) [–]", "butterworth"),
+    "anti_alias_order": ("that low-pass's order [–]", 4),
+    "anti_alias_ripple_db": ("a chebyshev low-pass's pass-band ripple, peak to trough [dB]", 0.5),
     "converter_noise_n": ("white noise each force channel's converter adds after the anti-alias filter "
                           "(its own noise and quantisation), standard deviation [N]", 0.0),
     "resonant_noise_n": ("narrow-band force noise, as a floor vibration or a pump that the load cell picks up: "
@@ -56,6 +61,7 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
 """Every rig-file key: (meaning with unit, default)."""
 
 DRIVER_NAMES = ("sim", "nidaq")
+ANTI_ALIAS_KINDS = ("butterworth", "bessel", "chebyshev")
 
 
 @dataclass(frozen=True)
@@ -119,6 +125,13 @@ def validate_rig(data: Any, where: str) -> RigConfig:
     if corner >= 0.5 * float(values["sampling_rate_hz"]):
         raise ParameterError(f"{where}: key 'anti_alias_hz': got {values['anti_alias_hz']!r}; expected 0 (none) or "
                              f"a corner below half the sampling rate ({0.5 * float(values['sampling_rate_hz']):g} Hz)")
+    if values["anti_alias_kind"] not in ANTI_ALIAS_KINDS:
+        raise ParameterError(f"{where}: key 'anti_alias_kind': got {values['anti_alias_kind']!r}; expected one of "
+                             f"{', '.join(ANTI_ALIAS_KINDS)}")
+    order = values["anti_alias_order"]
+    if isinstance(order, bool) or not isinstance(order, int) or not 1 <= order <= 10:
+        raise ParameterError(f"{where}: key 'anti_alias_order': got {order!r}; expected a whole number from 1 to 10")
+    _number(where, "anti_alias_ripple_db", values["anti_alias_ripple_db"], positive=True)
     _number(where, "strength_scale", values["strength_scale"], positive=True)
     _number(where, "surface_offset_error_mm", values["surface_offset_error_mm"])
     if not 0.0 <= _number(where, "encoder_phase", values["encoder_phase"]) < 1.0:

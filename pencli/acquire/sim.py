@@ -83,13 +83,32 @@ def _lag(signal: np.ndarray, tau_s: float, rate_hz: float, shape: int) -> np.nda
     return out
 
 
+def anti_alias_sos(rig: RigConfig, rate_hz: float) -> np.ndarray | None:
+    """The rig's anti-alias low-pass at ``rate_hz`` as second-order sections, or None when it has none: a
+    Butterworth, a Bessel (its -3 dB point at the corner) or a Chebyshev type I (ripple up to the corner, its gain
+    at 0 Hz scaled to 1, as a converter calibrated at rest reads it) of the rig's order."""
+    corner = float(rig["anti_alias_hz"])
+    if corner <= 0:
+        return None
+    from scipy.signal import bessel, butter, cheby1
+
+    kind, order = rig["anti_alias_kind"], int(rig["anti_alias_order"])
+    if kind == "bessel":
+        return bessel(order, corner, fs=rate_hz, norm="mag", output="sos")
+    if kind == "chebyshev":
+        sos = cheby1(order, float(rig["anti_alias_ripple_db"]), corner, fs=rate_hz, output="sos")
+        sos[0, :3] /= np.prod(np.sum(sos[:, :3], axis=1) / np.sum(sos[:, 3:], axis=1))
+        return sos
+    return butter(order, corner, fs=rate_hz, output="sos")
+
+
 def _resonant_noise(rng: np.random.Generator, n: int, rate_hz: float, level_n: float, frequency_hz: float,
-                    damping: float, corner_hz: float) -> np.ndarray:
+                    damping: float, sos: np.ndarray | None) -> np.ndarray:
     """Three channels of white noise through one damped mode (the impulse-invariant two-pole resonator of
     ``frequency_hz`` and ``damping``), scaled to ``level_n`` standard deviation [N] and passed through the
-    anti-alias low-pass of corner ``corner_hz`` (0: none), as the gauges' own noise is; started settled (the first
+    anti-alias low-pass ``sos`` (None: none), as the gauges' own noise is; started settled (the first
     half second is run in and dropped)."""
-    from scipy.signal import butter, lfilter, sosfilt
+    from scipy.signal import lfilter, sosfilt
 
     w0 = 2 * math.pi * frequency_hz / rate_hz
     r = math.exp(-damping * w0)
@@ -97,8 +116,8 @@ def _resonant_noise(rng: np.random.Generator, n: int, rate_hz: float, level_n: f
     lead = int(0.5 * rate_hz)
     out = lfilter([1.0], [1.0, -2 * r * math.cos(wd), r * r], rng.normal(0, 1, (n + lead, 3)), axis=0)[lead:]
     out *= level_n / np.std(out, axis=0)
-    if corner_hz > 0:
-        out = sosfilt(butter(4, corner_hz, fs=rate_hz, output="sos"), out, axis=0)
+    if sos is not None:
+        out = sosfilt(sos, out, axis=0)
     return out
 
 
@@ -159,11 +178,10 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
     forces[:, 3] = to[0] - LEVER_ARM_M * 0.6 * side + rng.normal(0, noise_t, n_total)
     forces[:, 4] = to[1] + LEVER_ARM_M * 0.8 * side + rng.normal(0, noise_t, n_total)
     forces[:, 5] = to[2] + rng.normal(0, noise_t, n_total)
-    corner = float(rig["anti_alias_hz"])
-    if corner > 0:  # the acquisition's anti-alias filter: signal and noise alike, settled at the rest level
-        from scipy.signal import butter, sosfilt, sosfilt_zi
+    sos = anti_alias_sos(rig, rate)
+    if sos is not None:  # the acquisition's anti-alias filter: signal and noise alike, settled at the rest level
+        from scipy.signal import sosfilt, sosfilt_zi
 
-        sos = butter(4, corner, fs=rate, output="sos")
         forces = sosfilt(sos, forces, axis=0, zi=sosfilt_zi(sos)[:, :, None] * forces[0][None, None, :])[0]
     jitter = float(rig["position_noise_um"]) * 1e-6
     if jitter > 0:  # drawn last, so a seed's other draws are what they were without it
@@ -178,7 +196,7 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
     resonant = float(rig["resonant_noise_n"])
     if resonant > 0:  # the gauges' narrow-band pick-up: drawn last for the same reason, filtered as the rest was
         forces[:, :3] += _resonant_noise(rng, n_total, rate, resonant, float(rig["resonant_noise_hz"]),
-                                         float(rig["resonant_noise_damping"]), corner)
+                                         float(rig["resonant_noise_damping"]), sos)
     phase = float(rig["encoder_phase"])  # the counter is zeroed at rest, wherever the count edges lie
     counts = (np.round(u * 1e3 * position_cal.counts_per_mm + phase) - round(phase)).astype(np.int64)
     return counts, forces
