@@ -3,7 +3,7 @@
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
      [--two-slopes] [--drift-friction] [--weak-drifts] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs]
      [--short-gradients] [--bessel-lags] [--s-gradients]
-     [--few-coloured] [--unknown-material] [--resonant-noise]
+     [--few-coloured] [--unknown-material] [--resonant-noise] [--butterworth-filters | --filter-kinds]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -28,6 +28,11 @@ half of them damped (0.2–3 kPa·s/m; the tabled simulants are not), recorded a
 a level of 0.5–1.2 × its white noise, at 150–3000 Hz, damping ratio 0.02–0.3, campaign i's drawn from the stream
 ``[SEED, i, 78]`` (the forty-sixth session's test of a lead from world three: ``--nulls 30 213000
 --resonant-noise`` called null 19, whose noise model reads an anti-alias filter the rig does not have).
+``--filter-kinds``: every campaign's force channels behind an anti-alias low-pass that is no 4th-order Butterworth
+(the only kind the noise model reads): a Bessel or a Chebyshev type I (ripple 0.1–1 dB, log-uniform), half each, of
+order 2–8, its corner the campaign's own where it has one, else 0.1–0.4 of the rate; campaign i's drawn from the
+stream ``[SEED, i, 79]``.  ``--butterworth-filters``: the same corners behind the 4th-order Butterworth, the
+baseline of the forty-seventh session's test of world three's filters on the development world.
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
 random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
@@ -223,12 +228,39 @@ def resonant_noise(campaigns, seed):
     return out
 
 
+def _filters(campaigns, seed, butterworth: bool):
+    """Every campaign behind an anti-alias low-pass (see the module's doc), drawn alike for both flags."""
+    out = []
+    for i, (label, material, effects, truth, nuisances) in enumerate(campaigns):
+        own = np.random.default_rng([seed, i, 79])
+        corner, kind = float(own.uniform(0.1, 0.4)), ("bessel", "chebyshev")[int(own.integers(2))]
+        order, ripple = int(own.integers(2, 9)), float(np.exp(own.uniform(np.log(0.1), np.log(1.0))))
+        if butterworth:
+            kind, order = "butterworth", 4
+        extra = dict(nuisances["rig_extra"], anti_alias_kind=kind, anti_alias_order=order,
+                     anti_alias_ripple_db=ripple)
+        out.append((label, material, effects, truth,
+                    dict(nuisances, anti_alias=nuisances.get("anti_alias", corner), rig_extra=extra)))
+    return out
+
+
+def filter_kinds(campaigns, seed):
+    """Bessel and Chebyshev anti-alias filters on every campaign (see the module's doc)."""
+    return _filters(campaigns, seed, butterworth=False)
+
+
+def butterworth_filters(campaigns, seed):
+    """The same corners behind the 4th-order Butterworth (see the module's doc)."""
+    return _filters(campaigns, seed, butterworth=True)
+
+
 REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--weak-drifts": weak_drifts,
            "--slow-speeds": slow_speeds,
            "--wide-friction": wide_friction, "--wide-plugs": wide_plugs,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
            "--short-gradients": short_gradients, "--few-coloured": few_coloured,
-           "--unknown-material": unknown_material, "--resonant-noise": resonant_noise}
+           "--unknown-material": unknown_material, "--resonant-noise": resonant_noise,
+           "--filter-kinds": filter_kinds, "--butterworth-filters": butterworth_filters}
 """The scratch sets' flags and what each redraws (see the module's doc)."""
 
 
