@@ -169,6 +169,30 @@ def test_resonant_noise_has_its_level_and_its_band_and_leaves_other_draws_alone(
     assert np.array_equal(pre_trigger(resonant_noise_n=0.0, resonant_noise_hz=900.0), plain)
 
 
+def test_pink_noise_has_its_level_and_a_power_falling_as_one_over_f_and_leaves_other_draws_alone():
+    """The flicker noise: its standard deviation as set (within 10 %: it is set over the whole recording, the run
+    keeps 0.46 s of it, and flicker noise keeps its power at the lowest frequencies), a Welch spectrum whose log-log
+    slope is -1 from 20 Hz to 5 kHz (a least-squares line through the bins), and a rig without it records what it
+    did before the key."""
+    from scipy.signal import welch
+
+    from pencli import api
+
+    def pre_trigger(**extra):
+        rig = {"kind": "rig", "name": "pn", "seed": 9, "force_noise_n": 0.2, **extra}
+        columns = api.acquire(springs=2, penetrator="al6061_1mm", material="mpacs_c", rig=rig).run.columns
+        return columns["fz_n"]
+
+    plain = pre_trigger()
+    flicker = pre_trigger(pink_noise_n=3.0) - plain
+    assert np.std(flicker) == pytest.approx(3.0, rel=0.1)
+    freq, power = welch(flicker, fs=30000.0, nperseg=8192)
+    band = (freq >= 20.0) & (freq <= 5000.0)
+    slope = np.polyfit(np.log(freq[band]), np.log(power[band]), 1)[0]
+    assert slope == pytest.approx(-1.0, abs=0.08)
+    assert np.array_equal(pre_trigger(pink_noise_n=0.0), plain)
+
+
 @pytest.mark.parametrize("content,words", [
     ({"kind": "rig", "name": "x", "sampling_rate": 3}, "unknown key 'sampling_rate'"),
     ({"kind": "rig", "name": "x", "resonant_noise_hz": 20000.0}, "resonant_noise_hz"),
@@ -184,6 +208,7 @@ def test_resonant_noise_has_its_level_and_its_band_and_leaves_other_draws_alone(
     ({"kind": "rig", "name": "x", "anti_alias_kind": "elliptic"}, "anti_alias_kind"),
     ({"kind": "rig", "name": "x", "anti_alias_order": 2.5}, "anti_alias_order"),
     ({"kind": "rig", "name": "x", "anti_alias_ripple_db": 0}, "anti_alias_ripple_db"),
+    ({"kind": "rig", "name": "x", "pink_noise_n": -1}, "pink_noise_n"),
 ])
 def test_bad_rig_file_is_one_line(workspace, runner, content, words):
     rig = workspace / "rig.yaml"

@@ -37,6 +37,9 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
     "resonant_noise_hz": ("that mode's frequency [Hz]", 500.0),
     "resonant_noise_damping": ("that mode's damping ratio (its band is about 2 × damping × frequency wide) [–]",
                                0.05),
+    "pink_noise_n": ("flicker (1/f) force noise, as the gauges' bridge and amplifier make: power falling as the "
+                     "inverse of frequency down to the recording's length, standard deviation over the whole "
+                     "recording [N]", 0.0),
     "force_offsets_n": ("untared offsets of fx, fy, fz [N]", [-13.2, -9.3, -0.8]),
     "torque_offsets_nm": ("untared offsets of tx, ty, tz [N·m]", [0.07, 0.04, 0.044]),
     "lateral_fraction": ("side force as a fraction of the axial resistance [–]", 0.02),
@@ -112,6 +115,7 @@ def validate_rig(data: Any, where: str) -> RigConfig:
         _number(where, key, values[key], minimum=0)
     _number(where, "correlated_noise_ms", values["correlated_noise_ms"], positive=True)
     _number(where, "resonant_noise_n", values["resonant_noise_n"], minimum=0)
+    _number(where, "pink_noise_n", values["pink_noise_n"], minimum=0)
     if _number(where, "resonant_noise_hz", values["resonant_noise_hz"], positive=True) \
             >= 0.5 * float(values["sampling_rate_hz"]):
         raise ParameterError(f"{where}: key 'resonant_noise_hz': got {values['resonant_noise_hz']!r}; expected a "

@@ -121,6 +121,24 @@ def _resonant_noise(rng: np.random.Generator, n: int, rate_hz: float, level_n: f
     return out
 
 
+def _pink_noise(rng: np.random.Generator, n: int, level_n: float, sos: np.ndarray | None) -> np.ndarray:
+    """Three channels of flicker noise over ``n`` samples: white noise whose power is shaped to fall as 1/f
+    (amplitudes over √f in its discrete Fourier transform, flat below the lowest frequency the record holds),
+    scaled to ``level_n`` standard deviation [N] and passed through the anti-alias low-pass ``sos`` (None:
+    none), as the gauges' own noise is."""
+    from scipy.signal import sosfilt
+
+    spectrum = np.fft.rfft(rng.normal(0, 1, (n, 3)), axis=0)
+    frequency = np.fft.rfftfreq(n)
+    spectrum /= np.sqrt(np.maximum(frequency, 1.0 / n))[:, None]
+    spectrum[0] = 0.0
+    out = np.fft.irfft(spectrum, n, axis=0)
+    out *= level_n / np.std(out, axis=0)
+    if sos is not None:
+        out = sosfilt(sos, out, axis=0)
+    return out
+
+
 def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSetup,
             position_cal: PositionCalibration, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """Encoder counts and the six calibrated channels (untared) over the whole recording."""
@@ -197,6 +215,9 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
     if resonant > 0:  # the gauges' narrow-band pick-up: drawn last for the same reason, filtered as the rest was
         forces[:, :3] += _resonant_noise(rng, n_total, rate, resonant, float(rig["resonant_noise_hz"]),
                                          float(rig["resonant_noise_damping"]), sos)
+    pink = float(rig["pink_noise_n"])
+    if pink > 0:  # the gauges' flicker noise: drawn last for the same reason, filtered as the rest was
+        forces[:, :3] += _pink_noise(rng, n_total, pink, sos)
     phase = float(rig["encoder_phase"])  # the counter is zeroed at rest, wherever the count edges lie
     counts = (np.round(u * 1e3 * position_cal.counts_per_mm + phase) - round(phase)).astype(np.int64)
     return counts, forces
