@@ -4,6 +4,7 @@ Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SE
      [--two-slopes] [--drift-friction] [--weak-drifts] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs]
      [--short-gradients] [--bessel-lags] [--s-gradients]
      [--few-coloured] [--unknown-material] [--resonant-noise] [--butterworth-filters | --filter-kinds]
+     [--pink-noise]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -33,6 +34,9 @@ a level of 0.5–1.2 × its white noise, at 150–3000 Hz, damping ratio 0.02–
 order 2–8, its corner the campaign's own where it has one, else 0.1–0.4 of the rate; campaign i's drawn from the
 stream ``[SEED, i, 79]``.  ``--butterworth-filters``: the same corners behind the 4th-order Butterworth, the
 baseline of the forty-seventh session's test of world three's filters on the development world.
+``--pink-noise``: every campaign's gauges also make flicker noise (the sim rig's ``pink_noise_n``) of 0.3–1.5 ×
+its white noise, campaign i's drawn from the stream ``[SEED, i, 80]`` (world three draws pink gauge noise; the
+development world did not).
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
 random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
@@ -228,6 +232,17 @@ def resonant_noise(campaigns, seed):
     return out
 
 
+def pink_noise(campaigns, seed):
+    """Flicker gauge noise added to every campaign's rig (see the module's doc)."""
+    out = []
+    for i, (label, material, effects, truth, nuisances) in enumerate(campaigns):
+        own = np.random.default_rng([seed, i, 80])
+        extra = dict(nuisances["rig_extra"])
+        extra["pink_noise_n"] = float(own.uniform(0.3, 1.5) * extra["force_noise_n"])
+        out.append((label, material, effects, truth, dict(nuisances, rig_extra=extra)))
+    return out
+
+
 def _filters(campaigns, seed, butterworth: bool):
     """Every campaign behind an anti-alias low-pass (see the module's doc), drawn alike for both flags."""
     out = []
@@ -260,7 +275,7 @@ REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--we
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
            "--short-gradients": short_gradients, "--few-coloured": few_coloured,
            "--unknown-material": unknown_material, "--resonant-noise": resonant_noise,
-           "--filter-kinds": filter_kinds, "--butterworth-filters": butterworth_filters}
+           "--filter-kinds": filter_kinds, "--butterworth-filters": butterworth_filters, "--pink-noise": pink_noise}
 """The scratch sets' flags and what each redraws (see the module's doc)."""
 
 
