@@ -40,6 +40,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numba import njit
 
 from pencli.errors import DataError
 from pencli.filter.derivatives import derivatives, smooth_motion
@@ -182,31 +183,68 @@ class AntiAlias:
         return {"order": self.order, "corner_hz": round(self.corner * rate_hz, 1)}
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _nonnegative_sse_rows(gram: np.ndarray, rhs: np.ndarray, total: float) -> np.ndarray:  # pragma: no cover
+    """:func:`_nonnegative_sse` on (problems, K, K) and (problems, K), compiled: each subset by elimination."""
+    problems, k = rhs.shape
+    out = np.empty(problems)
+    a = np.empty((k, k))
+    b = np.empty(k)
+    c = np.empty(k)
+    idx = np.empty(k, dtype=np.int64)
+    for p in range(problems):
+        best = total
+        for mask in range(1, 1 << k):
+            m = 0
+            for i in range(k):
+                if mask >> i & 1:
+                    idx[m] = i
+                    m += 1
+            trace = 0.0
+            for i in range(m):
+                trace += gram[p, idx[i], idx[i]]
+            for i in range(m):
+                b[i] = rhs[p, idx[i]]
+                for j in range(m):
+                    a[i, j] = gram[p, idx[i], idx[j]]
+                a[i, i] += 1e-12 * trace  # a ridge on each problem's own scale
+            ok = True
+            for col in range(m):  # the Gram matrix is symmetric and (with the ridge) positive: no pivoting
+                if not a[col, col] > 0.0:
+                    ok = False
+                    break
+                for row in range(col + 1, m):
+                    f = a[row, col] / a[col, col]
+                    for j in range(col, m):
+                        a[row, j] -= f * a[col, j]
+                    b[row] -= f * b[col]
+            if not ok:
+                continue
+            sse = total
+            for i in range(m - 1, -1, -1):
+                v = b[i]
+                for j in range(i + 1, m):
+                    v -= a[i, j] * c[j]
+                c[i] = v / a[i, i]
+                if not c[i] >= 0.0:
+                    ok = False
+                    break
+                sse -= c[i] * rhs[p, idx[i]]  # at the optimum, |t - Xc|² = |t|² - cᵀb
+            if ok and sse < best:
+                best = sse
+        out[p] = best
+    return out
+
+
 def _nonnegative_sse(gram: np.ndarray, rhs: np.ndarray, total: float) -> np.ndarray:
     """Residual sum of squares of least squares with non-negative amplitudes, for a batch of small problems given
     by their normal equations (Gram matrices (..., K, K), right-hand sides (..., K), and the target's own sum of
-    squares): every subset of amplitudes is solved and the best one with none negative kept.  A problem whose
-    amplitudes all come out non-negative together is done at once (no subset fits it better)."""
+    squares): every subset of amplitudes is solved and the best one with none negative kept (the best feasible
+    subset is the constrained optimum)."""
     k = gram.shape[-1]
-    shape = gram.shape[:-2]
-    gram, rhs = gram.reshape(-1, k, k), rhs.reshape(-1, k)
-
-    def solved(g: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        with np.errstate(all="ignore"):
-            ridge = 1e-12 * np.trace(g, axis1=-2, axis2=-1)[..., None, None] * np.eye(g.shape[-1])  # its own scale
-            c = np.linalg.solve(g + ridge, b[..., None])[..., 0]
-            sse = total - np.sum(c * b, axis=-1)  # at the optimum, |t - Xc|² = |t|² - cᵀb
-        return sse, np.all(c >= 0, axis=-1) & np.isfinite(sse)
-
-    sse, ok = solved(gram, rhs)
-    best = np.where(ok, np.minimum(sse, total), total)
-    rest = np.flatnonzero(~ok)
-    gram, rhs = gram[rest], rhs[rest]
-    for mask in range(1, 2 ** k - 1):
-        idx = [i for i in range(k) if mask >> i & 1]
-        sse, ok = solved(gram[:, idx][:, :, idx], rhs[:, idx])
-        best[rest] = np.where(ok & (sse < best[rest]), sse, best[rest])
-    return best.reshape(shape)
+    rows = _nonnegative_sse_rows(np.ascontiguousarray(gram, dtype=float).reshape(-1, k, k),
+                                 np.ascontiguousarray(rhs, dtype=float).reshape(-1, k), float(total))
+    return rows.reshape(gram.shape[:-2])
 
 
 def _resonances(frequency: np.ndarray) -> np.ndarray:
