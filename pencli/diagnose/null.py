@@ -40,6 +40,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numba import njit
 
 from pencli.errors import DataError
 from pencli.filter.derivatives import derivatives, smooth_motion
@@ -152,6 +153,12 @@ ANTI_ALIAS_SLOPES = np.linspace(-3.0, 1.0, 21)
 """Power-law slopes of the gauge noise's coloured part tried by :func:`fit_anti_alias`. [–]"""
 ANTI_ALIAS_COLOURS = np.array([0.0, 0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.98])
 """Lag-one correlations of the gauge noise's coloured part tried by :func:`fit_anti_alias`. [–]"""
+RESONANCE_FREQUENCIES = np.geomspace(0.02, 0.45, 80)
+"""Centres of the resonant lines tried by :func:`fit_anti_alias` (4 % apart; from the low end of
+:data:`ANTI_ALIAS_RANGE`: a band whose peak lies below it shows only a flank there). [cycles/sample]"""
+RESONANCE_DAMPINGS = np.array([0.02, 0.04, 0.07, 0.12, 0.18, 0.25])
+"""Damping ratios of the resonant lines tried by :func:`fit_anti_alias`: narrow bands only, whose peak stands at
+least 4× above their skirts (a mode damped 0.707 is a second-order Butterworth, which the filter stands for). [–]"""
 ANTI_ALIAS_RANGE = (0.02, 1e-4)
 """:func:`fit_anti_alias` reads the spectrum above this frequency [cycles/sample] and down to this fraction of its
 largest value there (the knee and the first 40 dB of the roll-off, which set the filter's delay in the pass band;
@@ -176,21 +183,115 @@ class AntiAlias:
         return {"order": self.order, "corner_hz": round(self.corner * rate_hz, 1)}
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _nonnegative_sse_rows(gram: np.ndarray, rhs: np.ndarray, total: float) -> np.ndarray:  # pragma: no cover
+    """:func:`_nonnegative_sse` on (problems, K, K) and (problems, K), compiled: each subset by elimination."""
+    problems, k = rhs.shape
+    out = np.empty(problems)
+    a = np.empty((k, k))
+    b = np.empty(k)
+    c = np.empty(k)
+    idx = np.empty(k, dtype=np.int64)
+    for p in range(problems):
+        best = total
+        for mask in range(1, 1 << k):
+            m = 0
+            for i in range(k):
+                if mask >> i & 1:
+                    idx[m] = i
+                    m += 1
+            trace = 0.0
+            for i in range(m):
+                trace += gram[p, idx[i], idx[i]]
+            for i in range(m):
+                b[i] = rhs[p, idx[i]]
+                for j in range(m):
+                    a[i, j] = gram[p, idx[i], idx[j]]
+                a[i, i] += 1e-12 * trace  # a ridge on each problem's own scale
+            ok = True
+            for col in range(m):  # the Gram matrix is symmetric and (with the ridge) positive: no pivoting
+                if not a[col, col] > 0.0:
+                    ok = False
+                    break
+                for row in range(col + 1, m):
+                    f = a[row, col] / a[col, col]
+                    for j in range(col, m):
+                        a[row, j] -= f * a[col, j]
+                    b[row] -= f * b[col]
+            if not ok:
+                continue
+            sse = total
+            for i in range(m - 1, -1, -1):
+                v = b[i]
+                for j in range(i + 1, m):
+                    v -= a[i, j] * c[j]
+                c[i] = v / a[i, i]
+                if not c[i] >= 0.0:
+                    ok = False
+                    break
+                sse -= c[i] * rhs[p, idx[i]]  # at the optimum, |t - Xc|² = |t|² - cᵀb
+            if ok and sse < best:
+                best = sse
+        out[p] = best
+    return out
+
+
 def _nonnegative_sse(gram: np.ndarray, rhs: np.ndarray, total: float) -> np.ndarray:
     """Residual sum of squares of least squares with non-negative amplitudes, for a batch of small problems given
     by their normal equations (Gram matrices (..., K, K), right-hand sides (..., K), and the target's own sum of
-    squares): every subset of amplitudes is solved and the best one with none negative kept."""
+    squares): every subset of amplitudes is solved and the best one with none negative kept (the best feasible
+    subset is the constrained optimum)."""
     k = gram.shape[-1]
-    best = np.full(gram.shape[:-2], total)
-    for mask in range(1, 2 ** k):
-        idx = [i for i in range(k) if mask >> i & 1]
-        g, b = gram[..., idx, :][..., :, idx], rhs[..., idx]
-        with np.errstate(all="ignore"):
-            ridge = 1e-12 * np.trace(g, axis1=-2, axis2=-1)[..., None, None] * np.eye(len(idx))  # each its own scale
-            c = np.linalg.solve(g + ridge, b[..., None])[..., 0]
-            sse = total - np.sum(c * b, axis=-1)  # at the optimum, |t - Xc|² = |t|² - cᵀb
-        ok = np.all(c >= 0, axis=-1) & np.isfinite(sse) & (sse < best)
-        best = np.where(ok, sse, best)
+    rows = _nonnegative_sse_rows(np.ascontiguousarray(gram, dtype=float).reshape(-1, k, k),
+                                 np.ascontiguousarray(rhs, dtype=float).reshape(-1, k), float(total))
+    return rows.reshape(gram.shape[:-2])
+
+
+def _resonances(frequency: np.ndarray) -> np.ndarray:
+    """The resonant lines :func:`fit_anti_alias` tries on ``frequency`` [cycles/sample]: the spectrum of a damped
+    mode driven by white noise, :math:`1/((1 - x^2)^2 + (2\\zeta x)^2)` with :math:`x = f/f_0`, for every
+    :data:`RESONANCE_FREQUENCIES` × :data:`RESONANCE_DAMPINGS`, each scaled to a largest value of 1 there. (lines, bins)"""
+    x = frequency[None, None, :] / RESONANCE_FREQUENCIES[:, None, None]
+    z = RESONANCE_DAMPINGS[None, :, None]
+    shape = (1.0 / ((1.0 - x * x) ** 2 + (2.0 * z * x) ** 2)).reshape(-1, frequency.size)
+    return shape / np.max(shape, axis=1, keepdims=True)
+
+
+def _butterworth_gain(frequency: np.ndarray, order: int) -> np.ndarray:
+    """|H|² of the digital Butterworth of ``order`` at every :data:`ANTI_ALIAS_CORNERS` on ``frequency``
+    [cycles/sample]. (corners, bins)"""
+    ratio = np.tan(np.pi * np.minimum(frequency, 0.4999))[None, :] / np.tan(np.pi * ANTI_ALIAS_CORNERS)[:, None]
+    return 1.0 / (1.0 + ratio ** (2 * order))
+
+
+def _filtered_fits(base: np.ndarray, w: np.ndarray, t: np.ndarray, total: float, frequency: np.ndarray,
+                   line: np.ndarray | None) -> tuple[float, int, int, int]:
+    """The best fit of :math:`|H|^2 (A g + B [+ D L]) + F` over every order, corner and coloured part ``base``
+    (weighted, (bases, bins)), with the weighted line ``line`` (bins) under the filter when given: (residual sum of
+    squares, order, corner index, base index)."""
+    k = 3 if line is None else 4
+    best = (math.inf, 0, 0, 0)
+    for order in ANTI_ALIAS_ORDERS:
+        h2 = _butterworth_gain(frequency, order)
+        hh = h2 * h2
+        cols_w = [w] if line is None else [w, line]        # the flat parts under the filter
+        gram = np.empty((base.shape[0], h2.shape[0], k, k))
+        rhs = np.empty((base.shape[0], h2.shape[0], k))
+        gram[..., 0, 0] = (base * base) @ hh.T
+        for i, c in enumerate(cols_w, start=1):
+            gram[..., 0, i] = gram[..., i, 0] = (base * c) @ hh.T
+            for j, d in enumerate(cols_w[i - 1:], start=i):
+                gram[..., i, j] = gram[..., j, i] = ((c * d) @ hh.T)[None, :]
+            gram[..., i, k - 1] = gram[..., k - 1, i] = ((c * w) @ h2.T)[None, :]
+            rhs[..., i] = ((c * t) @ h2.T)[None, :]
+        gram[..., 0, k - 1] = gram[..., k - 1, 0] = (base * w) @ h2.T
+        gram[..., k - 1, k - 1] = float(w @ w)
+        rhs[..., 0] = (base * t) @ h2.T
+        rhs[..., k - 1] = float(w @ t)
+        sse = _nonnegative_sse(gram, rhs, total)  # (bases, corners)
+        i = int(np.argmin(sse))
+        if float(sse.flat[i]) < best[0]:
+            best = (float(sse.flat[i]), order, i % h2.shape[0], i // h2.shape[0])
     return best
 
 
@@ -199,22 +300,29 @@ def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
 
     The gauge noise the rig sees is white plus a coloured part, flat or falling gently (a power law times the
     spectrum of a first-order autoregression, :math:`A f^\beta/(1 + \phi^2 - 2\phi\cos 2\pi f)` plus
-    :math:`B`); an anti-alias filter bends it down steeply towards the Nyquist frequency; and the converter
-    after the filter adds its own white noise, a floor :math:`F` the roll-off ends on.  The spectrum is fitted
-    as :math:`|H(f)|^2 (A g + B) + F`, with :math:`|H|^2 = 1/(1 + (\tan\pi f/\tan\pi f_c)^{2n})` the digital
-    Butterworth of order n and corner :math:`f_c`, for every order, corner, slope and colour on their grids
-    (A, B, F ≥ 0, by least squares on the relative error over :data:`ANTI_ALIAS_RANGE`), and the filter is kept
-    when it beats the same noise without a filter (:math:`A g + C`) by the Bayesian information criterion on that
-    error, counting a third of the bins (:func:`fit_noise` averages them in threes; counted all, 19 of 216
-    unfiltered records were read as filtered).  The filter acts on the signal as on the noise: the inertia force m·a in flight
-    reaches the data through it, lagging by its group delay, which a load-cell mass column follows (a 0.08 mm
-    encoder and a corner at 0.1 of the rate made a null campaign's load-cell mass z 76 against 3.9).
+    :math:`B`), and sometimes a narrow band (a floor or fixture mode, a line :math:`D L` of :func:`_resonances`);
+    an anti-alias filter bends it down steeply towards the Nyquist frequency; and the converter after the filter
+    adds its own white noise, a floor :math:`F` the roll-off ends on.  The spectrum is fitted as
+    :math:`|H(f)|^2 (A g + B [+ D L]) + F`, with :math:`|H|^2 = 1/(1 + (\tan\pi f/\tan\pi f_c)^{2n})` the
+    digital Butterworth of order n and corner :math:`f_c`, for every order, corner, slope and colour on their grids
+    (A, B, D, F ≥ 0, by least squares on the relative error over :data:`ANTI_ALIAS_RANGE`), and the filter is kept
+    when its best fit, with or without a line, beats the same noise without a filter (:math:`A g + C [+ D L]`),
+    with or without one, by the Bayesian information criterion on that error, counting a third of the bins
+    (:func:`fit_noise` averages them in threes; counted all, 19 of 216 unfiltered records were read as filtered)
+    and three parameters for a line.  The filter acts on the signal as on the noise: the inertia force m·a in
+    flight reaches the data through it, lagging by its group delay, which a load-cell mass column follows (a
+    0.08 mm encoder and a corner at 0.1 of the rate made a null campaign's load-cell mass z 76 against 3.9).
 
     The floor matters: fitted without it, a converter noise 26 dB under the gauge noise (5 % of it) hid every
     2nd-order Butterworth at 0.05–0.2 of the rate (the roll-off flattens on it, which a power law fits better
     than a Butterworth alone), and a null campaign behind such a filter was called a load-cell mass error at
     z 60–85.  And the colour matters once the floor is there: white plus autoregressive noise with no filter
-    is "falling, then flat" too, and a power law plus floor alone read a filter in 63 of 216 such records.
+    is "falling, then flat" too, and a power law plus floor alone read a filter in 63 of 216 such records.  The
+    line matters too: without one, a band's upper flank passes for a roll-off (white noise with a 2.14 kHz band
+    of damping 0.11 at 60 kHz was read as an 8th-order filter at 0.043 of the rate in 10 of 10 records), the
+    replicates low-pass their force, and a null campaign was called a sidewall pressure growth at z 8.0 against
+    3.9.  The line under the filter is searched by turns (the line for the best filter without one, the filter
+    for that line, the line again), not over every filter at once.
     """
     f_lo, depth = ANTI_ALIAS_RANGE
     keep = noise.frequency >= f_lo
@@ -233,38 +341,60 @@ def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
     colour = 1.0 / (1.0 + ANTI_ALIAS_COLOURS[:, None] ** 2
                     - 2.0 * ANTI_ALIAS_COLOURS[:, None] * np.cos(2.0 * np.pi * f)[None, :])
     base = (np.exp(np.outer(ANTI_ALIAS_SLOPES, np.log(f)))[:, None, :] * colour[None, :, :]).reshape(-1, n) * w
+    lines = _resonances(f) * w
     total = float(t @ t)
-    # no filter: A g + C
+    # no filter: A g + C, and A g + C + D L over every line
+    gg, gw, gt = np.sum(base * base, axis=1), base @ w, base @ t
     gram = np.empty((base.shape[0], 2, 2))
-    gram[:, 0, 0], gram[:, 0, 1] = np.sum(base * base, axis=1), base @ w
-    gram[:, 1, 0], gram[:, 1, 1] = gram[:, 0, 1], float(w @ w)
-    rhs = np.column_stack([base @ t, np.full(base.shape[0], float(w @ t))])
+    gram[:, 0, 0], gram[:, 0, 1] = gg, gw
+    gram[:, 1, 0], gram[:, 1, 1] = gw, float(w @ w)
+    rhs = np.column_stack([gt, np.full(base.shape[0], float(w @ t))])
     plain = float(np.min(_nonnegative_sse(gram, rhs, total)))
-    # a filter: |H|²(A g + B) + F, over every corner of each order
-    ratio = np.tan(np.pi * np.minimum(f, 0.4999))[None, :] / np.tan(np.pi * ANTI_ALIAS_CORNERS)[:, None]
-    best = (math.inf, None)
-    for order in ANTI_ALIAS_ORDERS:
-        h2 = 1.0 / (1.0 + ratio ** (2 * order))                     # (corners, bins)
-        hw = h2 * w
-        gram = np.empty((base.shape[0], h2.shape[0], 3, 3))
-        gram[..., 0, 0] = (base * base) @ (h2 * h2).T
-        gram[..., 0, 1] = gram[..., 1, 0] = (base * w) @ (h2 * h2).T
-        gram[..., 0, 2] = gram[..., 2, 0] = (base * w) @ h2.T
-        gram[..., 1, 1] = np.sum(hw * hw, axis=1)[None, :]
-        gram[..., 1, 2] = gram[..., 2, 1] = (hw @ w)[None, :]
-        gram[..., 2, 2] = float(w @ w)
-        rhs = np.empty((base.shape[0], h2.shape[0], 3))
-        rhs[..., 0] = (base * t) @ h2.T
-        rhs[..., 1] = (hw @ t)[None, :]
-        rhs[..., 2] = float(w @ t)
-        sse = _nonnegative_sse(gram, rhs, total)  # (slopes × colours, corners)
-        k = int(np.argmin(sse))
-        if float(sse.flat[k]) < best[0]:
-            best = (float(sse.flat[k]), AntiAlias(order, float(ANTI_ALIAS_CORNERS[k % h2.shape[0]])))
+    gram = np.empty((base.shape[0], lines.shape[0], 3, 3))
+    gram[..., 0, 0], gram[..., 0, 1] = gg[:, None], gw[:, None]
+    gram[..., 0, 2] = base @ lines.T
+    gram[..., 1, 1], gram[..., 1, 2] = float(w @ w), (lines @ w)[None, :]
+    gram[..., 2, 2] = np.sum(lines * lines, axis=1)[None, :]
+    for i, j in ((1, 0), (2, 0), (2, 1)):
+        gram[..., i, j] = gram[..., j, i]
+    rhs = np.stack(np.broadcast_arrays(gt[:, None], float(w @ t), (lines @ t)[None, :]), axis=-1)
+    plain_line = float(np.min(_nonnegative_sse(gram, rhs, total)))
     m = n / 3.0  # independent bins: fit_noise averages three neighbours
-    bic_plain = m * math.log(max(plain, 1e-300) / n) + 4 * math.log(m)
-    bic_filter = m * math.log(max(best[0], 1e-300) / n) + 7 * math.log(m)
-    return best[1] if bic_filter < bic_plain else None
+    bic = lambda sse, k: m * math.log(max(sse, 1e-300) / n) + k * math.log(m)  # noqa: E731
+    bic_plain = min(bic(plain, 4), bic(plain_line, 7))
+    # a filter: |H|²(A g + B) + F over every order, corner and coloured part
+    filtered = _filtered_fits(base, w, t, total, f, None)
+    # with a line under it, by turns: the line for that filter, the filter for that line, the line again (the
+    # last two only when the line fits the first better, or the filter alone loses)
+    readings = [(bic(filtered[0], 7), filtered[1:3])]
+    sse, line = _line_under(filtered, base, w, t, total, f, lines)
+    readings.append((bic(sse, 10), filtered[1:3]))
+    if readings[1][0] < min(readings[0][0], bic_plain):
+        with_line = _filtered_fits(base, w, t, total, f, lines[line])
+        readings.append((bic(with_line[0], 10), with_line[1:3]))
+        readings.append((bic(_line_under(with_line, base, w, t, total, f, lines)[0], 10), with_line[1:3]))
+    score, (order, corner) = min(readings, key=lambda r: r[0])
+    return AntiAlias(order, float(ANTI_ALIAS_CORNERS[corner])) if score < bic_plain else None
+
+
+def _line_under(fit: tuple[float, int, int, int], base: np.ndarray, w: np.ndarray, t: np.ndarray, total: float,
+                frequency: np.ndarray, lines: np.ndarray) -> tuple[float, int]:
+    """The best line (weighted, (lines, bins)) under the filter and coloured part of ``fit`` (as
+    :func:`_filtered_fits` returns it): (residual sum of squares, line index)."""
+    _, order, corner, b = fit
+    h2 = _butterworth_gain(frequency, order)[corner]
+    columns = [np.broadcast_to(h2 * base[b], lines.shape), np.broadcast_to(h2 * w, lines.shape), h2 * lines,
+               np.broadcast_to(w, lines.shape)]
+    sse = _nonnegative_sse(*_stacked_normal(columns, t), total)
+    i = int(np.argmin(sse))
+    return float(sse[i]), i
+
+
+def _stacked_normal(columns: list[np.ndarray], t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Normal equations (Gram matrices (problems, K, K), right-hand sides (problems, K)) of a batch of least-squares
+    problems, one per row of the K column arrays (problems, bins), against the target ``t`` (bins)."""
+    a = np.stack(columns, axis=1)                      # (problems, K, bins)
+    return np.einsum("pkn,pjn->pkj", a, a), a @ t
 
 
 @dataclass(frozen=True)
