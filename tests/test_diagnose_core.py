@@ -644,12 +644,18 @@ def test_the_anti_alias_filter_is_read_from_the_pre_trigger_noise(corner, rate, 
     release: order 4 (or 5) and its corner within 12 %, and no filter where the rig has none, with white or
     correlated noise, and with or without a converter adding white noise after the filter (``floor`` N; the
     gauge's white noise is 2 N).  Read as a power law under a Butterworth, the floor hid every filter."""
+    _assert_the_filter_is_read(corner, rate, correlated, converter_noise_n=floor)
+
+
+def _assert_the_filter_is_read(corner, rate, correlated, **rig_extra):
+    """The sim rig's 4th-order Butterworth at ``corner`` of the rate (None: no filter), 2 N of white gauge noise and
+    ``correlated`` N over 0.3 ms, and ``rig_extra``: the reading from 0.19 s before the release is order 4 or 5
+    with its corner within 12 %, or none where there is none."""
     from pencli import api
     from pencli.diagnose.null import fit_anti_alias
 
     rig = {"kind": "rig", "name": "aa", "seed": 9, "force_noise_n": 2.0, "correlated_noise_n": correlated,
-           "correlated_noise_ms": 0.3, "sampling_rate_hz": rate, "anti_alias_hz": (corner or 0.0) * rate,
-           "converter_noise_n": floor}
+           "correlated_noise_ms": 0.3, "sampling_rate_hz": rate, "anti_alias_hz": (corner or 0.0) * rate, **rig_extra}
     columns = api.acquire(springs=4, penetrator="al6061_1.5mm", material="mpacs_c", rig=rig).run.columns
     found = fit_anti_alias(fit_noise(columns["fz_n"][columns["time_s"] < -0.01]))
     if corner is None:
@@ -693,19 +699,8 @@ def test_the_anti_alias_filter_is_read_through_a_band_of_noise(corner, rate, ban
     or with no filter: the filter read as in the test above (order 4 or 5, corner within 12 %), and none where
     there is none.  Before the noise model had a line, the three unfiltered records were each read as filtered
     (order 8 at 0.126, 3 at 0.04, 6 at 0.39 of the rate)."""
-    from pencli import api
-    from pencli.diagnose.null import fit_anti_alias
-
-    rig = {"kind": "rig", "name": "aa", "seed": 9, "force_noise_n": 2.0, "correlated_noise_n": correlated,
-           "correlated_noise_ms": 0.3, "sampling_rate_hz": rate, "anti_alias_hz": (corner or 0.0) * rate,
-           "resonant_noise_n": 2.0, "resonant_noise_hz": band * rate, "resonant_noise_damping": damping}
-    columns = api.acquire(springs=4, penetrator="al6061_1.5mm", material="mpacs_c", rig=rig).run.columns
-    found = fit_anti_alias(fit_noise(columns["fz_n"][columns["time_s"] < -0.01]))
-    if corner is None:
-        assert found is None, found
-    else:
-        assert found is not None and found.order in (4, 5), found
-        assert found.corner == pytest.approx(corner, rel=0.12)
+    _assert_the_filter_is_read(corner, rate, correlated, resonant_noise_n=2.0, resonant_noise_hz=band * rate,
+                               resonant_noise_damping=damping)
 
 
 def _flight_and_arrest(t, rate):
