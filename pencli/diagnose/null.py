@@ -250,7 +250,8 @@ def _nonnegative_sse(gram: np.ndarray, rhs: np.ndarray, total: float) -> np.ndar
 def _resonances(frequency: np.ndarray) -> np.ndarray:
     """The resonant lines :func:`fit_anti_alias` tries on ``frequency`` [cycles/sample]: the spectrum of a damped
     mode driven by white noise, :math:`1/((1 - x^2)^2 + (2\\zeta x)^2)` with :math:`x = f/f_0`, for every
-    :data:`RESONANCE_FREQUENCIES` × :data:`RESONANCE_DAMPINGS`, each scaled to a largest value of 1 there. (lines, bins)"""
+    :data:`RESONANCE_FREQUENCIES` × :data:`RESONANCE_DAMPINGS`, each scaled to a largest value of 1 there.
+    (lines, bins)"""
     x = frequency[None, None, :] / RESONANCE_FREQUENCIES[:, None, None]
     z = RESONANCE_DAMPINGS[None, :, None]
     shape = (1.0 / ((1.0 - x * x) ** 2 + (2.0 * z * x) ** 2)).reshape(-1, frequency.size)
