@@ -219,28 +219,29 @@ def unknown_material(campaigns, seed):
     return out
 
 
-def resonant_noise(campaigns, seed):
-    """Narrow-band gauge noise added to every campaign's rig (see the module's doc)."""
+def _rig_added(campaigns, seed: int, stream: int, draw):
+    """Every campaign's rig with the keys ``draw(rng, white_noise_n)`` returns added, campaign i's drawn from the
+    stream ``[seed, i, stream]`` (so the rest of the campaign is what it was)."""
     out = []
     for i, (label, material, effects, truth, nuisances) in enumerate(campaigns):
-        own = np.random.default_rng([seed, i, 78])
         extra = dict(nuisances["rig_extra"])
-        level, hz, damping = own.uniform(0.5, 1.2) * extra["force_noise_n"], own.uniform(150, 3000), \
-            own.uniform(0.02, 0.3)
-        extra.update(resonant_noise_n=float(level), resonant_noise_hz=float(hz), resonant_noise_damping=float(damping))
+        extra.update(draw(np.random.default_rng([seed, i, stream]), extra["force_noise_n"]))
         out.append((label, material, effects, truth, dict(nuisances, rig_extra=extra)))
     return out
+
+
+def resonant_noise(campaigns, seed):
+    """Narrow-band gauge noise added to every campaign's rig (see the module's doc)."""
+    def draw(own, white):
+        level, hz, damping = own.uniform(0.5, 1.2) * white, own.uniform(150, 3000), own.uniform(0.02, 0.3)
+        return {"resonant_noise_n": float(level), "resonant_noise_hz": float(hz),
+                "resonant_noise_damping": float(damping)}
+    return _rig_added(campaigns, seed, 78, draw)
 
 
 def pink_noise(campaigns, seed):
     """Flicker gauge noise added to every campaign's rig (see the module's doc)."""
-    out = []
-    for i, (label, material, effects, truth, nuisances) in enumerate(campaigns):
-        own = np.random.default_rng([seed, i, 80])
-        extra = dict(nuisances["rig_extra"])
-        extra["pink_noise_n"] = float(own.uniform(0.3, 1.5) * extra["force_noise_n"])
-        out.append((label, material, effects, truth, dict(nuisances, rig_extra=extra)))
-    return out
+    return _rig_added(campaigns, seed, 80, lambda own, white: {"pink_noise_n": float(own.uniform(0.3, 1.5) * white)})
 
 
 def _filters(campaigns, seed, butterworth: bool):
