@@ -108,17 +108,23 @@ def _resonant_noise(rng: np.random.Generator, n: int, rate_hz: float, level_n: f
     ``frequency_hz`` and ``damping``), scaled to ``level_n`` standard deviation [N] and passed through the
     anti-alias low-pass ``sos`` (None: none), as the gauges' own noise is; started settled (the first
     half second is run in and dropped)."""
-    from scipy.signal import lfilter, sosfilt
+    from scipy.signal import lfilter
 
     w0 = 2 * math.pi * frequency_hz / rate_hz
     r = math.exp(-damping * w0)
     wd = w0 * math.sqrt(1 - damping * damping)
     lead = int(0.5 * rate_hz)
     out = lfilter([1.0], [1.0, -2 * r * math.cos(wd), r * r], rng.normal(0, 1, (n + lead, 3)), axis=0)[lead:]
-    out *= level_n / np.std(out, axis=0)
-    if sos is not None:
-        out = sosfilt(sos, out, axis=0)
-    return out
+    return _scaled_and_filtered(out, level_n, sos)
+
+
+def _scaled_and_filtered(noise: np.ndarray, level_n: float, sos: np.ndarray | None) -> np.ndarray:
+    """Noise channels (columns) scaled to ``level_n`` standard deviation [N], then through the anti-alias
+    low-pass ``sos`` (None: none)."""
+    from scipy.signal import sosfilt
+
+    noise = noise * (level_n / np.std(noise, axis=0))
+    return noise if sos is None else sosfilt(sos, noise, axis=0)
 
 
 def _pink_noise(rng: np.random.Generator, n: int, level_n: float, sos: np.ndarray | None) -> np.ndarray:
@@ -126,17 +132,11 @@ def _pink_noise(rng: np.random.Generator, n: int, level_n: float, sos: np.ndarra
     (amplitudes over √f in its discrete Fourier transform, flat below the lowest frequency the record holds),
     scaled to ``level_n`` standard deviation [N] and passed through the anti-alias low-pass ``sos`` (None:
     none), as the gauges' own noise is."""
-    from scipy.signal import sosfilt
-
     spectrum = np.fft.rfft(rng.normal(0, 1, (n, 3)), axis=0)
     frequency = np.fft.rfftfreq(n)
     spectrum /= np.sqrt(np.maximum(frequency, 1.0 / n))[:, None]
     spectrum[0] = 0.0
-    out = np.fft.irfft(spectrum, n, axis=0)
-    out *= level_n / np.std(out, axis=0)
-    if sos is not None:
-        out = sosfilt(sos, out, axis=0)
-    return out
+    return _scaled_and_filtered(np.fft.irfft(spectrum, n, axis=0), level_n, sos)
 
 
 def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSetup,
