@@ -193,6 +193,36 @@ def test_pink_noise_has_its_level_and_a_power_falling_as_one_over_f_and_leaves_o
     assert np.array_equal(pre_trigger(pink_noise_n=0.0), plain)
 
 
+def test_a_quadrature_encoder_counts_the_edges_where_they_truly_lie():
+    """The quadrature count against a count of its edges by brute force (every edge k at k + 1/2 + error of
+    k mod 4, counted at or below the position, minus one), on 2,000 positions over 40 counts, with the edge errors
+    of a worn encoder and with none (then the position rounded); and a rig with the errors records other counts,
+    never more than a count off, while the default records what it did."""
+    from pencli import api
+    from pencli.acquire.sim import quadrature_counts
+
+    rng = np.random.default_rng(2)
+    position = rng.uniform(-20.0, 20.0, 2000)
+    for errors in ([0.2, -0.15, 0.05, -0.3], [0.0, 0.0, 0.0, 0.0]):
+        ks = np.arange(-30, 30)
+        edges = ks + 0.5 + np.array(errors)[ks % 4]
+        brute = np.array([ks[edges <= x].max() + 1 if np.any(edges <= x) else -30 for x in position])
+        assert np.array_equal(quadrature_counts(position, errors), brute)
+    assert np.array_equal(quadrature_counts(position, [0.0] * 4), np.round(position).astype(np.int64))
+
+    def counts(**extra):
+        rig = {"kind": "rig", "name": "q", "seed": 3, **extra}
+        run = api.acquire(springs=4, penetrator="al6061_1.5mm", material="mpacs_c", rig=rig).run
+        return run.columns["position_mm"]
+
+    plain, worn = counts(), counts(encoder_edge_errors=[0.3, -0.3, 0.3, -0.3])
+    n = min(plain.size, worn.size)  # the recording ends where its motion is seen to stop
+    plain, worn = plain[:n], worn[:n]
+    assert not np.array_equal(plain, worn)
+    assert np.max(np.abs(plain - worn)) <= np.max(np.diff(np.unique(plain))) * 1.0001  # never more than a count
+    assert np.array_equal(counts(encoder_edge_errors=[0.0, 0.0, 0.0, 0.0])[:n], plain)
+
+
 @pytest.mark.parametrize("content,words", [
     ({"kind": "rig", "name": "x", "sampling_rate": 3}, "unknown key 'sampling_rate'"),
     ({"kind": "rig", "name": "x", "resonant_noise_hz": 20000.0}, "resonant_noise_hz"),
@@ -209,6 +239,8 @@ def test_pink_noise_has_its_level_and_a_power_falling_as_one_over_f_and_leaves_o
     ({"kind": "rig", "name": "x", "anti_alias_order": 2.5}, "anti_alias_order"),
     ({"kind": "rig", "name": "x", "anti_alias_ripple_db": 0}, "anti_alias_ripple_db"),
     ({"kind": "rig", "name": "x", "pink_noise_n": -1}, "pink_noise_n"),
+    ({"kind": "rig", "name": "x", "encoder_edge_errors": [0.1, 0.6, 0, 0]}, "encoder_edge_errors"),
+    ({"kind": "rig", "name": "x", "encoder_edge_errors": [0.1, 0.2]}, "encoder_edge_errors"),
 ])
 def test_bad_rig_file_is_one_line(workspace, runner, content, words):
     rig = workspace / "rig.yaml"

@@ -47,6 +47,9 @@ RIG_KEYS: dict[str, tuple[str, Any]] = {
     "strength_scale": ("the block's true strength over the recorded strength (block scatter) [–]", 1.0),
     "surface_offset_error_mm": ("true stand-off minus the energizing file's (the block's surface sits lower "
                                 "when positive) [mm]", 0.0),
+    "encoder_edge_errors": ("where a quadrature encoder's four edges of each cycle of four counts truly lie, off "
+                            "their nominal places, as fractions of a count (its channels' duty-cycle and phase "
+                            "errors; each within ±0.5) [–]", [0.0, 0.0, 0.0, 0.0]),
     "encoder_phase": ("where the blade rests within one encoder count, as a fraction of a count: the counter "
                       "is zeroed there and steps when the motion crosses count edges (0: the rest position "
                       "is at the middle of a count) [–]", 0.0),
@@ -141,6 +144,11 @@ def validate_rig(data: Any, where: str) -> RigConfig:
     if not 0.0 <= _number(where, "encoder_phase", values["encoder_phase"]) < 1.0:
         raise ParameterError(f"{where}: key 'encoder_phase': got {values['encoder_phase']!r}; expected a "
                              f"fraction of a count in [0, 1)")
+    edges = values["encoder_edge_errors"]
+    if not isinstance(edges, (list, tuple)) or len(edges) != 4 or not all(
+            -0.5 < _number(where, "encoder_edge_errors", e) < 0.5 for e in edges):
+        raise ParameterError(f"{where}: key 'encoder_edge_errors': got {edges!r}; expected a list of 4 fractions "
+                             f"of a count, each between -0.5 and 0.5")
     for key in ("force_offsets_n", "torque_offsets_nm"):
         offsets = values[key]
         if not isinstance(offsets, (list, tuple)) or len(offsets) != 3:

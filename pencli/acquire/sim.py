@@ -219,8 +219,23 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
     if pink > 0:  # the gauges' flicker noise: drawn last for the same reason, filtered as the rest was
         forces[:, :3] += _pink_noise(rng, n_total, pink, sos)
     phase = float(rig["encoder_phase"])  # the counter is zeroed at rest, wherever the count edges lie
-    counts = (np.round(u * 1e3 * position_cal.counts_per_mm + phase) - round(phase)).astype(np.int64)
+    edges = [float(e) for e in rig["encoder_edge_errors"]]
+    if not any(edges):
+        counts = (np.round(u * 1e3 * position_cal.counts_per_mm + phase) - round(phase)).astype(np.int64)
+    else:
+        position = u * 1e3 * position_cal.counts_per_mm + phase
+        counts = quadrature_counts(position, edges) - quadrature_counts(np.array([phase]), edges)[0]
     return counts, forces
+
+
+def quadrature_counts(position: np.ndarray, edge_errors: list[float]) -> np.ndarray:
+    """The count a quadrature encoder reads at ``position`` [counts]: the number of edges at or below it, less
+    one, where edge k lies at k + 1/2 + ``edge_errors[k mod 4]`` (each within ±1/2, so that the edge next to a
+    position is one of three); with no errors, the position rounded."""
+    d = np.asarray(edge_errors, dtype=float)
+    m = np.floor(position - 0.5).astype(np.int64)
+    edge = lambda k: k + 0.5 + d[np.mod(k, 4)]  # noqa: E731
+    return np.where(edge(m + 1) <= position, m + 1, np.where(edge(m) <= position, m, m - 1)) + 1
 
 
 class SimRig:
