@@ -258,10 +258,10 @@ def _resonances(frequency: np.ndarray) -> np.ndarray:
     return shape / np.max(shape, axis=1, keepdims=True)
 
 
-def _butterworth_gain(frequency: np.ndarray, order: int) -> np.ndarray:
-    """|H|² of the digital Butterworth of ``order`` at every :data:`ANTI_ALIAS_CORNERS` on ``frequency``
+def _butterworth_gain(frequency: np.ndarray, order: int, corners: np.ndarray = ANTI_ALIAS_CORNERS) -> np.ndarray:
+    """|H|² of the digital Butterworth of ``order`` at every corner of ``corners`` [cycles/sample] on ``frequency``
     [cycles/sample]. (corners, bins)"""
-    ratio = np.tan(np.pi * np.minimum(frequency, 0.4999))[None, :] / np.tan(np.pi * ANTI_ALIAS_CORNERS)[:, None]
+    ratio = np.tan(np.pi * np.minimum(frequency, 0.4999))[None, :] / np.tan(np.pi * corners)[:, None]
     return 1.0 / (1.0 + ratio ** (2 * order))
 
 
@@ -272,22 +272,24 @@ def _filtered_fits(base: np.ndarray, w: np.ndarray, t: np.ndarray, total: float,
     squares, order, corner index, base index)."""
     k = 3 if line is None else 4
     best = (math.inf, 0, 0, 0)
+    cols_w = [w] if line is None else [w, line]        # the flat parts under the filter
+    bb, bt = base * base, base * t                     # the same for every order
+    bc = [base * c for c in cols_w]
     for order in ANTI_ALIAS_ORDERS:
         h2 = _butterworth_gain(frequency, order)
         hh = h2 * h2
-        cols_w = [w] if line is None else [w, line]        # the flat parts under the filter
         gram = np.empty((base.shape[0], h2.shape[0], k, k))
         rhs = np.empty((base.shape[0], h2.shape[0], k))
-        gram[..., 0, 0] = (base * base) @ hh.T
+        gram[..., 0, 0] = bb @ hh.T
         for i, c in enumerate(cols_w, start=1):
-            gram[..., 0, i] = gram[..., i, 0] = (base * c) @ hh.T
+            gram[..., 0, i] = gram[..., i, 0] = bc[i - 1] @ hh.T
             for j, d in enumerate(cols_w[i - 1:], start=i):
                 gram[..., i, j] = gram[..., j, i] = ((c * d) @ hh.T)[None, :]
             gram[..., i, k - 1] = gram[..., k - 1, i] = ((c * w) @ h2.T)[None, :]
             rhs[..., i] = ((c * t) @ h2.T)[None, :]
-        gram[..., 0, k - 1] = gram[..., k - 1, 0] = (base * w) @ h2.T
+        gram[..., 0, k - 1] = gram[..., k - 1, 0] = bc[0] @ h2.T
         gram[..., k - 1, k - 1] = float(w @ w)
-        rhs[..., 0] = (base * t) @ h2.T
+        rhs[..., 0] = bt @ h2.T
         rhs[..., k - 1] = float(w @ t)
         sse = _nonnegative_sse(gram, rhs, total)  # (bases, corners)
         i = int(np.argmin(sse))
@@ -383,7 +385,7 @@ def _line_under(fit: tuple[float, int, int, int], base: np.ndarray, w: np.ndarra
     """The best line (weighted, (lines, bins)) under the filter and coloured part of ``fit`` (as
     :func:`_filtered_fits` returns it): (residual sum of squares, line index)."""
     _, order, corner, b = fit
-    h2 = _butterworth_gain(frequency, order)[corner]
+    h2 = _butterworth_gain(frequency, order, ANTI_ALIAS_CORNERS[corner:corner + 1])[0]
     columns = [np.broadcast_to(h2 * base[b], lines.shape), np.broadcast_to(h2 * w, lines.shape), h2 * lines,
                np.broadcast_to(w, lines.shape)]
     sse = _nonnegative_sse(*_stacked_normal(columns, t), total)
