@@ -4,7 +4,7 @@ Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SE
      [--two-slopes] [--drift-friction] [--weak-drifts] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs]
      [--short-gradients] [--bessel-lags] [--s-gradients]
      [--few-coloured] [--unknown-material] [--resonant-noise] [--butterworth-filters | --filter-kinds]
-     [--pink-noise]
+     [--pink-noise] [--edge-errors]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -37,6 +37,10 @@ baseline of the forty-seventh session's test of world three's filters on the dev
 ``--pink-noise``: every campaign's gauges also make flicker noise (the sim rig's ``pink_noise_n``) of 0.3–1.5 ×
 its white noise, campaign i's drawn from the stream ``[SEED, i, 80]`` (world three draws pink gauge noise; the
 development world did not).
+``--edge-errors``: every campaign's encoder a quadrature encoder whose four edges per cycle sit off their nominal
+places (the sim rig's ``encoder_edge_errors``: duty-cycle and phase errors of its two channels), each edge by a
+normal error of standard deviation 0.03-0.15 count (log-uniform), clipped to ±0.4, campaign i's drawn from the
+stream ``[SEED, i, 81]`` (world three's encoder has such errors; the development world's had none).
 ``--ringing-pairs``: every pair is rig ringing with a depth law (pressure growth, plug growth, gradient or layer;
 random forms, their own stream).
 Prints, per campaign, the truth and the verdict, then: the share of
@@ -244,6 +248,14 @@ def pink_noise(campaigns, seed):
     return _rig_added(campaigns, seed, 80, lambda own, white: {"pink_noise_n": float(own.uniform(0.3, 1.5) * white)})
 
 
+def edge_errors(campaigns, seed):
+    """A quadrature encoder's edge errors on every campaign's rig (see the module's doc)."""
+    def draw(own, white):
+        sigma = float(np.exp(own.uniform(np.log(0.03), np.log(0.15))))
+        return {"encoder_edge_errors": [float(np.clip(e, -0.4, 0.4)) for e in own.normal(0.0, sigma, 4)]}
+    return _rig_added(campaigns, seed, 81, draw)
+
+
 def _filters(campaigns, seed, butterworth: bool):
     """Every campaign behind an anti-alias low-pass (see the module's doc), drawn alike for both flags."""
     out = []
@@ -276,7 +288,8 @@ REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--we
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
            "--short-gradients": short_gradients, "--few-coloured": few_coloured,
            "--unknown-material": unknown_material, "--resonant-noise": resonant_noise,
-           "--filter-kinds": filter_kinds, "--butterworth-filters": butterworth_filters, "--pink-noise": pink_noise}
+           "--filter-kinds": filter_kinds, "--butterworth-filters": butterworth_filters, "--pink-noise": pink_noise,
+           "--edge-errors": edge_errors}
 """The scratch sets' flags and what each redraws (see the module's doc)."""
 
 
