@@ -264,6 +264,84 @@ def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, 
     return Events(motion_start, contact, speed, stop, final_depth, end, contact + trim, stop - trim)
 
 
+FALL_SPAN_S = 3e-3
+"""How long before the encoder's stop the force's fall at the end of penetration is looked for. [s]"""
+FALL_LEVEL_S = 1e-3
+"""The force's level at a sample: the median of this long before it. [s]"""
+FALL_FRACTION = 0.5
+"""The force has fallen where two consecutive samples lie below this fraction of its level."""
+REST_FRACTION = 0.25
+"""...and over the quarter of :data:`FALL_LEVEL_S` after, lies within this fraction of the fall of the force at
+rest (2-12 ms after the encoder's stop)."""
+
+
+def force_fall(time_s: np.ndarray, force_n: np.ndarray, events: Events, noise_n: float) -> float | None:
+    """The end of penetration as the force sees it: the last sample at its level before it falls, or None. [s]
+
+    In the material the tip's resistance holds the force up to the instant the motion ends; then the material
+    holds only the drive (an arrest) or the hard stops take the load (full depth), and the axial force falls
+    within a sample or two (the channel's filter and lag only delay the fall).  The encoder places the stop
+    from a parabola through its last counts (:func:`detect_events`), which a hard stop reached slowly cuts off
+    while still decelerating: there the parabola's vertex lies past the real stop by the speed over the
+    deceleration (0.7-0.9 ms at 0.3 m/s and 400-700 m/s²), and a window ending 0.5 ms before it held samples
+    after the fall.  Looked for from :data:`FALL_SPAN_S` before the encoder's stop to 1 ms after it: the first
+    of two consecutive samples under :data:`FALL_FRACTION` of the median of the :data:`FALL_LEVEL_S` before
+    it, where that level stands at least 20 × ``noise_n`` (the pre-trigger force's standard deviation) above 0,
+    and where the force then lies near its level at rest (:data:`REST_FRACTION`): a weaker layer the tip enters
+    lowers the force but not to the drive's or the stops' level.  None where the force does not fall so (a drive that holds nearly what the material did).  On 392 sim-rig
+    shots (as :data:`HARD_STOP_LEAD_S`'s, blocks of 0.7-3 × that strength) the sample so found lay within 0.1 ms
+    of the true stop in every one but the one arrest without a fall; the encoder's stop, from -0.96 to +0.84 ms.
+    """
+    rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
+    level_n = max(int(round(FALL_LEVEL_S * rate)), 8)
+    lo = max(int(np.searchsorted(time_s, max(events.stop_s - FALL_SPAN_S, events.contact_s))), level_n)
+    hi = min(int(np.searchsorted(time_s, events.stop_s + 1e-3)), force_n.size - 1)
+    if hi - lo < 4:
+        return None
+    window = np.lib.stride_tricks.sliding_window_view(force_n[lo - level_n:hi], level_n)
+    level = np.median(window, axis=1)  # level[j]: of the samples before lo + j
+    below = force_n[lo:hi + 1] < FALL_FRACTION * level
+    fallen = np.flatnonzero(below[:-1] & below[1:] & (level[:-1] > 20.0 * noise_n))
+    rest = force_n[(time_s > events.stop_s + 2e-3) & (time_s < events.stop_s + 12e-3)]
+    if fallen.size == 0 or rest.size < 8:
+        return None
+    rest_n = float(np.median(rest))
+    for j in fallen:
+        at = lo + int(j)
+        # to the force at rest, not to a weaker layer's: the blade no longer pushes into the material
+        settled = float(np.median(force_n[at:at + level_n // 4 + 2]))
+        if settled - rest_n <= REST_FRACTION * (float(level[j]) - rest_n):
+            return float(time_s[at - 1])
+    return None
+
+
+HARD_STOP_LEAD_S = 0.1e-3
+"""A vertex of the encoder's parabola further than this past the force's fall is a motion the hard stops cut off
+while the tip still moved, not an arrest.  On 300 sim-rig shots with blocks of 0.9-1.3 × the strength that just
+reaches the stops (blades 1-2 mm, 2-6 springs, encoders 0.08-0.32 mm, 30 and 60 kHz, 0.5-6 N of noise,
+stand-off errors within ±2 mm, half behind an anti-alias filter) the 149 arrests whose force fell put the
+vertex at most 0.044 ms past the fall, the 150 stops at least 0.19 ms (at 0.06 m/s; the next 0.68 ms, at
+0.47 m/s). [s]"""
+
+
+def ended_by_force(time_s: np.ndarray, force_n: np.ndarray, events: Events, full_depth_m: float,
+                   noise_n: float) -> Events:
+    """``events`` with the stop placed no later than the force's fall (:func:`force_fall`), and an arrest
+    reclassified as the hard stops where its parabola's vertex lies more than :data:`HARD_STOP_LEAD_S` past
+    that fall within :data:`STANDOFF_TOLERANCE_M` of the full depth; the default window ends
+    :data:`WINDOW_TRIM_S` before the stop so placed.  Unchanged where the force does not fall."""
+    fall = force_fall(time_s, force_n, events, noise_n)
+    if fall is None or fall >= events.stop_s or fall <= events.contact_s:
+        return events
+    end = events.end
+    if (end == "arrest" and events.stop_s - fall > HARD_STOP_LEAD_S
+            and events.final_depth_m >= full_depth_m - STANDOFF_TOLERANCE_M):
+        end = "full_depth"
+    trim = WINDOW_TRIM_S if fall - events.contact_s > 4 * WINDOW_TRIM_S else 0.0
+    return Events(events.motion_start_s, events.contact_s, events.contact_speed_m_s, fall, events.final_depth_m,
+                  end, events.window_start_s, fall - trim)
+
+
 def tare(columns: dict[str, np.ndarray], surface_offset_mm: float, full_depth_mm: float, *,
          window_ms: tuple[float, float] | None = None, where: str = "run") -> Tared:
     """Tare the load cell on the pre-trigger span and locate the run's events.
@@ -286,6 +364,7 @@ def tare(columns: dict[str, np.ndarray], surface_offset_mm: float, full_depth_mm
     position_zero = float(np.median(position[pre]))
     depth = (position - position_zero - surface_offset_mm) * 1e-3  # CONTRACT §3: x = position − offset
     events = detect_events(t, depth, full_depth_mm * 1e-3, where=where)
+    events = ended_by_force(t, forces["fz_n"], events, full_depth_mm * 1e-3, float(np.std(forces["fz_n"][pre])))
     if window_ms is not None:
         start, end = (w * 1e-3 for w in window_ms)
         if not (t[0] <= start < end <= t[-1]):
