@@ -5,7 +5,8 @@
 - The noise model against AR processes of known coefficients.
 - The Gumbel tail against a Gumbel law's known quantile.
 - Force-onset and encoder-step detection against signals of known truth.
-- A sim-rig shot whose block sits lower than the file says still ends at the hard stops.
+- A sim-rig shot whose block sits lower than the file says still ends at the hard stops; one that reaches them
+  slowly, with its block nearer than the file says, ends where its force falls (against the sim rig's truth).
 """
 
 from __future__ import annotations
