@@ -717,8 +717,11 @@ def test_the_anti_alias_filter_is_read_from_the_pre_trigger_noise(corner, rate, 
     """The simulated rig's 4th-order Butterworth anti-alias filter (or none) read from the noise before the
     release: order 4 (or 5) and its corner within 12 %, and no filter where the rig has none, with white or
     correlated noise, and with or without a converter adding white noise after the filter (``floor`` N; the
-    gauge's white noise is 2 N).  Read as a power law under a Butterworth, the floor hid every filter."""
-    _assert_the_filter_is_read(corner, rate, correlated, converter_noise_n=floor)
+    gauge's white noise is 2 N).  Read as a power law under a Butterworth, the floor hid every filter.  No narrow
+    band is read where the rig has none, but for one in the filter's roll-off (the reading's ``line``, which the
+    diagnosis reports: 0.43 of the rate beside a corner at 0.4, where the knee fits either)."""
+    line = _assert_the_filter_is_read(corner, rate, correlated, converter_noise_n=floor)
+    assert line is None or (corner is not None and line.frequency > corner), line
 
 
 def _assert_the_filter_is_read(corner, rate, correlated, **rig_extra):
@@ -726,17 +729,18 @@ def _assert_the_filter_is_read(corner, rate, correlated, **rig_extra):
     ``correlated`` N over 0.3 ms, and ``rig_extra``: the reading from 0.19 s before the release is order 4 or 5
     with its corner within 12 %, or none where there is none."""
     from pencli import api
-    from pencli.diagnose.null import fit_anti_alias
+    from pencli.diagnose.null import read_noise_chain
 
     rig = {"kind": "rig", "name": "aa", "seed": 9, "force_noise_n": 2.0, "correlated_noise_n": correlated,
            "correlated_noise_ms": 0.3, "sampling_rate_hz": rate, "anti_alias_hz": (corner or 0.0) * rate, **rig_extra}
     columns = api.acquire(springs=4, penetrator="al6061_1.5mm", material="mpacs_c", rig=rig).run.columns
-    found = fit_anti_alias(fit_noise(columns["fz_n"][columns["time_s"] < -0.01]))
+    found, line = read_noise_chain(fit_noise(columns["fz_n"][columns["time_s"] < -0.01]))
     if corner is None:
         assert found is None, found
     else:
         assert found is not None and found.order in (4, 5), found
         assert found.corner == pytest.approx(corner, rel=0.12)
+    return line
 
 
 def test_the_small_nonnegative_least_squares_match_scipys_nnls():
@@ -767,7 +771,7 @@ def test_a_narrow_band_of_noise_is_not_read_as_an_anti_alias_filter(seed):
     null was called a sidewall pressure growth at z 8.0 against 3.9."""
     from scipy.signal import lfilter
 
-    from pencli.diagnose.null import fit_anti_alias
+    from pencli.diagnose.null import read_noise_chain
 
     rng = np.random.default_rng(seed)
     rate, n = 60000.0, 12000
@@ -775,8 +779,11 @@ def test_a_narrow_band_of_noise_is_not_read_as_an_anti_alias_filter(seed):
     r = np.exp(-zeta * w0)
     band = lfilter([1.0], [1.0, -2 * r * np.cos(w0 * np.sqrt(1 - zeta ** 2)), r * r], rng.normal(0, 1, n + 30000))
     band = band[30000:]
-    found = fit_anti_alias(fit_noise(rng.normal(0, 2.5, n) + 2.2 * band / np.std(band)))
+    found, line = read_noise_chain(fit_noise(rng.normal(0, 2.5, n) + 2.2 * band / np.std(band)))
     assert found is None, found
+    assert line is not None and line.frequency * rate == pytest.approx(2140.0, rel=0.05), line  # the band, reported
+    assert 0.07 <= line.damping <= 0.18, line
+    assert read_noise_chain(fit_noise(rng.normal(0, 2.5, n))) == (None, None)  # white alone: neither
 
 
 @pytest.mark.parametrize("corner,rate,band,damping,correlated", [
@@ -791,9 +798,12 @@ def test_the_anti_alias_filter_is_read_through_a_band_of_noise(corner, rate, ban
     ``band`` of the rate) beside its 4th-order Butterworth anti-alias filter, in the pass band or above the corner,
     or with no filter: the filter read as in the test above (order 4 or 5, corner within 12 %), and none where
     there is none.  Before the noise model had a line, the three unfiltered records were each read as filtered
-    (order 8 at 0.126, 3 at 0.04, 6 at 0.39 of the rate)."""
-    _assert_the_filter_is_read(corner, rate, correlated, resonant_noise_n=2.0, resonant_noise_hz=band * rate,
-                               resonant_noise_damping=damping)
+    (order 8 at 0.126, 3 at 0.04, 6 at 0.39 of the rate).  The band itself is read too (the diagnosis reports it):
+    its centre within 5 % (the grid is 4 % apart), its damping within a factor of 1.6."""
+    line = _assert_the_filter_is_read(corner, rate, correlated, resonant_noise_n=2.0, resonant_noise_hz=band * rate,
+                                      resonant_noise_damping=damping)
+    assert line is not None and line.frequency == pytest.approx(band, rel=0.05), line
+    assert abs(math.log(line.damping / damping)) < math.log(1.6), line
 
 
 def _flight_and_arrest(t, rate):

@@ -65,7 +65,7 @@ from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, 
                                      column_strength_factor, surfaces)
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
 from pencli.diagnose.rest import rest_drift
-from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_anti_alias, fit_noise, gev_quantile,
+from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_noise, gev_quantile, read_noise_chain,
                                   gumbel_quantile, normal_quantile, replicate_campaign, student_quantile)
 from pencli.errors import FitError, ModelError, PenNotice
 from pencli.filter.tare import Events
@@ -676,12 +676,13 @@ def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted_ctx: np.ndarray, val
     if noise.level_n == 0.0:
         noise = NoiseModel.white(max(run.noise_n, 1e-6))
     contact = run.seen_contact_s
+    anti_alias, line = read_noise_chain(noise)
     baseline = np.zeros(ts.size)
     baseline[:fitted_ctx.size] = fitted_ctx[:ts.size]  # the context starts the span; nothing is analysed past it
     return RunNull(ts, run.depth_m[span], run.acceleration_m_s2[span], at_rest, use, fitted_ctx[use_ctx], events,
                    run.design.penetration_depth_m, run.encoder_step_m, run.load_cell_mass_kg, noise,
                    run.derivative_method, contact, _model_motion(run, contact, values),
-                   anti_alias=fit_anti_alias(noise), baseline_n=baseline)
+                   anti_alias=anti_alias, noise_line=line, baseline_n=baseline)
 
 
 def _model_motion(run: DiagnosisRun, contact_s: float, values: Mapping[str, float]) -> ModelMotion | None:
@@ -1012,6 +1013,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         "drive_threshold_t": round(drive_threshold, 3), "explain_share": EXPLAIN_SHARE,
         "noise_model": [{**n.noise.to_dict(),
                          "anti_alias": n.anti_alias.to_dict(r.rate_hz) if n.anti_alias else None,
+                         "line": n.noise_line.to_dict(r.rate_hz) if n.noise_line else None,
                          "position_noise_um": round(rep.position_noise_m * 1e6, 3)}
                         for n, r, rep in zip(nulls, runs, replicates)],
         "encoder_step_mm": [round(r.encoder_step_m * 1e3, 4) for r in runs],

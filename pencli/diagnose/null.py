@@ -183,6 +183,27 @@ class AntiAlias:
         return {"order": self.order, "corner_hz": round(self.corner * rate_hz, 1)}
 
 
+@dataclass(frozen=True)
+class NoiseLine:
+    """A narrow band of the gauge noise (a floor or fixture mode) as :func:`read_noise_chain` reads it: a damped mode
+    driven by white noise, centred at ``frequency`` [cycles/sample] with damping ratio ``damping`` [–], both on the
+    grids :data:`RESONANCE_FREQUENCIES` and :data:`RESONANCE_DAMPINGS`."""
+
+    frequency: float
+    damping: float
+
+    def to_dict(self, rate_hz: float) -> dict:
+        return {"frequency_hz": round(self.frequency * rate_hz, 1), "damping": self.damping}
+
+
+def _line_of(index: int | None) -> NoiseLine | None:
+    """The line of :func:`_resonances`' row ``index`` (None: none)."""
+    if index is None:
+        return None
+    f, z = divmod(int(index), RESONANCE_DAMPINGS.size)
+    return NoiseLine(float(RESONANCE_FREQUENCIES[f]), float(RESONANCE_DAMPINGS[z]))
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def _nonnegative_sse_rows(gram: np.ndarray, rhs: np.ndarray, total: float) -> np.ndarray:  # pragma: no cover
     """:func:`_nonnegative_sse` on (problems, K, K) and (problems, K), compiled: each subset by elimination."""
@@ -299,7 +320,14 @@ def _filtered_fits(base: np.ndarray, w: np.ndarray, t: np.ndarray, total: float,
 
 
 def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
-    r"""The force channel's anti-alias low-pass as read from its noise spectrum, or None when it shows none.
+    """The force channel's anti-alias low-pass as read from its noise spectrum, or None when it shows none
+    (:func:`read_noise_chain`)."""
+    return read_noise_chain(noise)[0]
+
+
+def read_noise_chain(noise: NoiseModel) -> tuple[AntiAlias | None, NoiseLine | None]:
+    r"""The force channel's anti-alias low-pass as read from its noise spectrum (or None when it shows none), and
+    the narrow band read beside or under it (or None).
 
     The gauge noise the rig sees is white plus a coloured part, flat or falling gently (a power law times the
     spectrum of a first-order autoregression, :math:`A f^\beta/(1 + \phi^2 - 2\phi\cos 2\pi f)` plus
@@ -330,11 +358,11 @@ def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
     f_lo, depth = ANTI_ALIAS_RANGE
     keep = noise.frequency >= f_lo
     if keep.sum() < 16:
-        return None
+        return None, None
     keep &= noise.psd > depth * float(np.max(noise.psd[keep]))
     f, p = noise.frequency[keep], noise.psd[keep]
     if f.size < 16:
-        return None
+        return None, None
     n = f.size
     # relative error against a running geometric mean of the spectrum (15 bins): weights that do not follow each
     # bin's own estimation error, which 1/P would (it favours models below the spectrum)
@@ -361,23 +389,28 @@ def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
     for i, j in ((1, 0), (2, 0), (2, 1)):
         gram[..., i, j] = gram[..., j, i]
     rhs = np.stack(np.broadcast_arrays(gt[:, None], float(w @ t), (lines @ t)[None, :]), axis=-1)
-    plain_line = float(np.min(_nonnegative_sse(gram, rhs, total)))
+    plain_lines = _nonnegative_sse(gram, rhs, total)  # (bases, lines)
+    plain_line = float(np.min(plain_lines))
     m = n / 3.0  # independent bins: fit_noise averages three neighbours
     bic = lambda sse, k: m * math.log(max(sse, 1e-300) / n) + k * math.log(m)  # noqa: E731
     bic_plain = min(bic(plain, 4), bic(plain_line, 7))
+    unfiltered_line = int(np.argmin(plain_lines)) % lines.shape[0] if bic(plain_line, 7) < bic(plain, 4) else None
     # a filter: |H|²(A g + B) + F over every order, corner and coloured part
     filtered = _filtered_fits(base, w, t, total, f, None)
     # with a line under it, by turns: the line for that filter, the filter for that line, the line again (the
     # last two only when the line fits the first better, or the filter alone loses)
-    readings = [(bic(filtered[0], 7), filtered[1:3])]
+    readings = [(bic(filtered[0], 7), filtered[1:3], None)]
     sse, line = _line_under(filtered, base, w, t, total, f, lines)
-    readings.append((bic(sse, 10), filtered[1:3]))
+    readings.append((bic(sse, 10), filtered[1:3], line))
     if readings[1][0] < min(readings[0][0], bic_plain):
         with_line = _filtered_fits(base, w, t, total, f, lines[line])
-        readings.append((bic(with_line[0], 10), with_line[1:3]))
-        readings.append((bic(_line_under(with_line, base, w, t, total, f, lines)[0], 10), with_line[1:3]))
-    score, (order, corner) = min(readings, key=lambda r: r[0])
-    return AntiAlias(order, float(ANTI_ALIAS_CORNERS[corner])) if score < bic_plain else None
+        readings.append((bic(with_line[0], 10), with_line[1:3], line))
+        again, again_line = _line_under(with_line, base, w, t, total, f, lines)
+        readings.append((bic(again, 10), with_line[1:3], again_line))
+    score, (order, corner), under = min(readings, key=lambda r: r[0])
+    if score < bic_plain:
+        return AntiAlias(order, float(ANTI_ALIAS_CORNERS[corner])), _line_of(under)
+    return None, _line_of(unfiltered_line)
 
 
 def _line_under(fit: tuple[float, int, int, int], base: np.ndarray, w: np.ndarray, t: np.ndarray, total: float,
@@ -451,6 +484,9 @@ class RunNull:
     alone."""
     anti_alias: AntiAlias | None = None
     """The force channel's low-pass as read from its noise (:func:`fit_anti_alias`), or None."""
+    noise_line: NoiseLine | None = None
+    """The narrow band read beside or under it (:func:`read_noise_chain`), or None: reported, not replicated apart
+    (the replicates' noise has the run's whole spectrum)."""
     baseline_n: np.ndarray | None = None
     """Baseline resistance on the whole span (0 outside the material), what the filter acts on with m·a. [N]"""
 
