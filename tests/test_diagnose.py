@@ -284,6 +284,7 @@ def test_a_null_behind_an_anti_alias_filter_is_none(tmp_path):
     assert result.verdict == "none", (result.verdict, [(e.name, e.z) for e in result.effects[:3]])
     read = [n["anti_alias"] for n in result.decision["noise_model"]]
     assert all(r is not None and r["corner_hz"] == pytest.approx(6000.0, rel=0.12) for r in read), read
+    assert [n["line"] for n in result.decision["noise_model"]] == [None] * len(read)  # the rig makes no band
 
 
 @pytest.mark.campaign
