@@ -16,7 +16,7 @@ Pure functions on arrays in contract units in, SI out:
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -260,8 +260,14 @@ def detect_events(time_s: np.ndarray, depth_m: np.ndarray, full_depth_m: float, 
             stop = float(time_s[last_change])
     if stop <= contact:
         raise DataError(f"{where}: the motion stops ({stop * 1e3:.2f} ms) before contact ({contact * 1e3:.2f} ms)")
-    trim = WINDOW_TRIM_S if stop - contact > 4 * WINDOW_TRIM_S else 0.0
-    return Events(motion_start, contact, speed, stop, final_depth, end, contact + trim, stop - trim)
+    return Events(motion_start, contact, speed, stop, final_depth, end, *_default_window(contact, stop))
+
+
+def _default_window(contact_s: float, stop_s: float) -> tuple[float, float]:
+    """The default analysis window: :data:`WINDOW_TRIM_S` inside contact and stop (none in a run shorter than four
+    trims). [s]"""
+    trim = WINDOW_TRIM_S if stop_s - contact_s > 4 * WINDOW_TRIM_S else 0.0
+    return contact_s + trim, stop_s - trim
 
 
 FALL_SPAN_S = 3e-3
@@ -331,8 +337,8 @@ def ended_by_force(time_s: np.ndarray, force_n: np.ndarray, events: Events, full
                    noise_n: float) -> Events:
     """``events`` with the stop placed no later than the force's fall (:func:`force_fall`), and an arrest
     reclassified as the hard stops where its parabola's vertex lies more than :data:`HARD_STOP_LEAD_S` past
-    that fall within :data:`STANDOFF_TOLERANCE_M` of the full depth; the default window ends
-    :data:`WINDOW_TRIM_S` before the stop so placed.  Unchanged where the force does not fall."""
+    that fall within :data:`STANDOFF_TOLERANCE_M` of the full depth; the default window (:func:`_default_window`)
+    is that of the stop so placed.  Unchanged where the force does not fall."""
     fall = force_fall(time_s, force_n, events, noise_n)
     if fall is None or fall >= events.stop_s or fall <= events.contact_s:
         return events
@@ -340,9 +346,8 @@ def ended_by_force(time_s: np.ndarray, force_n: np.ndarray, events: Events, full
     if (end == "arrest" and events.stop_s - fall > HARD_STOP_LEAD_S
             and events.final_depth_m >= full_depth_m - STANDOFF_TOLERANCE_M):
         end = "full_depth"
-    trim = WINDOW_TRIM_S if fall - events.contact_s > 4 * WINDOW_TRIM_S else 0.0
-    return Events(events.motion_start_s, events.contact_s, events.contact_speed_m_s, fall, events.final_depth_m,
-                  end, events.window_start_s, fall - trim)
+    start, stop = _default_window(events.contact_s, fall)
+    return replace(events, stop_s=fall, end=end, window_start_s=start, window_end_s=stop)
 
 
 def tare(columns: dict[str, np.ndarray], surface_offset_mm: float, full_depth_mm: float, *,
