@@ -171,3 +171,51 @@ def test_the_bessel_lag_delays_a_slow_sine_as_the_analogue_fourth_order_prototyp
     step = _lag(np.r_[np.zeros(100), np.ones(900)], tau, rate, 3)
     assert abs((np.argmax(step >= 0.5) - 100) / rate - tau) <= 1.0 / rate
     assert abs(step[-1] - 1.0) < 1e-6 and step.max() < 1.015
+
+
+def _change(effect, penetrator, x, v):
+    """What ``effect`` (default form) adds to the true resistance of ``penetrator`` in MPACS C at (x, v). [N]"""
+    from pencli.acquire.truth import _resistance_function
+
+    ps, ms, es = sets(penetrator, "mpacs_c", "springs_2")
+
+    def law(effects):
+        return _resistance_function(world_from(ps, ms, es, rig_from_mapping({"effects": effects})))(x, v)
+
+    return law([{"name": effect}]) - law([])
+
+
+def test_the_advice_that_tells_two_effects_apart_by_blade_thickness_holds_in_the_true_world():
+    """``separate_with`` (an ambiguity's advice, schema/diagnosis.md) names runs of another blade thickness
+    only for two effects whose true forces scale differently with the thickness T, read from the sim world's
+    force law (an implementation of its own, not the diagnosis's columns): a plug adds a fixed width, so its
+    force, like sidewall friction's, does not grow with T (the advice said thickness until the forty-ninth
+    session).  And where the advice says speed tells a plug from a pressure growth, the plug's force changes
+    with speed at one depth and the pressure's does not."""
+    from pencli.acquire.truth import TRUE_EFFECTS
+    from pencli.diagnose.effects import INDISTINGUISHABLE
+
+    x, v = 0.07, 3.0  # inside the default layer (60–110 mm) and past the default plug length (30 mm)
+
+    def thickness_ratio(name):
+        return _change(name, "al6061_2mm", x, v) / _change(name, "al6061_1mm", x, v)
+
+    checked = 0
+    for pair, advice in INDISTINGUISHABLE.items():
+        a, b = sorted(pair)
+        if not (a in TRUE_EFFECTS and b in TRUE_EFFECTS and _change(a, "al6061_1mm", x, v)
+                and _change(b, "al6061_1mm", x, v)):
+            continue  # a chain effect: no change of the force law to compare
+        differ = abs(thickness_ratio(a) / thickness_ratio(b) - 1.0) > 0.05
+        said = "another blade thickness" in advice
+        assert said == differ, (f"{a} × {b}: thickness ratios {thickness_ratio(a):.3f} and {thickness_ratio(b):.3f}, "
+                                f"advice: {advice!r}")
+        checked += 1
+    assert checked >= 5
+
+    def speed_ratio(name):
+        return _change(name, "al6061_1mm", x, 6.0) / _change(name, "al6061_1mm", x, 1.0)
+
+    assert "speeds" in INDISTINGUISHABLE[frozenset({"plug_growth", "sidewall_pressure_growth"})]
+    assert speed_ratio("sidewall_pressure_growth") == pytest.approx(1.0, abs=1e-9)
+    assert speed_ratio("plug_growth") > 1.02

@@ -875,7 +875,12 @@ INDISTINGUISHABLE: dict[frozenset, str] = {
     frozenset({"strength_gradient", "plug_growth"}):
         "runs of another blade thickness: a plug adds a fixed width, a strength gradient scales with T",
     frozenset({"plug_growth", "sidewall_pressure_growth"}):
-        "runs of another blade thickness: sidewall friction does not scale with T",
+        "runs at other contact speeds into the same depths, and deeper than the plug's length: neither force "
+        "scales with T (a plug adds a fixed width), but a plug widens the frontal inertia term (K·ρ·v²) and "
+        "stops growing, sidewall friction has no speed term and grows on",
+    frozenset({"plug_growth", "velocity_friction"}):
+        "runs at other contact speeds into the same depths: neither force scales with T (a plug adds a fixed "
+        "width), friction follows the sliding speed, a plug mostly the depth",
     frozenset({"rate_strength", "velocity_friction"}):
         "runs at other contact speeds into the same depths, and of another blade thickness",
     frozenset({"strength_layer", "strength_gradient"}):
