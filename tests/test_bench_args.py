@@ -34,3 +34,29 @@ def test_the_holdout_bench_refuses_a_typo_without_running():
     done = subprocess.run([sys.executable, "-m", "bench.bench_diagnose_holdout", "--base", "1", "--no-lader"],
                           cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and "unknown option --no-lader" in done.stderr and done.stdout == ""
+
+
+def test_compare_verdicts_counts_what_changed_between_two_runs_of_a_set(tmp_path, capsys):
+    """bench/compare_verdicts.py reads two bench_diagnose outputs and counts campaign by campaign; the lines here
+    are in the bench's printed form, the counts worked out by hand."""
+    from bench.compare_verdicts import main
+
+    def out(name, rows):
+        path = tmp_path / name
+        path.write_text("\n".join(f"{label:28s} truth={truth:45s} verdict={verdict:25s} {mark} first=x z=1.0/3.0 "
+                                  f"{seconds}s" for label, truth, verdict, mark, seconds in rows) + "\nsummary line\n")
+        return str(path)
+
+    before = out("before.txt", [("a-0", "plug_growth", "plug_growth", "OK ", 10.0),
+                                ("b-1", "velocity_friction", "plug_growth", "MISS", 20.0),
+                                ("null-2", "none", "none", "OK ", 30.0)])
+    after = out("after.txt", [("a-0", "plug_growth", "strength_layer", "MISS", 12.0),
+                              ("b-1", "velocity_friction", "velocity_friction", "OK ", 22.0),
+                              ("null-2", "none", "none", "OK ", 33.0), ("c-3", "none", "none", "OK ", 1.0)])
+    assert main([before, after]) == 0
+    text = capsys.readouterr().out
+    assert "3 campaigns in both; right 2 before, 2 after (lost 1, gained 1)" in text
+    assert "a-0" in text and "b-1" in text and "null-2" not in text and "c-3" not in text
+    assert "20.0 s before, 22.0 s after (1.10 ×" in text
+    assert main([before]) == 2 and main([before, str(tmp_path / "missing.txt")]) == 2
+    assert "missing.txt: no such file" in capsys.readouterr().err
