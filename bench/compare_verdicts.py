@@ -74,7 +74,7 @@ def main(argv: list[str]) -> int:
         sets.append(rows)
     totals = {"common": 0, "right_before": 0, "right_after": 0, "lost": 0, "gained": 0}
     seconds_before, seconds_after = [], []
-    for (path, _), before, after in zip(zip(files[::2], files[1::2]), sets[::2], sets[1::2]):
+    for path, before, after in zip(files[::2], sets[::2], sets[1::2]):
         c = compare(before, after)
         print(f"{path.name}: {len(c['common'])} campaigns in both; right {c['right_before']} before, "
               f"{c['right_after']} after (lost {c['lost']}, gained {c['gained']})")
@@ -82,8 +82,9 @@ def main(argv: list[str]) -> int:
             b, a = before[k], after[k]
             print(f"    {k:28s} truth={b.truth:40s} {b.verdict:25s} {'OK' if b.right else 'MISS':5s} → "
                   f"{a.verdict:25s} {'OK' if a.right else 'MISS'}")
-        for key in totals:
-            totals[key] += len(c[key]) if key == "common" else c[key]
+        totals["common"] += len(c["common"])
+        for key in ("right_before", "right_after", "lost", "gained"):
+            totals[key] += c[key]
         seconds_before += c["seconds_before"]
         seconds_after += c["seconds_after"]
     print(f"all sets: {totals['common']} campaigns; right {totals['right_before']} before, {totals['right_after']} "
