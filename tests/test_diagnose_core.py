@@ -1223,3 +1223,40 @@ def test_the_effect_named_first_is_the_one_that_closes_most_of_a_gap_the_familyw
     assert named(friction) == "velocity_friction"
     assert named(tested(4.0, wide_null)) == "plug_growth"  # closes less than the significant one
     assert named(tested(wide_null.max() - 0.1, wide_null)) == "plug_growth"  # a replicate closes as much
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "known defect, the forty-ninth session: bounded_solve fixes a negative coefficient at 0 and never frees it, so "
+    "in 306 of 2,317 random partly bounded systems (40 trials of this test's draws; it runs 12) it stops above the "
+    "bounded least-squares optimum (median 2 % of the objective, at most 100 %); the path it takes follows the signs of "
+    "near-zero coefficients, which the CPU's BLAS kernel decides (docs/diagnosis-log.md). "
+    "docs/patches/exact-nnls.patch (Lawson-Hanson) meets the optimum in all of them; merge it by a keep rule, "
+    "then drop this marker"))
+def test_bounded_solve_reaches_the_bounded_least_squares_optimum():
+    """A bounded fit must be the least-squares optimum under its bounds: against scipy's ``lsq_linear`` (an
+    independent bounded solver) on the system's Cholesky factor, the objective ½θᵀAθ − bᵀθ of pen's solution
+    may not exceed the optimum's.  Random Grams, some with nearly collinear columns, 70 % of coefficients ≥ 0."""
+    from scipy.optimize import lsq_linear
+
+    rng = np.random.default_rng(46)
+    worse = 0
+    for trial in range(12):
+        M, q, T = int(rng.integers(1, 8)), int(rng.integers(2, 10)), int(rng.integers(1, 30))
+        X = rng.normal(size=(M, 4 * q, q)) * rng.uniform(0.01, 100.0, size=q)
+        if trial % 4 == 1:
+            X[:, :, 1] = X[:, :, 0] + 1e-4 * rng.normal(size=(M, 4 * q))  # nearly collinear
+        A = np.einsum("mnp,mnq->mpq", X, X)
+        b = np.einsum("mnp,mnt->mpt", X, rng.normal(size=(M, 4 * q, T)) - 0.5)
+        bounded = rng.uniform(size=(M, q)) < 0.7
+        got = bounded_solve(A, b, bounded)
+        for m in range(M):
+            L = np.linalg.cholesky(A[m] + 1e-9 * np.trace(A[m]) / q * np.eye(q))
+            for t in range(T):
+                exact = lsq_linear(L.T, np.linalg.solve(L, b[m, :, t]), bounds=(np.where(bounded[m], 0.0, -np.inf),
+                                                                                 np.inf), tol=1e-12).x
+
+                def objective(theta):
+                    return 0.5 * theta @ A[m] @ theta - b[m, :, t] @ theta
+
+                worse += objective(got[m, :, t]) > objective(exact) + 1e-7 * abs(objective(exact)) + 1e-9
+    assert worse == 0, f"{worse} systems above the bounded optimum"
