@@ -108,13 +108,12 @@ def test_an_effect_whose_sign_is_fixed_is_fitted_with_its_bound_as_stacked_bound
         assert scores.heldout[0, k, 0] == pytest.approx(expected, rel=1e-6)
 
 
-def test_bounded_solve_is_the_active_set_rule_solved_system_by_system():
-    """The compiled active-set rounds against the rule written out here with numpy's solve on each system's
-    free rows and columns alone: fix every bounded coefficient that came out negative at 0, solve the rest
-    again, until none is negative.  Collinear and empty columns, several bounds active at once."""
-    rng = np.random.default_rng(46)
-    active = 0
-    for trial in range(40):
+def _random_bounded_systems(trials: int, seed: int = 46):
+    """(A, b, bounded) of ``trials`` random batches of partly bounded systems (M models, q coefficients, T
+    targets): Grams of columns on scales 0.01-100, every fourth batch with a column no run reaches and every
+    fourth (one on) with two nearly collinear columns; 70 % of coefficients bounded at 0."""
+    rng = np.random.default_rng(seed)
+    for trial in range(trials):
         M, q, T = int(rng.integers(1, 8)), int(rng.integers(2, 10)), int(rng.integers(1, 30))
         X = rng.normal(size=(M, 4 * q, q)) * rng.uniform(0.01, 100.0, size=q)
         if trial % 4 == 0:
@@ -123,7 +122,16 @@ def test_bounded_solve_is_the_active_set_rule_solved_system_by_system():
             X[:, :, 1] = X[:, :, 0] + 1e-4 * rng.normal(size=(M, 4 * q))  # nearly collinear
         A = np.einsum("mnp,mnq->mpq", X, X)
         b = np.einsum("mnp,mnt->mpt", X, rng.normal(size=(M, 4 * q, T)) - 0.5)
-        bounded = rng.uniform(size=(M, q)) < 0.7
+        yield A, b, rng.uniform(size=(M, q)) < 0.7
+
+
+def test_bounded_solve_is_the_active_set_rule_solved_system_by_system():
+    """The compiled active-set rounds against the rule written out here with numpy's solve on each system's
+    free rows and columns alone: fix every bounded coefficient that came out negative at 0, solve the rest
+    again, until none is negative.  Collinear and empty columns, several bounds active at once."""
+    active = 0
+    for trial, (A, b, bounded) in enumerate(_random_bounded_systems(40)):
+        M, q, T = b.shape
         got = bounded_solve(A, b, bounded)
         for m in range(M):
             scale = np.sqrt(np.diag(A[m]))
@@ -1227,7 +1235,7 @@ def test_the_effect_named_first_is_the_one_that_closes_most_of_a_gap_the_familyw
 
 @pytest.mark.xfail(strict=True, reason=(
     "known defect, the forty-ninth session: bounded_solve fixes a negative coefficient at 0 and never frees it, so "
-    "in 306 of 2,317 random partly bounded systems (40 trials of this test's draws; it runs 12) it stops above the "
+    "in 306 of 2,317 random partly bounded systems (40 batches drawn as here, without the empty columns) it stops above the "
     "bounded least-squares optimum (median 2 % of the objective, at most 100 %); the path it takes follows the "
     "signs of near-zero coefficients, which the CPU's BLAS kernel decides (docs/diagnosis-log.md). "
     "docs/patches/exact-nnls.patch (Lawson-Hanson) meets the optimum in all of them; merge it by a keep rule, "
@@ -1235,19 +1243,12 @@ def test_the_effect_named_first_is_the_one_that_closes_most_of_a_gap_the_familyw
 def test_bounded_solve_reaches_the_bounded_least_squares_optimum():
     """A bounded fit must be the least-squares optimum under its bounds: against scipy's ``lsq_linear`` (an
     independent bounded solver) on the system's Cholesky factor, the objective ½θᵀAθ − bᵀθ of pen's solution
-    may not exceed the optimum's.  Random Grams, some with nearly collinear columns, 70 % of coefficients ≥ 0."""
+    may not exceed the optimum's, on the active-set test's random systems (:func:`_random_bounded_systems`)."""
     from scipy.optimize import lsq_linear
 
-    rng = np.random.default_rng(46)
     worse = 0
-    for trial in range(12):
-        M, q, T = int(rng.integers(1, 8)), int(rng.integers(2, 10)), int(rng.integers(1, 30))
-        X = rng.normal(size=(M, 4 * q, q)) * rng.uniform(0.01, 100.0, size=q)
-        if trial % 4 == 1:
-            X[:, :, 1] = X[:, :, 0] + 1e-4 * rng.normal(size=(M, 4 * q))  # nearly collinear
-        A = np.einsum("mnp,mnq->mpq", X, X)
-        b = np.einsum("mnp,mnt->mpt", X, rng.normal(size=(M, 4 * q, T)) - 0.5)
-        bounded = rng.uniform(size=(M, q)) < 0.7
+    for A, b, bounded in _random_bounded_systems(12):
+        M, q, T = b.shape
         got = bounded_solve(A, b, bounded)
         for m in range(M):
             L = np.linalg.cholesky(A[m] + 1e-9 * np.trace(A[m]) / q * np.eye(q))
