@@ -1235,8 +1235,8 @@ def test_the_effect_named_first_is_the_one_that_closes_most_of_a_gap_the_familyw
 
 @pytest.mark.xfail(strict=True, reason=(
     "known defect, the forty-ninth session: bounded_solve fixes a negative coefficient at 0 and never frees it, so "
-    "in 306 of 2,317 random partly bounded systems (40 batches drawn as here, without the empty columns) it stops above the "
-    "bounded least-squares optimum (median 2 % of the objective, at most 100 %); the path it takes follows the "
+    "in 306 of 2,317 random partly bounded systems (40 batches drawn as here, without the empty columns) it stops "
+    "above the bounded least-squares optimum (median 2 % of the objective, at most 100 %); the path it takes follows the "
     "signs of near-zero coefficients, which the CPU's BLAS kernel decides (docs/diagnosis-log.md). "
     "docs/patches/exact-nnls.patch (Lawson-Hanson) meets the optimum in all of them; merge it by a keep rule, "
     "then drop this marker"))
