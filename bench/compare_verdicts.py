@@ -66,7 +66,12 @@ def main(argv: list[str]) -> int:
         if not path.is_file():
             print(f"compare_verdicts: {path}: no such file", file=sys.stderr)
             return 2
-        rows = read_rows(path)
+        try:
+            rows = read_rows(path)
+        except (OSError, UnicodeDecodeError) as e:
+            print(f"compare_verdicts: {path}: cannot be read as text ({e.__class__.__name__}); expected the output "
+                  f"of python -m bench.bench_diagnose", file=sys.stderr)
+            return 2
         if not rows:
             print(f"compare_verdicts: {path}: no campaign rows (lines 'LABEL truth=... verdict=... OK|MISS'); "
                   f"expected the output of python -m bench.bench_diagnose", file=sys.stderr)
