@@ -403,11 +403,11 @@ def test_a_friction_beside_a_drift_between_the_old_time_constants_is_a_pair(tmp_
 @pytest.mark.campaign
 @pytest.mark.slow
 @pytest.mark.xfail(strict=False, reason=(
-    "premise set by the CPU's BLAS kernel: with OpenBLAS's Zen or Haswell kernels (this machine, an AMD EPYC) the "
-    "null replicates' bounded plug fits end on other active sets (bounded_solve never frees a coefficient it fixed; "
-    "docs/diagnosis-log.md) and the plug's z is 7.15 against the family-wise 7.72, so nothing "
-    "passes and the verdict is none; with OPENBLAS_CORETYPE=SkylakeX it is 7.94 against 7.79 and the friction is "
-    "named, as where the test was written (9cbc408: 7.9 against 7.7); the data's own figures are the same on both"))
+    "premise gone with the exact bounded solve (fiftieth session; docs/diagnosis-log.md): the plug growth's z is "
+    "6.75 (OpenBLAS Zen, Haswell) or 6.77 (SkylakeX) against the family-wise 7.87 or 7.88, so nothing passes and "
+    "the verdict is none on every kernel tried. The plug passed only under the old solve, which stopped short of "
+    "the optimum on some null replicates' plug fits, and only with the SkylakeX kernel (7.94 against 7.79; Zen "
+    "7.15 against 7.72). Non-strict: the friction's own z still moves with the kernel (5.12 Zen, 4.90 SkylakeX)"))
 def test_a_friction_that_closes_more_than_a_plug_growth_the_familywise_test_passes_is_named(tmp_path):
     """Issue 11, forty-first session: a velocity friction (a linear fall of 46 % to 3.5 m/s) on five grill-brick
     runs at mixed rates behind an anti-alias filter, a 0.32 mm encoder, 4.3 N white and 1.2 N correlated noise.
