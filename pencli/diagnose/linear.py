@@ -347,6 +347,9 @@ def _bounded_optimum(As: np.ndarray, bs: np.ndarray, theta: np.ndarray, bounded:
     the last feasible point toward that solution as far as the bounds allow
     and hold the member the step brings to 0; repeat until no held
     coefficient's gradient is positive (relative 10⁻¹²: the KKT conditions).
+    At most 3q coefficients enter and 3q steps follow each, a guard against
+    cycling on degenerate ties (a system stopped short by it would fail the
+    optimality-conditions test; none of that test's systems does).
     In numpy the first stage solved one batch per distinct active set, and a
     strong effect's pair search meets thousands of them: 122 of a plug
     campaign's 143 s (README, the thirty-fourth session)."""
