@@ -208,6 +208,49 @@ def test_spline_derivatives_against_the_closed_form():
     assert np.sqrt(np.mean((a_fd - a_true)[inner] ** 2)) > 10 * np.sqrt(np.mean((a - a_true)[inner] ** 2))
 
 
+
+def test_a_rest_record_that_flickers_over_two_counts_gets_no_knot_search(monkeypatch):
+    """An encoder whose own error spans three counts at rest: the smoothing spline fits the motion only.
+
+    FITPACK's knot search on such a rest record (12,000 samples at 60 kHz) placed 3,781 knots in 407 s; a
+    segment that the events put at rest takes its mean, with zero velocity and acceleration.
+    """
+    import scipy.interpolate
+
+    from pencli.filter.derivatives import derivatives, smooth_motion
+
+    rate, count = 60000.0, 0.08e-3
+    rng = np.random.default_rng(4)
+    rest, moving = 12000, 1500
+    t = np.arange(moving) / rate
+    flight = 0.5 * 4.0 * t ** 2 + 3.0 * t  # 3 m/s, 4 m/s²: a smooth motion the spline must still follow
+    x = np.concatenate([np.zeros(rest) + 0.45 * count + 0.35 * count * rng.standard_normal(rest),
+                        0.45 * count + flight, np.full(rest, 0.45 * count + flight[-1])])
+    q = np.round(x / count) * count
+    assert np.ptp(q[:rest]) >= 2 * count  # spans three counts: the "moving a count at most" test does not hold
+    at_rest = np.zeros(q.size, dtype=bool)
+    at_rest[:rest] = at_rest[rest + moving:] = True
+    fitted = []
+    real = scipy.interpolate.make_splrep
+
+    def only_motion(tt, xx, **kw):
+        assert xx.size == moving, f"a knot search on a segment of {xx.size} samples at rest"
+        fitted.append(xx.size)
+        return real(tt, xx, **kw)
+
+    monkeypatch.setattr(scipy.interpolate, "make_splrep", only_motion)
+    breaks = [rest, rest + moving]
+    position, v, a = smooth_motion(q, rate, breaks, count, at_rest)
+    assert fitted == [moving]
+    assert np.all(v[at_rest] == 0.0) and np.all(a[at_rest] == 0.0)
+    assert position[0] == pytest.approx(np.mean(q[:rest]), abs=1e-12)
+    inner = slice(rest + 50, rest + moving - 50)
+    assert np.abs(v[inner] - (3.0 + 4.0 * t[50:-50])).max() < 0.01  # [m/s]
+    v2, a2 = derivatives(q, rate, breaks, "spline", count_m=count, at_rest=at_rest)
+    assert np.array_equal(v2, v) and np.array_equal(a2, a)
+    _, a_sg = derivatives(q, rate, breaks, "savgol", at_rest=at_rest)  # every method: zero where at rest
+    assert np.all(a_sg[at_rest] == 0.0) and np.any(a_sg[~at_rest] != 0.0)
+
 def test_effective_samples_of_white_and_correlated_noise():
     rng = np.random.default_rng(0)
     white = rng.normal(size=20000)

@@ -57,9 +57,11 @@ SMOOTHING = 2.0
 """Residual budget of the smoothing spline in units of n·(encoder step)²/12 (see ``bench_derivatives``)."""
 
 
-def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float):
+def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float,
+                   at_rest: np.ndarray | None = None):
     """(lo, hi, piece) per segment: a quintic smoothing spline, smoothing set by the quantisation; the
-    segment's mean (a float) where it is at rest, moving a count at most; None where it is too short."""
+    segment's mean (a float) where it is at rest (wholly inside ``at_rest``, or moving a count at most); None
+    where it is too short."""
     from scipy.interpolate import make_splrep
 
     t = np.arange(x.size) / rate_hz
@@ -71,6 +73,12 @@ def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
             out.append((lo, hi, None))
             continue
         seg = x[lo:hi]
+        if at_rest is not None and bool(np.all(at_rest[lo:hi])):
+            # at rest by the events (before the release, after the arrest): no knot search.  An encoder whose
+            # own position error flickers a rest record across two edges made FITPACK's search place 3,781 knots
+            # in 12,048 samples (407 s for one segment of one run; dev rate_strength-8 of ``--varied 16 255000``)
+            out.append((lo, hi, float(np.mean(seg))))
+            continue
         if np.ptp(seg) <= count_m * (1.0 + 1e-9):
             # at rest, flickering between two counts at most (an edge under the read head): its mean; a
             # spline held to the quantisation budget would chase the flicker with hundreds of knots
@@ -85,12 +93,16 @@ def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
     return t, out
 
 
-def smooth_motion(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float = 0.16e-3
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Smoothed position, velocity and acceleration by the smoothing spline of :func:`spline`. [m, m/s, m/s²]"""
+def smooth_motion(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float = 0.16e-3,
+                  at_rest: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smoothed position, velocity and acceleration by the smoothing spline of :func:`spline`. [m, m/s, m/s²]
+
+    ``at_rest``: where the blade is at rest (a mask of ``x``'s samples); a segment wholly inside it takes its
+    mean position and no velocity or acceleration.
+    """
     x = np.asarray(x, dtype=float)
     position, v, a = x.copy(), np.zeros_like(x), np.zeros_like(x)
-    t, pieces = _spline_pieces(x, rate_hz, breaks, count_m)
+    t, pieces = _spline_pieces(x, rate_hz, breaks, count_m, at_rest)
     for lo, hi, spl in pieces:
         if isinstance(spl, float):  # at rest
             position[lo:hi] = spl
@@ -106,13 +118,14 @@ def smooth_motion(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m:
     return position, v, a
 
 
-def spline(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float = 0.16e-3
-           ) -> tuple[np.ndarray, np.ndarray]:
+def spline(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float = 0.16e-3,
+           at_rest: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Quintic smoothing spline per segment, smoothing set by the quantisation noise. [m/s, m/s²]
 
     ``count_m`` is the encoder step (:func:`encoder_step_m` reads it from the record). [m]
+    ``at_rest``: as for :func:`smooth_motion`.
     """
-    _, v, a = smooth_motion(x, rate_hz, breaks, count_m)
+    _, v, a = smooth_motion(x, rate_hz, breaks, count_m, at_rest)
     return v, a
 
 
@@ -200,21 +213,28 @@ limits (:data:`pencli.filter.tare.WINDOW_TRIM_S`)."""
 
 
 def derivatives(x: np.ndarray, rate_hz: float, breaks: Sequence[int], method: str = DEFAULT_METHOD, *,
-                count_m: float | None = None, joins: Sequence[tuple[float, int]] | None = None
-                ) -> tuple[np.ndarray, np.ndarray]:
+                count_m: float | None = None, joins: Sequence[tuple[float, int]] | None = None,
+                at_rest: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Velocity and acceleration of ``x`` sampled at ``rate_hz``, smooth between ``breaks`` (sample indices).
 
     ``count_m``: the encoder step the smoothing spline smooths for (default: read from ``x``). [m]
     ``joins``: the events as (time since the first sample [s], continuity): 1 where the velocity is
     continuous (release, contact, arrest), 0 where it jumps (the hard stops); the least-squares spline
     puts its joins there (default: at ``breaks``, velocity continuous).
+    ``at_rest``: where the blade is at rest (a mask of ``x``'s samples, :func:`pencli.filter.inertia.rest_mask`):
+    velocity and acceleration are zero there, and the smoothing spline does not fit a segment wholly inside it.
     """
     fn = METHODS.get(method)
     if fn is None:
         raise DataError(f"unknown derivative method {method!r}; methods: {', '.join(METHODS)}")
     x = np.asarray(x, dtype=float)
     if method == "spline":
-        return fn(x, rate_hz, breaks, encoder_step_m(x) if count_m is None else count_m)
-    if method == "lsq_spline" and joins is not None:
-        return fn(x, rate_hz, breaks, break_times=[(float(t), int(c)) for t, c in joins])
-    return fn(x, rate_hz, breaks)
+        v, a = fn(x, rate_hz, breaks, encoder_step_m(x) if count_m is None else count_m, at_rest)
+    elif method == "lsq_spline" and joins is not None:
+        v, a = fn(x, rate_hz, breaks, break_times=[(float(t), int(c)) for t, c in joins])
+    else:
+        v, a = fn(x, rate_hz, breaks)
+    if at_rest is None:
+        return v, a
+    still = at_rest if v.ndim == 1 else at_rest[:, None]
+    return np.where(still, 0.0, v), np.where(still, 0.0, a)

@@ -110,10 +110,7 @@ def subtract_inertia(time_s: np.ndarray, depth_m: np.ndarray, force_n: np.ndarra
     step = encoder_step_m(depth_m)
     motion = kinematic_events(time_s, force_n, events)
     velocity, acceleration = derivatives(depth_m, rate, motion_breaks(time_s, motion), method, count_m=step,
-                                         joins=motion_joins(time_s, motion))
-    at_rest = (time_s < events.motion_start_s - 1.0 / rate) | (time_s > events.stop_s)
-    velocity = np.where(at_rest, 0.0, velocity)
-    acceleration = np.where(at_rest, 0.0, acceleration)
+                                         joins=motion_joins(time_s, motion), at_rest=rest_mask(time_s, events))
     estimate = estimate_load_cell_mass(time_s, force_n, acceleration, events, load_cell_mass_kg)
     mass = estimate.value_kg if (use_flight_mass and estimate is not None) else load_cell_mass_kg
     resistance = force_n - mass * acceleration  # R = F − m_lc·a
@@ -161,6 +158,12 @@ def motion_joins(time_s: np.ndarray, events: Events) -> list[tuple[float, int]]:
     t0 = float(time_s[0])
     return [(events.motion_start_s - t0, 1), (events.contact_s - t0, 1),
             (events.stop_s - t0, 0 if events.end == "full_depth" else 1)]
+
+
+def rest_mask(time_s: np.ndarray, events: Events) -> np.ndarray:
+    """Where the blade is at rest: more than a sample before the release, and after the arrest."""
+    rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
+    return (time_s < events.motion_start_s - 1.0 / rate) | (time_s > events.stop_s)
 
 
 def motion_breaks(time_s: np.ndarray, events: Events) -> list[int]:
