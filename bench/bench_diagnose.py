@@ -4,12 +4,17 @@ Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SE
      [--two-slopes] [--drift-friction] [--weak-drifts] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs]
      [--short-gradients] [--bessel-lags] [--s-gradients]
      [--few-coloured] [--unknown-material] [--resonant-noise] [--butterworth-filters | --filter-kinds]
-     [--pink-noise] [--edge-errors]
+     [--pink-noise] [--edge-errors] [--weak-rates] [--sized]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
 ``--drift-friction``: every pair is a force drift with a velocity friction (random forms, their own stream).
 ``--weak-drifts``: every force drift of amplitude 3–30 N, log-uniform (its own stream; ``--varied`` draws 60–150 N).
+``--weak-rates``: every rate strength's coefficient drawn log-uniform in 0.004–0.08 (its own stream; ``--varied``
+draws 0.08–0.2, which leaves z in the hundreds to thousands), so that its sizes span the detection limit.
+``--sized``: every effect campaign is also diagnosed without its effects (its twin: the same seed, so the same
+runs, nuisances and noise), and its size printed as the hold-out bench defines it: sqrt(max(S − S_twin, 0)) / noise,
+S the baseline's held-out mean square and noise the gauges' white and coloured RMS together (twice the time).
 ``--slow-speeds``: every rate strength and velocity friction takes a characteristic speed of 0.5–2 m/s (its own
 stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
 ``--wide-friction``: every velocity friction a power law in speed or a Stribeck fall with a viscous rise (sim
@@ -56,6 +61,7 @@ scatter in strength (recorded per block, as the paper measured them).
 
 from __future__ import annotations
 
+import math
 import statistics
 import sys
 import tempfile
@@ -107,6 +113,15 @@ def weak_drifts(campaigns, seed):
                 if e["name"] == "force_drift" else e for e in effects], truth
 
     return _redrawn(campaigns, seed, 14, change)
+
+
+def weak_rates(campaigns, seed):
+    """The campaigns with every rate strength's coefficient drawn log-uniform in 0.004–0.08."""
+    def change(effects, truth, own):
+        return [dict(e, coefficient=float(np.exp(own.uniform(np.log(0.004), np.log(0.08)))))
+                if e["name"] == "rate_strength" else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 16, change)
 
 
 def slow_speeds(campaigns, seed):
@@ -283,6 +298,7 @@ def butterworth_filters(campaigns, seed):
 
 
 REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--weak-drifts": weak_drifts,
+           "--weak-rates": weak_rates,
            "--slow-speeds": slow_speeds,
            "--wide-friction": wide_friction, "--wide-plugs": wide_plugs,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
@@ -307,7 +323,7 @@ def run_one(label, material, effects, seed, nuisances=None):
 
 
 def main() -> None:
-    check_options(__doc__, ("--quick", "--varied", "--nulls", "--pairs", "--only", *REDRAWS))
+    check_options(__doc__, ("--quick", "--varied", "--nulls", "--pairs", "--only", "--sized", *REDRAWS))
     quick = "--quick" in sys.argv
     option = next((o for o in ("--varied", "--nulls", "--pairs") if o in sys.argv), None)
     if option:  # random forms and nuisances: python -m bench.bench_diagnose --varied|--nulls|--pairs 28 [SEED]
@@ -332,6 +348,13 @@ def main() -> None:
             print(f"{label:28s} skipped: {e}", flush=True)
             continue
         ok, shrink = judge(result, truth)
+        size = ""
+        if "--sized" in sys.argv and effects:
+            twin, _ = run_one(label, material, [], base_seed + seed, nuisances)
+            extra = (nuisances or {}).get("rig_extra", {})
+            noise = math.hypot(extra.get("force_noise_n", 0.0), extra.get("correlated_noise_n", 0.0)) or float("nan")
+            gap = result.baseline["heldout_rms_n"] ** 2 - twin.baseline["heldout_rms_n"] ** 2
+            size = f" size={math.sqrt(max(gap, 0.0)) / noise:.2f}"
         times.append(seconds)
         rows.append((label, truth, result, ok, shrink))
         top = result.effects[0] if result.effects else None
@@ -339,7 +362,7 @@ def main() -> None:
               f"{'OK ' if ok else 'MISS'} first={top.name if top else '-':25s} shrink={top.shrink_pct if top else 0:5.1f}% "
               f"z={top.z if top else 0:5.1f}/{result.decision['effect_threshold_z']:.1f} gap_z={result.baseline['gap_z']:.1f} "
               f"{result.verdict_effects} pair={result.baseline.get('best_pair', {}).get('effects')} "
-              f"share={result.baseline.get('best_pair', {}).get('share_of_remainder')} {seconds:.1f}s", flush=True)
+              f"share={result.baseline.get('best_pair', {}).get('share_of_remainder')} {seconds:.1f}s{size}", flush=True)
     nulls = [r for r in rows if r[1] == {"none"}]
     extra = [r[0] for r in rows if len(r[1]) == 1 and r[1] < set(r[2].verdict_effects)]  # the truth and more
     effects = [r for r in rows if r[1] not in ({"none"}, {"unexplained"})]

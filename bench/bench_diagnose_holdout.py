@@ -63,12 +63,14 @@ def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         campaign = WORLD.make_campaign(Path(tmp), seed, effects, intensity=intensity)
         db = Path(tmp) / "runs.duckdb"
+        started = time.perf_counter()
         api.ingest(campaign.folders, db)
         api.tare_runs(db, ["all"])
         api.subtract_inertia_runs(db, ["all"])
         t0 = time.perf_counter()
         result = api.diagnose(db, ["all"])
         seconds = time.perf_counter() - t0
+        pipeline = time.perf_counter() - started
     first = result.effects[0] if result.effects else None
     return {"seed": seed, "truth": list(effects), "intensity": intensity, "verdict": result.verdict,
             "verdict_effects": list(result.verdict_effects), "first": first.name if first else None,
@@ -77,6 +79,7 @@ def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
             "shrink_of_truth": next((e.shrink_pct for e in result.effects if e.name in effects), None),
             "baseline_ms_n2": result.baseline["heldout_rms_n"] ** 2, "noise_n": campaign.nuisances["noise_n"],
             "nuisances": campaign.nuisances, "forms": campaign.effects, "seconds": seconds,
+            "pipeline_seconds": pipeline,
             "notes": list(result.notes), "rest_drift": result.baseline.get("rest_drift"),
             "best_pair": result.baseline.get("best_pair")}
 
@@ -222,6 +225,10 @@ def summarise(rows: dict, n_nulls: int) -> None:
     times = [r["seconds"] for r in acc]
     print(f"diagnosis time per campaign: median {statistics.median(times):.1f} s, max {max(times):.1f} s "
           f"(4-8 runs; 2 cores)")
+    whole = [r["pipeline_seconds"] for r in acc if "pipeline_seconds" in r]
+    if whole:  # ingest, tare, subtract-inertia and diagnose, as a lab runs them (rows from the fifty-second session on)
+        print(f"whole pipeline per campaign (ingest to diagnose): median {statistics.median(whole):.1f} s, "
+              f"max {max(whole):.1f} s")
     print()
     print("detection probability by effect size (RMS the effect leaves after the baseline refit / noise):")
     header = " ".join(f"{lo:g}-{hi:g}" for lo, hi in zip(SIZE_BINS[:-1], SIZE_BINS[1:]))
