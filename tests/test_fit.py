@@ -251,6 +251,33 @@ def test_a_rest_record_that_flickers_over_two_counts_gets_no_knot_search(monkeyp
     _, a_sg = derivatives(q, rate, breaks, "savgol", at_rest=at_rest)  # every method: zero where at rest
     assert np.all(a_sg[at_rest] == 0.0) and np.any(a_sg[~at_rest] != 0.0)
 
+
+def test_a_moving_record_its_budget_cannot_meet_gets_a_bounded_knot_search(monkeypatch):
+    """A slow creep read through an encoder whose own error flickers over three counts, not at rest by the events:
+    the knot search is bounded (``MAX_KNOTS``), and the spline still follows the creep."""
+    import scipy.interpolate
+
+    from pencli.filter.derivatives import MAX_KNOTS, smooth_motion
+
+    rate, count, n = 60000.0, 0.08e-3, 12000
+    rng = np.random.default_rng(5)
+    t = np.arange(n) / rate
+    x = 0.45 * count + 2e-3 * t + 0.35 * count * rng.standard_normal(n)  # 2 mm/s for 0.2 s: 5 counts
+    q = np.round(x / count) * count
+    used = []
+    real = scipy.interpolate.make_splrep
+
+    def bounded(tt, xx, **kw):
+        assert kw.get("nest") is not None and kw["nest"] <= MAX_KNOTS, f"an unbounded knot search: {kw}"
+        spl = real(tt, xx, **kw)
+        used.append(spl.t.size)
+        return spl
+
+    monkeypatch.setattr(scipy.interpolate, "make_splrep", bounded)
+    _, v, _ = smooth_motion(q, rate, [], count)
+    assert len(used) == 1 and used[0] <= MAX_KNOTS
+    assert abs(np.median(v) - 2e-3) < 0.5e-3  # [m/s]
+
 def test_effective_samples_of_white_and_correlated_noise():
     rng = np.random.default_rng(0)
     white = rng.normal(size=20000)

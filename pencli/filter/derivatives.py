@@ -56,6 +56,13 @@ def savgol(x: np.ndarray, rate_hz: float, breaks: Sequence[int], window_s: float
 SMOOTHING = 2.0
 """Residual budget of the smoothing spline in units of n·(encoder step)²/12 (see ``bench_derivatives``)."""
 
+MAX_KNOTS = 76
+"""The most knots FITPACK's search may place in one segment (64 inside it, for a quintic): a bound on its time, not
+on the fit.  The moving segments of 24 development campaigns (``varied_campaigns(24, 262000)``, 300 segments of
+258-2,381 samples) used at most 14 (two inside); a record its budget cannot meet, such as a rest record flickering
+over three counts, would otherwise get a knot every few samples (3,781 knots in 407 s for 12,000 samples; 76
+knots take 0.4 s there)."""
+
 
 def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float,
                    at_rest: np.ndarray | None = None):
@@ -89,7 +96,8 @@ def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
             warnings.simplefilter("ignore", RuntimeWarning)
             # a residual budget of twice the quantisation variance: at exactly one, FITPACK's knot search
             # fails on some encoder phases (slow motion makes the error a sawtooth) and returns wild curves
-            out.append((lo, hi, make_splrep(t[lo:hi], x[lo:hi], k=5, s=SMOOTHING * n * sigma ** 2)))
+            out.append((lo, hi, make_splrep(t[lo:hi], x[lo:hi], k=5, s=SMOOTHING * n * sigma ** 2,
+                                            nest=max(min(MAX_KNOTS, n + 6), 12))))
     return t, out
 
 
