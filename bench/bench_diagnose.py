@@ -351,8 +351,8 @@ def main() -> None:
         size = ""
         if "--sized" in sys.argv and effects:
             twin, _ = run_one(label, material, [], base_seed + seed, nuisances)
-            extra = (nuisances or {}).get("rig_extra", {})
-            noise = math.hypot(extra.get("force_noise_n", 0.0), extra.get("correlated_noise_n", 0.0)) or float("nan")
+            rig = (nuisances or {}).get("rig_extra", {})
+            noise = math.hypot(rig.get("force_noise_n", 0.0), rig.get("correlated_noise_n", 0.0)) or float("nan")
             gap = result.baseline["heldout_rms_n"] ** 2 - twin.baseline["heldout_rms_n"] ** 2
             size = f" size={math.sqrt(max(gap, 0.0)) / noise:.2f}"
         times.append(seconds)
