@@ -209,7 +209,7 @@ def test_spline_derivatives_against_the_closed_form():
 
 
 
-def test_a_rest_record_that_flickers_over_two_counts_gets_no_knot_search(monkeypatch):
+def test_a_rest_record_that_flickers_over_three_counts_gets_no_knot_search(monkeypatch):
     """An encoder whose own error spans three counts at rest: the smoothing spline fits the motion only.
 
     FITPACK's knot search on such a rest record (12,000 samples at 60 kHz) placed 3,781 knots in 407 s; a

@@ -73,6 +73,7 @@ def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
 
     t = np.arange(x.size) / rate_hz
     sigma = count_m / np.sqrt(12.0)  # the quantisation error's standard deviation
+    k = 5  # quintic; FITPACK's own bounds on the knots: from 2(k + 1) to n + k + 1
     out = []
     for lo, hi in _segments(x.size, breaks):
         n = hi - lo
@@ -96,7 +97,6 @@ def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
             warnings.simplefilter("ignore", RuntimeWarning)
             # a residual budget of twice the quantisation variance: at exactly one, FITPACK's knot search
             # fails on some encoder phases (slow motion makes the error a sawtooth) and returns wild curves
-            k = 5  # quintic; FITPACK's own bounds on the knots: from 2(k + 1) to n + k + 1
             out.append((lo, hi, make_splrep(t[lo:hi], x[lo:hi], k=k, s=SMOOTHING * n * sigma ** 2,
                                             nest=max(min(MAX_KNOTS, n + k + 1), 2 * (k + 1)))))
     return t, out
