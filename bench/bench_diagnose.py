@@ -4,7 +4,7 @@ Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SE
      [--two-slopes] [--drift-friction] [--weak-drifts] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs]
      [--short-gradients] [--bessel-lags] [--s-gradients]
      [--few-coloured] [--unknown-material] [--resonant-noise] [--butterworth-filters | --filter-kinds]
-     [--pink-noise] [--edge-errors] [--weak-rates] [--sized]
+     [--pink-noise] [--edge-errors] [--weak-rates] [--weak-ringings] [--sized]
 
 ``--two-slopes``: every strength gradient of the campaigns takes the sim truth's two-slope form (shape 3; kink
 20–80 mm, slope ratio 0–0.5 or 2–4, drawn from a stream of their own), which ``--varied`` never draws.
@@ -12,6 +12,8 @@ Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SE
 ``--weak-drifts``: every force drift of amplitude 3–30 N, log-uniform (its own stream; ``--varied`` draws 60–150 N).
 ``--weak-rates``: every rate strength's coefficient drawn log-uniform in 0.004–0.08 (its own stream; ``--varied``
 draws 0.08–0.2, which leaves z in the hundreds to thousands), so that its sizes span the detection limit.
+``--weak-ringings``: every rig ringing's amplitude drawn log-uniform in 0.3–10 N per m/s of contact speed (its own
+stream, 17; ``--varied`` draws 40–80, which leaves z in the thousands), so that its sizes span the detection limit.
 ``--sized``: every effect campaign is also diagnosed without its effects (its twin: the same seed, so the same
 runs, nuisances and noise), and its size printed as the hold-out bench defines it: sqrt(max(S − S_twin, 0)) / noise,
 S the baseline's held-out mean square and noise the gauges' white and coloured RMS together (twice the time).
@@ -122,6 +124,15 @@ def weak_rates(campaigns, seed):
                 if e["name"] == "rate_strength" else e for e in effects], truth
 
     return _redrawn(campaigns, seed, 16, change)
+
+
+def weak_ringings(campaigns, seed):
+    """The campaigns with every rig ringing's amplitude drawn log-uniform in 0.3–10 N/(m/s)."""
+    def change(effects, truth, own):
+        return [dict(e, amplitude_n_per_m_s=float(np.exp(own.uniform(np.log(0.3), np.log(10.0)))))
+                if e["name"] == "rig_ringing" else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 17, change)
 
 
 def slow_speeds(campaigns, seed):
@@ -298,7 +309,7 @@ def butterworth_filters(campaigns, seed):
 
 
 REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--weak-drifts": weak_drifts,
-           "--weak-rates": weak_rates,
+           "--weak-rates": weak_rates, "--weak-ringings": weak_ringings,
            "--slow-speeds": slow_speeds,
            "--wide-friction": wide_friction, "--wide-plugs": wide_plugs,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
