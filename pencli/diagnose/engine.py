@@ -65,8 +65,9 @@ from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, 
                                      column_strength_factor, surfaces)
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
 from pencli.diagnose.rest import rest_drift
-from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, fit_noise, gev_quantile, read_noise_chain,
-                                  gumbel_quantile, normal_quantile, replicate_campaign, student_quantile)
+from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, corner_spreads, fit_noise, gev_quantile,
+                                  gumbel_quantile, normal_quantile, read_noise_chain, replicate_campaign,
+                                  student_quantile)
 from pencli.errors import FitError, ModelError, PenNotice
 from pencli.filter.tare import Events
 from pencli.fit.resistance import with_coefficients
@@ -809,6 +810,9 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
                   for b, c in zip(bases, cs)]
     nulls = [_null_of(r, u, f, dict(values, strength_factor=float(c)))
              for r, u, f, c in zip(runs, uses, fitted_ctx, cs)]
+    spreads = corner_spreads([r.rate_hz for r in runs], [n.anti_alias for n in nulls])
+    nulls = [replace(n, anti_alias=replace(n.anti_alias, spread=s)) if n.anti_alias is not None else n
+             for n, s in zip(nulls, spreads)]
     replicates = replicate_campaign(nulls, bootstrap, seed, workers=workers)
 
     # ---- every candidate of every resistance-view effect (and the probes), one matrix per run
