@@ -301,6 +301,24 @@ def test_a_null_behind_an_anti_alias_filter_and_a_converter_floor_is_none(tmp_pa
 
 
 @pytest.mark.campaign
+def test_a_null_whose_runs_read_its_filter_corner_apart_is_none(tmp_path):
+    """Null 5 of ``varied_campaigns(10, 254000, only="nulls")`` (seed 254005; 8 runs at 30 kHz, 2.2 N of white
+    noise, 0.08 mm counts, a 4th-order Butterworth at 3,505 Hz): the runs' noise reads the corner at 3,401–3,790 Hz,
+    and the filter rings at the contact step at the true corner.  With every replicate behind the corner as read,
+    that ringing was called a rig ringing at z 7.78 against 4.11; the replicates' corners drawn within the spread
+    the runs' reads show, it is ``none``.  Tuned on: where the flaw was found."""
+    from tests.campaigns import BLOCKS, SIX, varied_campaigns
+
+    _, material, effects, _, nuisances = varied_campaigns(6, 254000, only="nulls")[5]
+    db = make_campaign(tmp_path, material, seed=254005, effects=effects,
+                       block_kpa=BLOCKS if material == "mpacs_c" else None, **{"shots": SIX, **nuisances})
+    result = api.diagnose(conditioned(db), ["all"])
+    assert result.verdict == "none", (result.verdict, [(e.name, e.z) for e in result.effects[:3]])
+    spreads = {n["anti_alias"]["corner_spread"] for n in result.decision["noise_model"]}
+    assert len(spreads) == 1 and 0.02 < spreads.pop() < 0.06, result.decision["noise_model"]
+
+
+@pytest.mark.campaign
 def test_a_null_read_by_a_flickering_encoder_is_none_and_its_position_error_is_read(tmp_path):
     """A 0.08 mm encoder whose reading carries 10 µm of white position error (a vibrating string): it flickers
     between counts at rest and is rougher than its quantisation in motion.  Before the rest levels and the

@@ -1250,3 +1250,66 @@ def test_bounded_solve_reaches_the_bounded_least_squares_optimum():
                 best = objective(A[m], b[m, :, t], exact)
                 worse += objective(A[m], b[m, :, t], got[m, :, t]) > best + 1e-7 * abs(best) + 1e-9
     assert worse == 0, f"{worse} systems above the bounded optimum"
+
+
+def test_replicates_draw_their_filter_corner_within_the_reading_error():
+    """A Butterworth's step response rises in a time inversely proportional to its corner, so the replicates'
+    filters, drawn with a spread of 0.05 in the corner's log, rise in times whose logs scatter by 0.05 about the
+    read filter's (400 columns: within 15 % and 0.01); with no spread every column is the read filter's own."""
+    from pencli.diagnose.null import AntiAlias
+
+    step = np.r_[np.zeros(20), np.ones(600)][:, None]
+    rng = np.random.default_rng(3)
+
+    def rise_logs(filtered):  # log of the time from the step to half its height, between samples
+        out = []
+        for col in filtered.T:
+            k = int(np.argmax(col >= 0.5))
+            out.append(math.log(k - 1 + (0.5 - col[k - 1]) / (col[k] - col[k - 1]) - 20.0))
+        return np.array(out)
+
+    read = AntiAlias(4, 0.01)
+    drawn = AntiAlias(4, 0.01, spread=0.05).apply_drawn(step, 400, rng)
+    logs = rise_logs(drawn) - rise_logs(read.apply(step))[0]
+    assert np.std(logs, ddof=1) == pytest.approx(0.05, rel=0.15)
+    assert abs(np.median(logs)) < 0.01
+    assert np.array_equal(read.apply_drawn(step, 5, rng), np.repeat(read.apply(step), 5, axis=1))
+
+
+def test_a_campaigns_corner_spread_is_the_scatter_of_its_runs_reads_at_each_rate():
+    """Five runs at 30 kHz read corners 0.9–1.1 × 0.1: their spread is the sample standard deviation of the logs
+    (statistics.stdev) with the grid's rounding in quadrature; two runs at 60 kHz are too few to show theirs and
+    take one record's precision; a run that reads no filter has none."""
+    import statistics
+
+    from pencli.diagnose.null import CORNER_GRID_SPREAD, CORNER_READ_SPREAD, AntiAlias, corner_spreads
+
+    corners = [0.09, 0.1, 0.1, 0.105, 0.11]
+    filters = [AntiAlias(4, c) for c in corners] + [AntiAlias(4, 0.05), AntiAlias(5, 0.052), None]
+    rates = [30000.0, 30000.2, 29999.9, 30000.0, 30000.0] + [60000.0] * 3  # rates read from a clock
+    spreads = corner_spreads(rates, filters)
+    own = statistics.stdev([math.log(c) for c in corners])
+    assert spreads[:5] == pytest.approx([math.sqrt(own ** 2 + CORNER_GRID_SPREAD ** 2)] * 5, rel=1e-12)
+    assert spreads[5:7] == pytest.approx([math.sqrt(CORNER_READ_SPREAD ** 2 + CORNER_GRID_SPREAD ** 2)] * 2, rel=1e-12)
+    assert spreads[7] == 0.0
+    assert CORNER_GRID_SPREAD == pytest.approx(math.log(1.0557) / math.sqrt(12.0), rel=1e-3)  # a 5.6 % grid
+
+
+def test_one_records_corner_read_scatters_by_about_the_spread_the_replicates_fall_back_on():
+    """Twelve sim-rig records (2.2 N of white noise, 4th-order Butterworth at 0.117 of 30 kHz, 0.19 s before the
+    release, as a development null's runs): the logs of the corners read from them scatter about the truth (RMS)
+    by 0.5–2 × the fall-back spread with the grid's rounding, which is what a replicate draws where the campaign
+    cannot show its own."""
+    from pencli import api
+    from pencli.diagnose.null import CORNER_GRID_SPREAD, CORNER_READ_SPREAD, read_noise_chain
+
+    errors = []
+    for seed in range(12):
+        rig = {"kind": "rig", "name": "aa", "seed": 100 + seed, "force_noise_n": 2.2, "sampling_rate_hz": 30000.0,
+               "anti_alias_hz": 0.117 * 30000.0}
+        columns = api.acquire(springs=4, penetrator="al6061_1.5mm", material="mpacs_c", rig=rig).run.columns
+        found, _ = read_noise_chain(fit_noise(columns["fz_n"][columns["time_s"] < -0.01]))
+        assert found is not None, seed
+        errors.append(math.log(found.corner / 0.117))
+    rms = math.sqrt(float(np.mean(np.square(errors))))
+    assert 0.5 < rms / math.hypot(CORNER_READ_SPREAD, CORNER_GRID_SPREAD) < 2.0, errors

@@ -229,7 +229,8 @@ def corner_spreads(rates_hz: list[float], filters: list[AntiAlias | None]) -> li
         if f is None:
             out.append(0.0)
             continue
-        logs = [math.log(g.corner) for r, g in zip(rates_hz, filters) if g is not None and r == rate]
+        logs = [math.log(g.corner) for r, g in zip(rates_hz, filters)  # a rate read from the clock: to 0.1 %
+                if g is not None and math.isclose(r, rate, rel_tol=1e-3)]
         read = float(np.std(logs, ddof=1)) if len(logs) >= CORNER_SPREAD_RUNS else CORNER_READ_SPREAD
         out.append(math.hypot(read, CORNER_GRID_SPREAD))
     return out
