@@ -221,8 +221,8 @@ def corner_spreads(rates_hz: list[float], filters: list[AntiAlias | None]) -> li
 
     Why: the filter rings at the force step of contact, and the data's ringing is the true corner's.  With the
     replicates all behind the corner as read, a development null (8 runs at 30 kHz behind a 4th-order Butterworth
-    at 3,505 Hz, read at 3,401–3,790 Hz) was called a rig ringing at z 7.78 against 4.11; with this spread (0.033)
-    the ringing stood at 2.85 against 4.06.
+    at 3,505 Hz, read at 3,401–3,790 Hz) was called a rig ringing at z 7.78 against 4.11; with the spread its runs'
+    reads show (0.027, the grid's rounding in) the ringing stands at 2.85 against 4.24.
     """
     out = []
     for rate, f in zip(rates_hz, filters):
