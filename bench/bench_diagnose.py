@@ -107,32 +107,29 @@ def drift_friction(campaigns, seed):
     return _redrawn(campaigns, seed, 5, change)
 
 
-def weak_drifts(campaigns, seed):
-    """The campaigns with every force drift's amplitude drawn log-uniform in 3–30 N (``--varied`` draws 60–150 N,
-    which puts a drift first with z in the thousands beside any second effect)."""
+def _weakened(campaigns, seed, stream: int, name: str, key: str, low: float, high: float):
+    """The campaigns with every effect ``name``'s parameter ``key`` drawn log-uniform in ``low``–``high``."""
     def change(effects, truth, own):
-        return [dict(e, amplitude_n=float(np.exp(own.uniform(np.log(3.0), np.log(30.0)))))
-                if e["name"] == "force_drift" else e for e in effects], truth
+        return [dict(e, **{key: float(np.exp(own.uniform(np.log(low), np.log(high))))})
+                if e["name"] == name else e for e in effects], truth
 
-    return _redrawn(campaigns, seed, 14, change)
+    return _redrawn(campaigns, seed, stream, change)
+
+
+def weak_drifts(campaigns, seed):
+    """Every force drift's amplitude in 3–30 N (``--varied`` draws 60–150 N, which puts a drift first with z in the
+    thousands beside any second effect)."""
+    return _weakened(campaigns, seed, 14, "force_drift", "amplitude_n", 3.0, 30.0)
 
 
 def weak_rates(campaigns, seed):
-    """The campaigns with every rate strength's coefficient drawn log-uniform in 0.004–0.08."""
-    def change(effects, truth, own):
-        return [dict(e, coefficient=float(np.exp(own.uniform(np.log(0.004), np.log(0.08)))))
-                if e["name"] == "rate_strength" else e for e in effects], truth
-
-    return _redrawn(campaigns, seed, 16, change)
+    """Every rate strength's coefficient in 0.004–0.08."""
+    return _weakened(campaigns, seed, 16, "rate_strength", "coefficient", 0.004, 0.08)
 
 
 def weak_ringings(campaigns, seed):
-    """The campaigns with every rig ringing's amplitude drawn log-uniform in 0.3–10 N/(m/s)."""
-    def change(effects, truth, own):
-        return [dict(e, amplitude_n_per_m_s=float(np.exp(own.uniform(np.log(0.3), np.log(10.0)))))
-                if e["name"] == "rig_ringing" else e for e in effects], truth
-
-    return _redrawn(campaigns, seed, 17, change)
+    """Every rig ringing's amplitude in 0.3–10 N/(m/s)."""
+    return _weakened(campaigns, seed, 17, "rig_ringing", "amplitude_n_per_m_s", 0.3, 10.0)
 
 
 def slow_speeds(campaigns, seed):
