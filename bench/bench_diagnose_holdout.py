@@ -193,6 +193,18 @@ def main() -> None:
     summarise(rows, n_nulls)
 
 
+def size_table(rows: list[dict]) -> None:
+    """Found / drawn per catalogue effect and size bin, over single-effect ``rows`` that carry a size."""
+    header = " ".join(f"{lo:g}-{hi:g}" for lo, hi in zip(SIZE_BINS[:-1], SIZE_BINS[1:]))
+    print(f"{'effect':26s} {header}")
+    for name in CATALOGUE:
+        cells = []
+        for lo, hi in zip(SIZE_BINS[:-1], SIZE_BINS[1:]):
+            hits = [detected(r) for r in rows if r["truth"] == [name] and lo <= r["size"] < hi]
+            cells.append(f"{sum(hits)}/{len(hits)}" if hits else "-")
+        print(f"{name:26s} " + " ".join(f"{c:>7s}" for c in cells))
+
+
 def summarise(rows: dict, n_nulls: int) -> None:
     acc = rows["accuracy"]
     nulls = [r for r in acc + rows["nulls"] if not r["truth"]]
@@ -231,14 +243,12 @@ def summarise(rows: dict, n_nulls: int) -> None:
               f"max {max(whole):.1f} s")
     print()
     print("detection probability by effect size (RMS the effect leaves after the baseline refit / noise):")
-    header = " ".join(f"{lo:g}-{hi:g}" for lo, hi in zip(SIZE_BINS[:-1], SIZE_BINS[1:]))
-    print(f"{'effect':26s} {header}")
-    for name in CATALOGUE:
-        cells = []
-        for lo, hi in zip(SIZE_BINS[:-1], SIZE_BINS[1:]):
-            hits = [detected(r) for r in rows["ladder"] if r["truth"] == [name] and lo <= r["size"] < hi]
-            cells.append(f"{sum(hits)}/{len(hits)}" if hits else "-")
-        print(f"{name:26s} " + " ".join(f"{c:>7s}" for c in cells))
+    size_table(rows["ladder"])
+    sized_singles = [r for r in singles if "size" in r]
+    if sized_singles:  # full-intensity campaigns of part 1, sized by their twins: a curve from drawn strengths
+        print()
+        print("the same over part 1's single effects (full intensity, sized by their twins):")
+        size_table(sized_singles)
     drive = [r for r in rows["ladder"] if r["truth"] == ["propulsion_loss"]]
     if drive:
         def lost(row: dict) -> float:  # the share of the launcher's energy lost, as each world names it
