@@ -302,8 +302,10 @@ def measure(shot: Shot, rng: np.random.Generator, pre_s: float = 0.15) -> dict[s
         else:  # second-order Bessel low-pass with group delay ≈ tau
             from scipy.signal import bessel
 
-            b, aa = bessel(2, 1.0 / (2 * math.pi * tau) / (shot.rate_hz / 2), norm="delay")
-            force = lfilter(b, aa, force - force[0]) + force[0]
+            corner = 1.0 / (2 * math.pi * tau) / (shot.rate_hz / 2)
+            if corner < 1.0:  # past the Nyquist frequency it passes all the record holds: nothing to filter
+                b, aa = bessel(2, corner, norm="delay")
+                force = lfilter(b, aa, force - force[0]) + force[0]
     drift = shot.effect("force_drift")
     if drift:
         tp = np.maximum(time, 0.0)
