@@ -2,7 +2,7 @@
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
      [--two-slopes] [--drift-friction] [--weak-drifts] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs]
-     [--short-gradients] [--bessel-lags] [--s-gradients]
+     [--short-gradients] [--bessel-lags] [--s-gradients] [--onset-rates]
      [--few-coloured] [--unknown-material] [--resonant-noise] [--butterworth-filters | --filter-kinds]
      [--pink-noise] [--edge-errors] [--weak-rates] [--weak-ringings] [--sized]
 
@@ -21,6 +21,9 @@ S the baseline's held-out mean square and noise the gauges' white and coloured R
 stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most of a run.
 ``--wide-friction``: every velocity friction a power law in speed or a Stribeck fall with a viscous rise (sim
 truth shapes 3 and 4; its own stream).
+``--onset-rates``: every rate strength flat below an onset speed of 1–4 m/s, a power of the speed past it (sim truth
+shape 3; its own stream).  A lead read off world three's second draw, whose rate strengths were named velocity
+frictions (README, "Diagnosis: measured"); it tells whether the development world shows the swap at all.
 ``--wide-plugs``: every plug a power of depth up to its length, then constant (sim truth shape 3; its own stream).
 ``--short-gradients``: every strength gradient saturates (sim truth shape 2) within 4–15 mm (its own stream;
 ``--varied`` draws 15–80 mm).
@@ -155,6 +158,19 @@ def wide_friction(campaigns, seed):
         return [redraw(e) if e["name"] == "velocity_friction" else e for e in effects], truth
 
     return _redrawn(campaigns, seed, 12, change)
+
+
+def onset_rates(campaigns, seed):
+    """The campaigns with every rate strength flat below an onset speed of 1–4 m/s and rising past it as a power
+    (exponent 0.5–1.5, coefficient 0.05–0.2 per (m/s)^exponent; sim truth shape 3; its own stream), a law that no
+    speed law of ``--varied`` has: at the run's slow end it leaves nothing, as a friction that changes with speed
+    does in deep, slow penetration."""
+    def change(effects, truth, own):
+        return [dict(e, shape=3.0, speed_m_s=float(own.uniform(1.0, 4.0)), exponent=float(own.uniform(0.5, 1.5)),
+                     coefficient=float(own.uniform(0.05, 0.2)))
+                if e["name"] == "rate_strength" else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 19, change)
 
 
 def wide_plugs(campaigns, seed):
@@ -308,7 +324,7 @@ def butterworth_filters(campaigns, seed):
 REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--weak-drifts": weak_drifts,
            "--weak-rates": weak_rates, "--weak-ringings": weak_ringings,
            "--slow-speeds": slow_speeds,
-           "--wide-friction": wide_friction, "--wide-plugs": wide_plugs,
+           "--wide-friction": wide_friction, "--wide-plugs": wide_plugs, "--onset-rates": onset_rates,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
            "--short-gradients": short_gradients, "--few-coloured": few_coloured,
            "--unknown-material": unknown_material, "--resonant-noise": resonant_noise,

@@ -114,6 +114,17 @@ def test_the_power_and_stribeck_friction_forms_follow_their_speed_laws(params, g
     assert change(0.05, 8.0) == pytest.approx(g(8.0) * sidewall, rel=2e-3)  # and μ cos θ of a blunt tip
 
 
+def test_an_onset_rate_strength_is_flat_below_its_speed_and_a_power_of_the_excess_above():
+    """Sim truth shape 3 of rate_strength (the bench's ``--onset-rates``): nothing changes below speed_m_s; above
+    it the frontal strength force is multiplied by 1 + c·(v − speed)^exponent, written out here."""
+    c, onset, exponent = 0.12, 2.0, 0.8
+    effect = [{"name": "rate_strength", "shape": 3, "coefficient": c, "speed_m_s": onset, "exponent": exponent}]
+    frontal = _resistance([], 0.0, 0.0)  # the strength term alone, at the surface at rest
+    assert _resistance(effect, 0.0, 1.5) == _resistance([], 0.0, 1.5)
+    assert _resistance(effect, 0.0, 5.0) - _resistance([], 0.0, 5.0) == pytest.approx(
+        c * 3.0 ** exponent * frontal, rel=1e-12)
+
+
 def test_saturating_sidewall_pressure_integrates_its_rise():
     rise, scale = 2.0, 25.0
     effect = [{"name": "sidewall_pressure_growth", "shape": 1, "rise": rise, "scale_mm": scale}]

@@ -70,8 +70,9 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
                {"drop": 0.4, "speed_m_s": 3.0, "shape": 0.0, "exponent": 1.0, "viscous": 0.0}, 5),
     EffectSpec("rate_strength", "strength rises with penetration rate; shape 0: power "
                "S·(1 + coefficient·(v/1 m/s)^exponent); 1: logarithmic S·(1 + 4·coefficient·ln(1 + v/speed_m_s)); "
-               "2: saturating S·(1 + 5·coefficient·(1 − exp(−v/speed_m_s)))",
-               {"coefficient": 0.05, "exponent": 1.5, "shape": 0.0, "speed_m_s": 3.0}, 3),
+               "2: saturating S·(1 + 5·coefficient·(1 − exp(−v/speed_m_s))); 3: onset, flat below speed_m_s "
+               "S·(1 + coefficient·(max(v − speed_m_s, 0)/1 m/s)^exponent)",
+               {"coefficient": 0.05, "exponent": 1.5, "shape": 0.0, "speed_m_s": 3.0}, 4),
     EffectSpec("load_cell_mass_error", "the mass below the load cell is ratio × the file's value",
                {"ratio": 1.5}),
     EffectSpec("sensor_lag", "the force channel lags; shape 0: two first-order poles of tau_ms each; 1: one pole "
@@ -222,6 +223,8 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
             return 1.0 + c * v ** rate["exponent"]
         if shape == 1:
             return 1.0 + 4.0 * c * math.log1p(v / rate["speed_m_s"])
+        if shape == 3:
+            return 1.0 + c * max(v - rate["speed_m_s"], 0.0) ** rate["exponent"]
         return 1.0 + 5.0 * c * -math.expm1(-v / rate["speed_m_s"])
 
     def strength(x: float, v: float) -> float:
