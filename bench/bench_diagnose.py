@@ -163,8 +163,8 @@ def wide_friction(campaigns, seed):
 def onset_rates(campaigns, seed):
     """The campaigns with every rate strength flat below an onset speed of 1–4 m/s and rising past it as a power
     (exponent 0.5–1.5, coefficient 0.05–0.2 per (m/s)^exponent; sim truth shape 3; its own stream), a law that no
-    speed law of ``--varied`` has: at the run's slow end it leaves nothing, as a friction that changes with speed
-    does in deep, slow penetration."""
+    speed law of ``--varied`` has: at the run's slow, deep end it leaves nothing, so its misfit sits early in the
+    penetration, where the speed is high."""
     def change(effects, truth, own):
         return [dict(e, shape=3.0, speed_m_s=float(own.uniform(1.0, 4.0)), exponent=float(own.uniform(0.5, 1.5)),
                      coefficient=float(own.uniform(0.05, 0.2)))
