@@ -2,7 +2,7 @@
 
 Run: python -m bench.bench_diagnose [--quick | --varied N [SEED] | --nulls N [SEED] | --pairs N [SEED]] [--only EFFECT]
      [--two-slopes] [--drift-friction] [--weak-drifts] [--slow-speeds] [--wide-friction] [--wide-plugs] [--ringing-pairs]
-     [--short-gradients] [--bessel-lags] [--s-gradients] [--onset-rates]
+     [--short-gradients] [--bessel-lags] [--s-gradients] [--onset-rates] [--guide-losses]
      [--few-coloured] [--unknown-material] [--resonant-noise] [--butterworth-filters | --filter-kinds]
      [--pink-noise] [--edge-errors] [--weak-rates] [--weak-ringings] [--sized]
 
@@ -24,6 +24,12 @@ truth shapes 3 and 4; its own stream).
 ``--onset-rates``: every rate strength flat below an onset speed of 1–4 m/s, a power of the speed past it (sim truth
 shape 3; its own stream).  A lead read off world three's second draw, whose rate strengths were named velocity
 frictions (README, "Diagnosis: measured"); it tells whether the development world shows the swap at all.
+``--guide-losses``: every propulsion loss a friction on the moving body alone (no loss of efficiency), of 30–120 N
+log-uniform, that acts over the whole travel, in the material too (its own stream, 20; ``--varied`` draws a loss of
+efficiency of 10–30 % with a 10 N friction).  A friction takes the same force from each run, so its share of the
+energy falls with the springs; and it slows the flight otherwise than a loss of efficiency does, so a model whose
+launcher loses efficiency reaches the surface at the right speed at another time (world three draw 2's guide
+frictions, README).
 ``--wide-plugs``: every plug a power of depth up to its length, then constant (sim truth shape 3; its own stream).
 ``--short-gradients``: every strength gradient saturates (sim truth shape 2) within 4–15 mm (its own stream;
 ``--varied`` draws 15–80 mm).
@@ -171,6 +177,16 @@ def onset_rates(campaigns, seed):
                 if e["name"] == "rate_strength" else e for e in effects], truth
 
     return _redrawn(campaigns, seed, 19, change)
+
+
+def guide_losses(campaigns, seed):
+    """The campaigns with every propulsion loss a friction of 30–120 N over the whole travel alone (see the
+    module's doc)."""
+    def change(effects, truth, own):
+        return [dict(e, loss=0.0, guide_friction_n=float(np.exp(own.uniform(np.log(30.0), np.log(120.0)))))
+                if e["name"] == "propulsion_loss" else e for e in effects], truth
+
+    return _redrawn(campaigns, seed, 20, change)
 
 
 def wide_plugs(campaigns, seed):
@@ -325,6 +341,7 @@ REDRAWS = {"--two-slopes": two_slopes, "--drift-friction": drift_friction, "--we
            "--weak-rates": weak_rates, "--weak-ringings": weak_ringings,
            "--slow-speeds": slow_speeds,
            "--wide-friction": wide_friction, "--wide-plugs": wide_plugs, "--onset-rates": onset_rates,
+           "--guide-losses": guide_losses,
            "--ringing-pairs": ringing_pairs, "--s-gradients": s_gradients, "--bessel-lags": bessel_lags,
            "--short-gradients": short_gradients, "--few-coloured": few_coloured,
            "--unknown-material": unknown_material, "--resonant-noise": resonant_noise,
