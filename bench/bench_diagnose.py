@@ -399,6 +399,10 @@ def main() -> None:
         times.append(seconds)
         rows.append((label, truth, result, ok, shrink))
         top = result.effects[0] if result.effects else None
+        drive = next((e for e in result.effects if e.name == "propulsion_loss"), None)
+        if drive is not None:  # the drive view's t, and its dynamic shrinks in the material and from release
+            size += (f" drive_t={drive.z}/{result.decision['drive_threshold_t']} dyn={drive.shrink_pct}/"
+                     f"{drive.params.get('dynamic_shrink_from_release_pct')}")
         print(f"{label:28s} truth={'+'.join(sorted(truth)):45s} verdict={result.verdict:25s} "
               f"{'OK ' if ok else 'MISS'} first={top.name if top else '-':25s} shrink={top.shrink_pct if top else 0:5.1f}% "
               f"z={top.z if top else 0:5.1f}/{result.decision['effect_threshold_z']:.1f} gap_z={result.baseline['gap_z']:.1f} "

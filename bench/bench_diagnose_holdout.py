@@ -72,7 +72,11 @@ def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
         seconds = time.perf_counter() - t0
         pipeline = time.perf_counter() - started
     first = result.effects[0] if result.effects else None
-    return {"seed": seed, "truth": list(effects), "intensity": intensity, "verdict": result.verdict,
+    drive = next((e for e in result.effects if e.name == "propulsion_loss"), None)
+    return {"drive": drive and {"t": drive.z, "threshold": result.decision["drive_threshold_t"],
+                                "shrink": drive.shrink_pct, "significant": drive.significant,
+                                "release_shrink": drive.params.get("dynamic_shrink_from_release_pct")},
+            "seed": seed, "truth": list(effects), "intensity": intensity, "verdict": result.verdict,
             "verdict_effects": list(result.verdict_effects), "first": first.name if first else None,
             "first_significant": bool(first and first.significant),
             "significant": [e.name for e in result.effects if e.significant],

@@ -399,17 +399,27 @@ def _fit_loss(runs: Sequence[DiagnosisRun], measured: Sequence[float]) -> float:
     return float(1.0 - np.mean(np.square(ratios)))
 
 
-def _dynamic_rms(run: DiagnosisRun, values: Mapping[str, float], loss: float = 0.0) -> float:
-    """RMS of measured − fully predicted resistance over the run's window, launched with efficiency × (1 − loss)."""
+def _dynamic_rms(run: DiagnosisRun, values: Mapping[str, float], loss: float = 0.0) -> tuple[float, float]:
+    """RMS of measured − fully predicted resistance over the run's window, launched with efficiency × (1 − loss):
+    in the material (the prediction's clock shifted so that its contact falls on the run's measured contact), and
+    on the clock from release. [N]
+
+    The first is what a launcher loss is judged on: a loss of another form than efficiency (a friction on the
+    push rod) slows the flight otherwise, so the right contact speed comes at another time, and a comparison
+    on the clock from release would read the flight's timing as a misfit in the material (the fifty-eighth
+    session's log)."""
     design = replace(with_coefficients(run.design, values), efficiency=run.design.efficiency * (1.0 - loss))
     result = simulate(design, output_rate_hz=run.rate_hz, rtol=1e-8)
     traj = result.trajectory
     w = run.window
-    t = run.time_s[w]
-    r = np.interp(t, traj.time_s, traj.resistance_n)
-    r[t > traj.time_s[-1]] = float(traj.resistance_n[-1]) if result.summary.end in ("arrest", "creep") else 0.0
-    r[t < result.summary.contact_time_s] = 0.0
-    return float(np.sqrt(np.mean((run.resistance_n[w] - r) ** 2)))
+    measured = run.resistance_n[w]
+    out = []
+    for t in (run.time_s[w] - run.contact_s + result.summary.contact_time_s, run.time_s[w]):
+        r = np.interp(t, traj.time_s, traj.resistance_n)
+        r[t > traj.time_s[-1]] = float(traj.resistance_n[-1]) if result.summary.end in ("arrest", "creep") else 0.0
+        r[t < result.summary.contact_time_s] = 0.0
+        out.append(float(np.sqrt(np.mean((measured - r) ** 2))))
+    return out[0], out[1]
 
 
 # ----------------------------------------------------------------------------- the report
@@ -876,15 +886,20 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     dyn_base = None
     if "propulsion_loss" in names:
         loss = _fit_loss(runs, measured - bias)
-        base_rms = [_dynamic_rms(r, dict(values, strength_factor=float(c))) ** 2 for r, c in zip(runs, cs)]
-        loss_rms = [_dynamic_rms(r, dict(values, strength_factor=float(c)), loss) ** 2 for r, c in zip(runs, cs)]
-        dyn_base, dyn_loss = math.sqrt(float(np.mean(base_rms))), math.sqrt(float(np.mean(loss_rms)))
-        # a loss explains the contact speeds only if it brings the predicted motion closer to the measured one
+        base_rms = np.square([_dynamic_rms(r, dict(values, strength_factor=float(c))) for r, c in zip(runs, cs)])
+        loss_rms = np.square([_dynamic_rms(r, dict(values, strength_factor=float(c)), loss) for r, c in zip(runs, cs)])
+        (dyn_base, release_base), (dyn_loss, release_loss) = (map(float, np.sqrt(a.mean(0)))
+                                                              for a in (base_rms, loss_rms))
+        # a loss explains the contact speeds only if it brings the predicted motion in the material closer to
+        # the measured one
         drive_gap = drive_gap and dyn_loss < dyn_base
         reports["propulsion_loss"] = EffectReport(
-            "propulsion_loss", "drive", "drive", {"loss": loss, "contact_speed_deficit_pct": -100 * float(np.mean(ratios))},
-            {}, dyn_loss, round(100.0 * (1 - dyn_loss / dyn_base), 2) if dyn_base > 0 else 0.0, bool(drive_gap),
-            round(t_drive, 2), None, None)
+            "propulsion_loss", "drive", "drive",
+            {"loss": loss, "contact_speed_deficit_pct": -100 * float(np.mean(ratios)),
+             "dynamic_shrink_from_release_pct": round(100.0 * (1 - release_loss / release_base), 2)
+             if release_base > 0 else 0.0},
+            {}, dyn_loss, round(100.0 * (1 - dyn_loss / dyn_base), 2) if dyn_base > 0 else 0.0,
+            bool(drive_gap), round(t_drive, 2), None, None)
 
     # ---- verdict
     say("pairs", 0.88)
