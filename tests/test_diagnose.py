@@ -120,6 +120,20 @@ def test_propulsion_loss_is_a_drive_side_gap(tmp_path):
     assert 0.1 < loss.params["loss"] < 0.35  # truth: 20 % less efficiency plus 10 N guide friction
 
 
+def test_a_guide_friction_is_a_propulsion_loss_though_it_reaches_the_surface_at_another_time(tmp_path):
+    """Issue 11, the fifty-eighth session: a launcher that loses energy to a friction (99 N over the whole travel,
+    no loss of efficiency; campaign 3 of ``bench_diagnose --varied 12 310000 --only propulsion_loss
+    --guide-losses``) slows the flight otherwise than the drive view's loss of efficiency does.  Judged on the
+    clock from release, the fitted loss moved the predicted motion away (dynamic shrink −6.9 %) because its
+    contact came at another time, and the verdict was `none`; in the material, from the measured contact on, the
+    loss brings it 82 % closer.  The truth is the friction alone."""
+    friction = [{"name": "propulsion_loss", "loss": 0.0, "guide_friction_n": 98.6400516295093}]
+    *_, result = dev_campaign(tmp_path, 310000, 3, "propulsion_loss", effects=friction)
+    assert result.verdict == "propulsion_loss", (result.verdict, result.baseline["drive_t"])
+    loss = next(e for e in result.effects if e.name == "propulsion_loss")
+    assert loss.shrink_pct > 50.0  # the motion in the material, with the loss, against without it
+
+
 @pytest.mark.campaign
 def test_a_speed_deficit_whose_loss_moves_the_motion_away_is_not_a_propulsion_loss(tmp_path):
     """Issue 11: a loud development null (null 9 of 20 on seed 86000, the force noise redrawn at 5–6 N) was called
