@@ -267,9 +267,9 @@ def test_locked_workspace_waits_then_fails_clearly(workspace, runner, monkeypatc
 
 def test_two_concurrent_ingests_never_corrupt(workspace):
     db = workspace / "runs.duckdb"
-    for batch in ("a", "b"):
-        for i in range(6):
-            write_folder(workspace / batch / f"{batch}{i}", synthetic_columns(seed=hash((batch, i)) % 10_000))
+    for b, batch in enumerate(("a", "b")):
+        for i in range(6):  # distinct seeds: ingest rightly merges identical recordings under one id
+            write_folder(workspace / batch / f"{batch}{i}", synthetic_columns(seed=100 * b + i))
     procs = [subprocess.Popen([sys.executable, "-m", "pencli", "ingest", str(workspace / batch), "--json",
                                "--db", str(db)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for batch in ("a", "b")]
