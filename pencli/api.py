@@ -9,6 +9,7 @@ from __future__ import annotations
 import glob
 import json
 import os
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
@@ -172,6 +173,14 @@ Progress = Callable[[str, int, int], None]
 """The progress callback every long call takes: (what is being done, done, total)."""
 
 
+def check_output(path: str | Path, db: str | Path | None, option: str, *, folder: bool = False) -> Path:
+    """Refuse, before any work, an output path that would land on the workspace or cannot be written
+    (:func:`pencli.io.outputs.check_output`)."""
+    from pencli.io.outputs import check_output as check
+
+    return check(path, db, option, folder=folder)
+
+
 # ---------------------------------------------------------------------------- workspace: ingest, runs, export
 def workspace(db: str | Path):
     """The workspace whose catalog is ``db``."""
@@ -232,12 +241,16 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
            position_unit: str = "mm", force_unit: str = "N", torque_unit: str = "Nm",
            parameter_refs: Mapping[str, str] | None = None, command: str = "pen ingest",
            progress: Progress | None = None,
-           allow_out_of_range: bool = False) -> list[IngestOutcome]:
-    """Ingest run folders into the workspace; each source is accepted or rejected on its own."""
+           allow_out_of_range: bool = False, allow_implausible_units: bool = False) -> list[IngestOutcome]:
+    """Ingest run folders into the workspace; each source is accepted or rejected on its own.
+
+    ``allow_implausible_units`` takes runs whose travel or force is far off their parameter files' scale
+    (:func:`pencli.io.checks.check_units`); the raw stage's provenance records that it was given.
+    """
     from pencli.io.runfolder import ReadOptions, ignored_columns_warning, parse_column_map, read_run_folder, unit_factor
 
     options = ReadOptions(parse_column_map(columns), time_unit, position_unit, force_unit, torque_unit,
-                          allow_out_of_range=allow_out_of_range)
+                          allow_out_of_range=allow_out_of_range, allow_implausible_units=allow_implausible_units)
     for quantity, unit in (("time", time_unit), ("position", position_unit), ("force", force_unit),
                            ("torque", torque_unit)):
         unit_factor(quantity, unit)
@@ -284,13 +297,33 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
                 except (OSError, MemoryError, ValueError) as exc:  # a full disk, no memory: this run, not the batch
                     outcome = IngestOutcome(str(folder), "rejected", message=f"{folder}: not stored: {_one_line(exc)}")
                 else:
-                    note = ignored_columns_warning(run) if added.created else None
+                    notes = (ignored_columns_warning(run), added.renamed) if added.created else ()
                     outcome = IngestOutcome(str(folder), "added" if added.created else "existing", added.run_id,
-                                            warnings=(note,) if note else ())
+                                            warnings=tuple(n for n in notes if n))
             outcomes.append(outcome)
             if progress is not None:
                 progress(outcome.source, len(outcomes), len(sources))
     return outcomes
+
+
+MAX_NAME_LENGTH = 80
+"""Longest material name taken: it names a file under fits/ and a column a table shows whole. [characters]"""
+
+
+def check_name(name: str, option: str) -> str:
+    """A name pen records and files under (a fitted material): not empty, not too long, printable."""
+    if not name.strip():
+        raise ParameterError(f"{option} {name!r}: empty; give a name, e.g. mpacs_c")
+    if len(name) > MAX_NAME_LENGTH:
+        raise ParameterError(f"{option}: {len(name)} characters; a name is at most {MAX_NAME_LENGTH}")
+    if not name.isprintable():
+        raise ParameterError(f"{option} {name!r}: holds control characters; use letters, digits, '_' and '-'")
+    return name
+
+
+def _nearest_folder(path: Path) -> Path:
+    """``path`` or its nearest existing parent (where a file written under ``path`` would land)."""
+    return next((p for p in (path, *path.parents) if p.is_dir()), Path("."))
 
 
 def _one_line(exc: BaseException) -> str:
@@ -333,9 +366,11 @@ def rescue_run(run, folder: str | Path | None = None) -> Path:
 
 def add_run(run, db: str | Path, *, command: str):
     """Add an in-memory :class:`~pencli.store.rundata.RunData` (e.g. from the rig) to the workspace."""
-    from pencli.io.checks import check_run_columns
+    from pencli.io.checks import check_run_columns, check_units
+    from pencli.io.runfolder import unit_scales
 
     check_run_columns(run.columns, run.source, surface_offset_mm=float(run.energizing.get("surface_offset_mm")))
+    check_units(run.columns, run.source, unit_scales(run.penetrator, run.material, run.energizing))
     return workspace(db).add_run(run, command=command)
 
 
@@ -377,14 +412,8 @@ def export_run(db: str | Path, ref: str, to: str | Path, *, data_format: str = "
     from pencli.io.runfolder import write_run_folder
     from pencli.store.workspace import raw_columns_of
 
+    check_output(to, db, "--to", folder=True)
     ws = workspace(db)
-    target = Path(to).resolve()
-    home = Path(db).resolve().parent
-    for folder in ("runs", "fits", "sweeps"):
-        inside = home / folder
-        if target == inside or inside in target.parents:
-            raise DataError(f"--to {to}: inside the workspace's {folder}/ folder, which pen alone writes; export "
-                            f"somewhere else")
     run_id = ws.resolve(ref)
     table, _ = ws.read_stage(run_id, "raw")
     row = ws.run_row(run_id)
@@ -700,6 +729,7 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
 
     if mode not in ("resistance", "dynamic"):
         raise ParameterError(f"--mode {mode!r}: expected resistance or dynamic")
+    check_name(material, "--material")
     step = progress or (lambda description, done, total: None)
     series = load_series(db, refs, progress)
     fixed = parse_fix(fix)
@@ -795,15 +825,18 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     import contextlib
     import time as _time
 
+    from pencli.model.dynamics import check_contact_speed
     from pencli.predict.batch import ENDS
     from pencli.predict.chunks import evaluate_columns
-    from pencli.predict.sweep import MAX_DESIGNS, SPEED, Grid, Sample, parse_vary
+    from pencli.predict.sweep import MAX_DESIGNS, SPEED, Grid, Sample, parse_vary, table_bytes
     from pencli.store.tables import StreamedTable
 
     if not vary:
         raise ParameterError("give at least one --vary KEY=... (e.g. --vary friction_coefficient=+40%,-30%)")
     if resolution < 2:
         raise ParameterError(f"--resolution {resolution}: at least 2 points per variable")
+    if speed_at_contact_m_s is not None:
+        check_contact_speed(speed_at_contact_m_s)
     p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
                                   allow_out_of_range=allow_out_of_range)
     base = {**p.values, **m.values, **e.values}
@@ -815,10 +848,18 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
         raise ParameterError(f"{'--n' if sample else '--resolution/--vary'}: {total:.3g} designs; pen sweeps at most "
                              f"{MAX_DESIGNS:.0e} (about 100 GB of Parquet): lower --resolution or --n, or "
                              f"sample the space (--sample lhs --n N)")
+    ws = workspace(db) if db is not None else None
+    written_to = out if out is not None else db
+    folder = Path(written_to).expanduser().absolute().parent if written_to is not None else None
+    needed = table_bytes(total, len(variables))
+    free = shutil.disk_usage(_nearest_folder(folder)).free if folder is not None else needed
+    if needed > free:
+        raise StoreError(f"{folder}: the sweep's table of {total:.3g} designs takes about {needed / 1e9:.3g} GB and "
+                         f"{free / 1e9:.3g} GB are free there; free space, write elsewhere (--out), or sweep fewer "
+                         f"designs (--n, --resolution)")
     fixed = {SPEED: float(speed_at_contact_m_s)} if speed_at_contact_m_s is not None else None
     columns = (Sample({v.key: v.domain() for v in variables}, n, sample, seed, fixed) if sample else
                Grid(variables, fixed))
-    ws = workspace(db) if db is not None else None
     target = Path(out) if out is not None else (ws.sweep_path() if ws is not None else None)
     started = _time.perf_counter()
     stats = {"full_penetration": 0, "penetration_time_s": [np.inf, -np.inf], "peak_resistance_n": [np.inf, -np.inf],
@@ -994,6 +1035,10 @@ def report_diagnosis(db: str | Path, refs: Sequence[str], progress: Callable[[st
 def report_all(db: str | Path, out: str | Path, *, pdf: bool = True,
                progress: Progress | None = None) -> list[Path]:
     """``pen report --all``: one report per run, fitted material version and sweep under ``out``."""
+    import shutil
+    import tempfile
+
+    from pencli.io.atomic import make_parents, remove_made
     from pencli.report.build import write_report
 
     ws = workspace(db)
@@ -1003,14 +1048,28 @@ def report_all(db: str | Path, out: str | Path, *, pdf: bool = True,
               lambda v=v: report_material(db, v["material"], v["version"])) for v in ws.material_versions()]
     jobs += [(f"sweep {i}", out / "sweeps" / f"sweep-{i}.html", lambda i=i: report_sweep(db, i))
              for i in ws.sweep_ids()]
+    # every report is written into a hidden folder beside ``out`` and moved into place when all are done: a
+    # failure part-way (a full disk) leaves ``out`` as it was
+    made = make_parents(out.parent)
+    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     written: list[Path] = []
-    for k, (title, path, make) in enumerate(jobs):
-        if progress is not None:
-            progress(title, k, len(jobs))
-        written += write_report(f"pen report: {title}", make(), path, pdf=pdf)
+    try:
+        for k, (title, path, make) in enumerate(jobs):
+            if progress is not None:
+                progress(title, k, len(jobs))
+            written += write_report(f"pen report: {title}", make(), staging / path.relative_to(out), pdf=pdf)
+        made += make_parents(out)
+        for path in written:
+            (out / path.relative_to(staging)).parent.mkdir(parents=True, exist_ok=True)
+            os.replace(path, out / path.relative_to(staging))
+    except BaseException:
+        remove_made(made)
+        raise
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     if progress is not None:
         progress("done", len(jobs), len(jobs))
-    return written
+    return [out / path.relative_to(staging) for path in written]
 
 
 @dataclass(frozen=True)

@@ -42,5 +42,9 @@ class StoreError(PenError, OSError):
     """The workspace (DuckDB catalog or run folders) cannot be read or written."""
 
 
+class OutputError(PenError, ValueError):
+    """A path a command was told to write is refused: it would land on the workspace, or cannot be written."""
+
+
 class RigError(PenError, RuntimeError):
     """The rig driver refused or failed (arming, firing, streaming)."""

@@ -12,7 +12,8 @@ from rich.markup import escape
 
 from pencli.lazy import lazy
 from pencli.errors import PenError
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json, progress_bar
+from pencli.commands.common import (DbOption, PenTyper, console, db_path, err_console, fail, os_error_line, print_json,
+                                    progress_bar)
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
@@ -68,6 +69,8 @@ def acquire(
     interactive = sys.stdin.isatty() and not json_out
     if save is None and not interactive:
         save = True  # nobody to ask: a recorded shot is kept, never dropped at a prompt that cannot be answered
+    if truth_out is not None:
+        api.check_output(truth_out, db_path(db), "--truth-out")
     if save:
         api.check_can_save(db_path(db), run_id)  # before firing: a shot that cannot be saved is not fired
     with progress_bar("arming", disable=json_out) as progress:
@@ -86,16 +89,22 @@ def acquire(
     if not json_out:
         console.print(summary)
     if truth_out is not None and shot.truth is not None:
-        truth_out.write_text(json.dumps(shot.truth, indent=2, default=float))
+        from pencli.io.atomic import write_atomic
+
+        text = json.dumps(shot.truth, indent=2, default=float)
+        write_atomic(truth_out, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     if save is None:
         save = typer.confirm("Save this run?", default=True, err=True)
     added = None
     if save:
         try:
             added = api.add_run(shot.run, db_path(db), command="pen acquire")
-        except PenError as exc:
+        except (PenError, OSError) as exc:
+            reason = str(exc) if isinstance(exc, PenError) else os_error_line(exc)
             where = api.rescue_run(shot.run)
-            raise fail(f"{exc}; the shot is kept as a run folder in {where} (pen ingest it when fixed)")
+            raise fail(f"{reason}; the shot is kept as a run folder in {where} (pen ingest it when fixed)")
+    if added is not None and added.renamed:
+        err_console.print(f"[yellow]note:[/yellow] {escape(added.renamed)}", highlight=False, soft_wrap=True)
     if json_out:
         print_json({"id": added.run_id if added else None, "saved": bool(save), "summary": summary})
         return

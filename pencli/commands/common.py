@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import functools
 import json
 import math
@@ -79,6 +80,29 @@ def _show_notice(message, category, filename, lineno, file=None, line=None) -> N
         _python_showwarning(message, category, filename, lineno, file, line)
 
 
+_OS_ADVICE = {
+    errno.ENOSPC: "no space left on the device; free some, or write elsewhere",
+    errno.EDQUOT: "disk quota exceeded; free some space, or write elsewhere",
+    errno.EROFS: "the file system is read-only; write elsewhere",
+    errno.EACCES: "permission denied; fix the permissions, or write elsewhere",
+    errno.EPERM: "not permitted; fix the permissions, or write elsewhere",
+    errno.ENAMETOOLONG: "a file name is too long; choose a shorter name",
+}
+
+
+def os_error_line(exc: OSError) -> str:
+    """An operating-system fault as one line: the file, what went wrong, what to do; pen's writes are atomic,
+    so what was being written is not there."""
+    code = exc.errno
+    if code is None:  # pyarrow and others put "[Errno 28] ..." in the text only
+        found = re.search(r"\[Errno (\d+)\]|errno[ =:]+(\d+)", str(exc))
+        code = int(found.group(1) or found.group(2)) if found else None
+    what = _OS_ADVICE.get(code) or (exc.strerror or str(exc).strip().splitlines()[0] if str(exc).strip() else
+                                    type(exc).__name__)
+    where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+    return f"{where}{what} (nothing was half-written)"
+
+
 def pen_errors(fn: Callable) -> Callable:
     """The one place a :class:`PenError` becomes one red line and exit code 1."""
 
@@ -91,6 +115,10 @@ def pen_errors(fn: Callable) -> Callable:
                 return fn(*args, **kwargs)
         except PenError as exc:
             raise fail(str(exc)) from None
+        except OSError as exc:  # the machine's faults (a full disk, a read-only folder): one line, not a traceback
+            raise fail(os_error_line(exc)) from None
+        except MemoryError:
+            raise fail("out of memory; ask for less at once (fewer runs, a smaller --n or --resolution)") from None
         except KeyboardInterrupt:
             raise fail("interrupted; nothing was written", 130) from None
 

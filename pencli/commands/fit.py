@@ -54,6 +54,8 @@ def fit(
     """
     if out is not None and out.suffix.lower() not in (".yaml", ".yml"):
         raise typer.BadParameter(f"'{out}' must end in .yaml", param_hint="--out")
+    if out is not None:
+        api.check_output(out, db_path(db), "--out")
     with progress_bar("fitting", disable=json_out) as progress:
         outcome = api.fit(db_path(db), material, runs, mode=mode, terms=terms, fix=fix or (),
                           all_subsets=all_subsets, bootstrap=bootstrap, out=out, progress=progress)

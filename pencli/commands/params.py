@@ -11,7 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli.lazy import lazy
-from pencli.commands.common import DbOption, PenTyper, console, fail, print_json
+from pencli.commands.common import DbOption, PenTyper, console, db_path, fail, print_json
 from pencli.params.definitions import KINDS, PARAMETERS
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
@@ -133,6 +133,7 @@ def schema(
     if out is None:
         print_json({kind: json_schema(kind) for kind in KINDS})
         return
+    api.check_output(out, db_path(db), "--out", folder=True)
     for kind in KINDS:
         text = json.dumps(json_schema(kind), indent=2, ensure_ascii=False) + "\n"
         target = write_atomic(out / f"{kind}.schema.json", lambda tmp, t=text: tmp.write_text(t, encoding="utf-8"))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import List, Optional
 
@@ -10,7 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli.lazy import lazy
-from pencli.commands.common import DbOption, PenTyper, console, err_console, print_json, usage_check
+from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, print_json, usage_check
 from pencli.model.resistance import TERMS, parse_terms
 from pencli.params.overrides import parse_overrides
 
@@ -65,6 +66,8 @@ def predict(
     """
     if out is not None and out.suffix.lower() != ".parquet":
         raise typer.BadParameter(f"'{out}' must end in .parquet", param_hint="--out")
+    if out is not None:
+        api.check_output(out, db_path(db), "--out")
     prediction = api.predict(penetrator, material, energizing, overrides=set_ or (), terms=terms,
                              speed_at_contact_m_s=speed_at_contact, allow_out_of_range=allow_out_of_range,
                              output_rate_hz=rate)
@@ -91,7 +94,8 @@ def render(prediction: api.Prediction, out: Path | None) -> None:
         value = record[key]
         if key in _MS:
             value = value * 1e3
-        table.add_row(label, fmt.format(value), unit)
+        finite = not isinstance(value, float) or math.isfinite(value)
+        table.add_row(label, fmt.format(value) if finite else "not defined", unit)
     console.print(table)
     end = record["end"]
     console.print(f"ended by: [bold]{end.replace('_', ' ')}[/bold]; energy balance error "

@@ -47,6 +47,7 @@ def report(
     catalog = db_path(db)
     written: list[Path] = []
     diagnosis = None
+    api.check_output(out, catalog, "--out", folder=all_)
     if all_:
         with progress_bar("reports", disable=json_out) as progress:
             written += api.report_all(catalog, out, pdf=pdf, progress=progress)

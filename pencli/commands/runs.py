@@ -50,6 +50,10 @@ def ingest(
     allow_out_of_range: bool = typer.Option(False, "--allow-out-of-range",
                                             help="Accept parameter values outside their documented range (hard "
                                                  "limits still hold)."),
+    allow_implausible_units: bool = typer.Option(
+        False, "--allow-implausible-units",
+        help="Accept runs whose travel or axial force is far off the scale their parameter files set "
+             "(travel within 2× of stand-off … stand-off + full depth [mm]; peak force within 30× of S·w·T [N]); recorded in the raw stage's provenance."),
     json_out: bool = typer.Option(False, "--json", help='Print [{"id": ..., "source": ...}, ...] (CONTRACT §6).'),
     db: Optional[Path] = DbOption,
 ) -> None:
@@ -62,11 +66,13 @@ def ingest(
     catalog = db_path(db)
     refs = {"penetrator": penetrator, "material": material, "energizing": energizing}
     if json_out:
-        outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range, columns=columns, time_unit=time_unit, position_unit=position_unit,
+        outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range,
+                              allow_implausible_units=allow_implausible_units, columns=columns, time_unit=time_unit, position_unit=position_unit,
                               force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs)
     else:
         with progress_bar("ingesting") as progress:
-            outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range, columns=columns, time_unit=time_unit, position_unit=position_unit,
+            outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range,
+                              allow_implausible_units=allow_implausible_units, columns=columns, time_unit=time_unit, position_unit=position_unit,
                                   force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs,
                                   progress=progress)
     rejected = [o for o in outcomes if o.status == "rejected"]

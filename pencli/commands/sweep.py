@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import List, Optional
 
@@ -63,6 +64,8 @@ def sweep(
     """
     if out is not None and out.suffix.lower() != ".parquet":
         raise typer.BadParameter(f"'{out}' must end in .parquet", param_hint="--out")
+    if out is not None:
+        api.check_output(out, db_path(db), "--out")
     if sensitivity:
         rows = api.sensitivity(penetrator, material, energizing, overrides=set_ or (),
                                allow_out_of_range=allow_out_of_range)
@@ -112,9 +115,10 @@ def sweep(
     table = Table(header_style="bold")
     for col in ("figure", "min", "max", "unit"):
         table.add_column(col)
-    table.add_row("penetration time", f"{s['penetration_time_s'][0] * 1e3:.2f}", f"{s['penetration_time_s'][1] * 1e3:.2f}",
-                  "ms")
-    table.add_row("final depth", f"{s['final_depth_mm'][0]:.1f}", f"{s['final_depth_mm'][1]:.1f}", "mm")
-    table.add_row("peak resistance", f"{s['peak_resistance_n'][0]:.0f}", f"{s['peak_resistance_n'][1]:.0f}", "N")
+    for key, label, unit, scale, digits in (("penetration_time_s", "penetration time", "ms", 1e3, 2),
+                                            ("final_depth_mm", "final depth", "mm", 1.0, 1),
+                                            ("peak_resistance_n", "peak resistance", "N", 1.0, 0)):
+        table.add_row(label, *(f"{v * scale:.{digits}f}" if math.isfinite(v) else "not defined" for v in s[key]),
+                      unit)
     console.print(table)
     console.print(f"table: {outcome.path}" + (f" (sweep {outcome.sweep_id} in {db_path(db)})" if outcome.sweep_id else ""))

@@ -1,16 +1,19 @@
 """Atomic file writes: write beside the target, then rename over it.
 
-A failure or Ctrl-C midway leaves the target untouched and no temporary file
-behind.
+A failure or Ctrl-C midway leaves the target untouched, no temporary file behind, and no folder that the
+write created for it.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Callable, Iterator
+
+from pencli.errors import OutputError
 
 
 def _umask() -> int:
@@ -24,22 +27,44 @@ def honour_umask(path: Path, *, folder: bool = False) -> None:
     os.chmod(path, (0o777 if folder else 0o666) & ~_umask())
 
 
+def make_parents(folder: Path) -> list[Path]:
+    """Create ``folder`` and its missing parents; return the folders made, deepest first (to undo)."""
+    missing = [p for p in (folder, *folder.parents) if not p.exists()]
+    folder.mkdir(parents=True, exist_ok=True)
+    return missing
+
+
+def remove_made(folders: list[Path]) -> None:
+    """Remove folders :func:`make_parents` made, deepest first, where they are still empty."""
+    for made in folders:
+        with contextlib.suppress(OSError):
+            made.rmdir()
+
+
 @contextlib.contextmanager
 def atomic_path(target: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; rename it over ``target`` on success."""
     target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
+    with contextlib.suppress(FileNotFoundError):
+        if not stat.S_ISREG(os.stat(target).st_mode):  # never rename over a device, pipe or folder
+            raise OutputError(f"{target}: is not a regular file; name a file")
+    made = make_parents(target.parent)
+    done = False
+    tmp_path = None
     try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        os.close(fd)
+        tmp_path = Path(tmp)
         yield tmp_path
         if tmp_path.exists():
             honour_umask(tmp_path)
         os.replace(tmp_path, target)
+        done = True
     finally:
-        if tmp_path.exists():
+        if tmp_path is not None and tmp_path.exists():
             tmp_path.unlink()
+        if not done:
+            remove_made(made)
 
 
 def write_atomic(target: str | Path, write: Callable[[Path], None]) -> Path:
@@ -47,3 +72,36 @@ def write_atomic(target: str | Path, write: Callable[[Path], None]) -> Path:
     with atomic_path(target) as tmp:
         write(tmp)
     return Path(target)
+
+
+@contextlib.contextmanager
+def atomic_group(targets: list[Path]) -> Iterator[list[Path]]:
+    """Temporary paths for several files that appear together or not at all (a report's HTML and PDF).
+
+    Each is renamed into place only when the body has written them all; a failure leaves every target as it
+    was.
+    """
+    made: list[Path] = []
+    for target in targets:
+        with contextlib.suppress(FileNotFoundError):
+            if not stat.S_ISREG(os.stat(target).st_mode):
+                raise OutputError(f"{target}: is not a regular file; name a file")
+        made += make_parents(target.parent)
+    temps: list[Path] = []
+    done = False
+    try:
+        for target in targets:
+            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+            os.close(fd)
+            temps.append(Path(tmp))
+        yield temps
+        for tmp, target in zip(temps, targets):
+            honour_umask(tmp)
+            os.replace(tmp, target)
+        done = True
+    finally:
+        for tmp in temps:
+            if tmp.exists():
+                tmp.unlink()
+        if not done:
+            remove_made(made)

@@ -17,6 +17,15 @@ from pencli.errors import DataError
 MIN_RATE_HZ = 1000.0
 MIN_ROWS = 16
 
+FORCE_SLACK = 30.0
+"""How far a run's peak axial force may stray from S·w·T, the scale its parameter files set, before its unit is
+doubted [–].  Measured peaks lie at 0.6–2.5 × S·w·T on the bundled runs, and Cs, the factor between, is
+documented up to 20; a unit slip is a factor 1000 (kN) or 4.4 (lbf, within the band: not caught)."""
+TRAVEL_SLACK = 2.0
+"""How far a run's travel may stray from its stand-off (below) and stand-off + full depth (above) before its unit
+is doubted [–].  A blade released s0 above the surface travels s0 plus what it penetrates, at most the full
+depth; a unit slip is a factor 25.4 (inches), 10 (cm) or 1000 (metres)."""
+
 
 @dataclass(frozen=True)
 class SensorRange:
@@ -109,3 +118,47 @@ def check_run_columns(columns: Mapping[str, np.ndarray], where: str, *, surface_
             unit = "N" if name.endswith("_n") else "N·m"
             raise DataError(f"{where}: row {_row(i)}: column {name} is {float(columns[name][i])!r}, beyond the sensor's "
                             f"range ±{limit:g} {unit} (saturated, or wrong units?)")
+
+
+@dataclass(frozen=True)
+class UnitScales:
+    """What a run's own parameter files say its columns should roughly show (CONTRACT §1 file units)."""
+
+    surface_offset_mm: float
+    """Stand-off s0: the blade travels at least to the surface. [mm]"""
+    penetration_depth_mm: float
+    """Full depth d: the blade travels at most s0 + d. [mm]"""
+    strength_scale_n: float
+    """S·w·T, the tip resistance without its correction factor; peaks lie within a few times it. [N]"""
+
+
+def check_units(columns: Mapping[str, np.ndarray], where: str, scales: UnitScales) -> None:
+    """Refuse a run whose travel or axial force is off its parameter files' scale by a unit's factor.
+
+    The travel (span of position_mm) must lie within :data:`TRAVEL_SLACK` of the stand-off below and of
+    stand-off + full depth above; the peak axial force above the first tenth of the record (the pre-trigger
+    level) within :data:`FORCE_SLACK` of S·w·T.  One line names the column, what it shows, the expected
+    magnitude and the flag that says it is right.
+    """
+    position = np.asarray(columns["position_mm"], dtype=float)
+    span = float(position.max() - position.min())
+    low = scales.surface_offset_mm / TRAVEL_SLACK
+    high = TRAVEL_SLACK * (scales.surface_offset_mm + scales.penetration_depth_mm)
+    if scales.surface_offset_mm > 0 and not low <= span <= high:
+        hint = "inches or centimetres (use --position-unit in or cm)" if span < low else "not millimetres"
+        raise DataError(f"{where}: column position_mm travels {span:.4g} while the stand-off is "
+                        f"{scales.surface_offset_mm:g} mm and full depth {scales.penetration_depth_mm:g} mm "
+                        f"(expected {low:.3g} to {high:.3g} mm): it looks like {hint}; expected millimetres, or "
+                        f"--allow-implausible-units if the run is right")
+    if scales.strength_scale_n <= 0:
+        return
+    fz = np.asarray(columns["fz_n"], dtype=float)
+    level = float(np.median(fz[: max(1, fz.size // 10)]))
+    peak = float(np.max(np.abs(fz - level)))
+    low, high = scales.strength_scale_n / FORCE_SLACK, FORCE_SLACK * scales.strength_scale_n
+    if not low <= peak <= high:
+        hint = "kN (use --force-unit kN)" if peak < low else "not newtons"
+        raise DataError(f"{where}: column fz_n peaks {peak:.4g} from its pre-trigger level while the blade's "
+                        f"strength scale S·w·T is {scales.strength_scale_n:.4g} N (expected {low:.3g} to "
+                        f"{high:.3g} N): it looks like {hint}; expected newtons, or --allow-implausible-units if "
+                        f"the run is right")

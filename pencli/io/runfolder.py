@@ -23,7 +23,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from pencli.errors import DataError, ParameterError
-from pencli.io.checks import SensorRange, check_run_columns
+from pencli.io.checks import SensorRange, UnitScales, check_run_columns, check_units
 from pencli.io.atomic import honour_umask
 from pencli.params.load import read_yaml, resolve
 from pencli.params.validate import ParameterSet
@@ -56,12 +56,15 @@ class ReadOptions:
     sensor: SensorRange = SensorRange()
     allow_out_of_range: bool = False
     """Accept parameter values outside their documented range (hard bounds still hold)."""
+    allow_implausible_units: bool = False
+    """Accept a run whose travel or force is far off its parameter files' scale (recorded in provenance)."""
 
     def as_record(self) -> dict[str, Any]:
         """For provenance."""
         return {"columns": dict(self.columns), "time_unit": self.time_unit, "position_unit": self.position_unit,
                 "force_unit": self.force_unit, "torque_unit": self.torque_unit,
-                **({"allow_out_of_range": True} if self.allow_out_of_range else {})}
+                **({"allow_out_of_range": True} if self.allow_out_of_range else {}),
+                **({"allow_implausible_units": True} if self.allow_implausible_units else {})}
 
 
 def parse_column_map(text: str | None) -> dict[str, str]:
@@ -99,16 +102,24 @@ def read_csv_data(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
     try:
         table = pacsv.read_csv(path, read_options=pacsv.ReadOptions(block_size=1 << 24),
                                convert_options=pacsv.ConvertOptions(strings_can_be_null=False))
+    except UnicodeDecodeError:
+        raise DataError(f"{path}: {_first_non_utf8(path)}") from None
     except pa.ArrowInvalid as exc:
         text = str(exc)
+        if "invalid UTF8" in text or "invalid utf8" in text.lower():
+            raise DataError(f"{path}: {_first_non_utf8(path)}") from None
         if "Empty CSV file" in text:
             raise DataError(f"{path}: empty file; expected a header row and data rows") from None
         raise DataError(f"{path}: {_locate_csv_problem(path) or text.splitlines()[0]}") from None
+    try:
+        names = table.column_names
+    except UnicodeDecodeError:
+        raise DataError(f"{path}: {_first_non_utf8(path)}") from None
     if table.num_rows == 0:
         raise DataError(f"{path}: no data rows (header only); expected a header row and data rows")
-    _refuse_repeated_headers(path, table.column_names)
+    _refuse_repeated_headers(path, names)
     columns: dict[str, np.ndarray] = {}
-    for name in table.column_names:
+    for name in names:
         column = table.column(name)
         if not (pa.types.is_floating(column.type) or pa.types.is_integer(column.type)):
             bad = _first_non_numeric(column.to_pylist())
@@ -117,7 +128,7 @@ def read_csv_data(path: Path) -> tuple[list[str], dict[str, np.ndarray]]:
             i = int(np.argmax(np.asarray(column.is_null())))
             raise DataError(f"{path}: row {i + 2}: column {name} is empty; expected a number")
         columns[name] = column.to_numpy().astype(np.float64)
-    return table.column_names, columns
+    return names, columns
 
 
 def _refuse_repeated_headers(path: Path, names: list[str]) -> None:
@@ -137,6 +148,18 @@ def _first_non_numeric(values: list) -> tuple[int, Any]:
         except (TypeError, ValueError):
             return i, value
     return 0, values[0] if values else None
+
+
+def _first_non_utf8(path: Path) -> str:
+    """Slow path, only on error: where the first byte that is not UTF-8 lies (a Latin-1 or Windows export)."""
+    with open(path, "rb") as handle:
+        for number, line in enumerate(handle, start=1):
+            try:
+                line.decode("utf-8")
+            except UnicodeDecodeError as exc:
+                return (f"row {number}: byte 0x{line[exc.start]:02x} at column {exc.start + 1} is not UTF-8 text "
+                        f"(a Latin-1 or Windows export?); save the file as UTF-8")
+    return "not UTF-8 text; save the file as UTF-8"
 
 
 def _locate_csv_problem(path: Path) -> str | None:
@@ -195,6 +218,9 @@ READERS: dict[str, Callable[[Path], tuple[list[str], dict[str, np.ndarray]]]] = 
 
 def find_data_file(folder: Path) -> Path:
     """``data.csv`` or ``data.xlsx``; else the folder's only csv/xlsx file."""
+    if all((folder / name).is_file() for name in DATA_NAMES):
+        raise DataError(f"{folder}: holds both {' and '.join(DATA_NAMES)}, so which is the run is ambiguous; keep "
+                        f"one (move the other out of the folder)")
     for name in DATA_NAMES:
         if (folder / name).is_file():
             return folder / name
@@ -259,6 +285,7 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
         if loaded is not None and not isinstance(loaded, dict):
             raise ParameterError(f"{folder / 'run.yaml'}: expected a mapping (id, date, operator, notes, tags)")
         info = dict(loaded or {})
+        _check_run_info(info, folder / "run.yaml")
     reader = READERS.get(data_path.suffix.lower())
     if reader is None:
         raise DataError(f"{data_path}: no reader for '{data_path.suffix}'; supported: {', '.join(READERS)}")
@@ -266,6 +293,8 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
     columns = map_columns(header, raw, data_path, options)
     check_run_columns(columns, str(data_path), surface_offset_mm=float(sets["energizing"].get("surface_offset_mm")),
                       sensor=options.sensor)
+    if not options.allow_implausible_units:
+        check_units(columns, str(data_path), unit_scales(sets["penetrator"], sets["material"], sets["energizing"]))
     used = {options.columns.get(name, name) for name in RAW_COLUMNS}
     ignored = [name for name in header if name and name not in used]
     record = options.as_record()
@@ -273,6 +302,30 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
         record["ignored_columns"] = ignored  # kept in the raw stage's provenance; the data are not stored
     return RunData(columns, sets["penetrator"], sets["material"], sets["energizing"], info,
                    str(folder.resolve()), data_path.suffix.lower().lstrip("."), record)
+
+
+def unit_scales(penetrator: ParameterSet, material: ParameterSet, energizing: ParameterSet) -> UnitScales:
+    """The scales a run's parameter files set for its travel and force (for :func:`check_units`)."""
+    return UnitScales(float(energizing.get("surface_offset_mm")), float(penetrator.get("penetration_depth_mm")),
+                      float(material.get("microstructure_strength_kpa")) * 1e3
+                      * float(penetrator.get("blade_width_mm")) * 1e-3 * float(penetrator.get("blade_thickness_mm")) * 1e-3)
+
+
+def _check_run_info(info: dict, path: Path) -> None:
+    """run.yaml's keys that the catalog indexes must hold what it can store: nothing is dropped silently."""
+    import datetime as dt
+
+    date = info.get("date")
+    if isinstance(date, str):
+        try:
+            dt.date.fromisoformat(date)
+        except ValueError:
+            raise ParameterError(f"{path}: date {date!r} is not a date; expected YYYY-MM-DD") from None
+    elif date is not None and not isinstance(date, dt.date):
+        raise ParameterError(f"{path}: date {date!r} is not a date; expected YYYY-MM-DD")
+    tags = info.get("tags")
+    if tags is not None and not isinstance(tags, (str, list)):
+        raise ParameterError(f"{path}: tags {tags!r}: expected a word or a list of words")
 
 
 def ignored_columns_warning(run: RunData) -> str | None:

@@ -53,6 +53,9 @@ PHASES: tuple[str, ...] = ("flight", "penetration")
 """Phase codes used in :attr:`Trajectory.phase` (index into this tuple)."""
 
 _RTOL = 1e-10
+MAX_CONTACT_SPEED_M_S = 1_000.0
+"""Largest speed at contact taken: a spring launcher gives a few m/s and a dropped penetrometer tens; past a
+kilometre per second the blade is a projectile the model does not describe, and the energies overflow. [m/s]"""
 _T_MAX_S = 3600.0  # give up on a run that neither arrests nor reaches full depth in this time (a creep at
 # C = 85,000 kPa·s/m took 170 s; the batch, which has no such cap, agreed to 2e-8 once this was 3,600 s, not 60)
 MAX_EVALUATIONS = 2_000_000
@@ -359,6 +362,14 @@ def _peak(law: ResistanceLaw, segments, extra=None) -> tuple[float, float]:
     return best_r, best_x
 
 
+def check_contact_speed(speed_m_s, what: str = "speed at contact") -> None:
+    """Refuse a given speed at contact outside 0 … :data:`MAX_CONTACT_SPEED_M_S` (one value or an array). [m/s]"""
+    values = np.asarray(speed_m_s, dtype=float)
+    bad = values[~((values >= 0.0) & (values <= MAX_CONTACT_SPEED_M_S))]
+    if bad.size:
+        raise ModelError(f"{what} {bad.flat[0]:g} m/s: expected 0 to {MAX_CONTACT_SPEED_M_S:g} m/s")
+
+
 def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
              speed_at_contact_m_s: float | None = None, output_rate_hz: float = 50_000.0,
              rtol: float = _RTOL, extra_resistance=None, geometry: Geometry = BLADE,
@@ -408,6 +419,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         u_start, initial_ke = 0.0, 0.0
     else:
         t_contact, v_contact = 0.0, float(speed_at_contact_m_s)
+        check_contact_speed(v_contact)
         u_start, initial_ke = design.surface_offset_m, 0.5 * mass * v_contact ** 2
 
     _check_scales(design, law, v_contact, drive, other)

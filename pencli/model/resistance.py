@@ -37,6 +37,8 @@ def parse_terms(terms: Iterable[str] | str | None) -> tuple[str, ...]:
         return TERMS
     if isinstance(terms, str):
         terms = [t for t in (s.strip() for s in terms.split(",")) if t]
+        if not terms:
+            raise ModelError(f"no model term given; name one or more of: {', '.join(TERMS)}")
     chosen = tuple(terms)
     unknown = [t for t in chosen if t not in TERMS]
     if unknown:

@@ -62,17 +62,31 @@ def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 
 
-def read_yaml(path: Path) -> Any:
-    """Parse a YAML file strictly; errors name the file and line."""
+def read_text_capped(path: Path, limit: int, what: str) -> str:
+    """A UTF-8 text file read whole, refusing one over ``limit`` bytes without reading past the cap (a device
+    like /dev/zero reports size 0 and never ends) and naming the first byte that is not UTF-8."""
     try:
-        size = path.stat().st_size
-        if size > MAX_YAML_BYTES:
-            raise ParameterError(f"{path}: {size} bytes; a parameter file is at most {MAX_YAML_BYTES} bytes")
-        text = path.read_text(encoding="utf-8")
+        with open(path, "rb") as handle:
+            data = handle.read(limit + 1)
     except FileNotFoundError:
         raise ParameterError(f"{path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ParameterError(f"{path}: cannot read: {exc}") from None
+    except IsADirectoryError:
+        raise ParameterError(f"{path}: is a folder, not a {what}") from None
+    except OSError as exc:
+        raise ParameterError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if len(data) > limit:
+        raise ParameterError(f"{path}: more than {limit} bytes; a {what} is at most {limit} bytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise ParameterError(f"{path}: line {line}: byte 0x{data[exc.start]:02x} is not UTF-8 text; save the "
+                             f"{what} as UTF-8") from None
+
+
+def read_yaml(path: Path) -> Any:
+    """Parse a YAML file strictly; errors name the file and line."""
+    text = read_text_capped(Path(path), MAX_YAML_BYTES, "YAML file")
     try:
         return yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - strict SafeLoader subclass
     except yaml.YAMLError as exc:
@@ -80,6 +94,12 @@ def read_yaml(path: Path) -> Any:
         where = f" line {mark.line + 1}" if mark is not None else ""
         problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         raise ParameterError(f"{path}:{where}: not valid YAML: {problem}") from None
+    except (ValueError, OverflowError) as exc:  # a value YAML recognises but cannot build (date 2026-13-45)
+        raise ParameterError(f"{path}: a value cannot be read: {str(exc).splitlines()[0]} (write dates as "
+                             f"YYYY-MM-DD)") from None
+    except RecursionError:
+        raise ParameterError(f"{path}: nested too deeply to read (lists or mappings inside each other hundreds of "
+                             f"levels down); a parameter file is two levels deep") from None
 
 
 def load_file(path: str | Path, expected_kind: Kind | None = None, *,

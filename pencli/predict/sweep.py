@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from pencli.errors import ParameterError
+from pencli.model.dynamics import check_contact_speed
 from pencli.params.definitions import BY_KEY
 from pencli.predict.batch import designs_from
 from pencli.predict.compiled import JIT as _JIT
@@ -73,6 +74,8 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variabl
             discrete = True
     except (ValueError, KeyError):
         raise ParameterError(f"--vary {spec!r}: could not read the values") from None
+    if key == SPEED:
+        check_contact_speed(values, f"--vary {spec!r}: speed at contact")
     if key != SPEED and BY_KEY[key].dtype is int:
         values, discrete = np.unique(np.round(values)), True
     return Variable(key, np.asarray(values, dtype=float), discrete)
@@ -80,6 +83,14 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variabl
 
 MAX_DESIGNS = 10 ** 9
 """Largest sweep pen starts (about 100 GB of Parquet and hours of work; a sample covers such spaces)."""
+
+FIGURE_COLUMNS = 13
+"""Columns a sweep's table holds per design beside its variables (CONTRACT §5 figures and how it ended)."""
+
+
+def table_bytes(n_designs: int, n_variables: int) -> int:
+    """Size of a sweep's table on disk, from above: every column stored plain, 8 bytes a value. [bytes]"""
+    return int(n_designs) * 8 * (int(n_variables) + FIGURE_COLUMNS)
 
 
 class Grid:

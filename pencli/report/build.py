@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from pencli import __version__
-from pencli.io.atomic import write_atomic
+from pencli.io.atomic import atomic_group
 
 
 @dataclass
@@ -112,10 +112,11 @@ def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
 
 
 def write_report(title: str, sections: Sequence[Section], html_path: str | Path, pdf: bool = True) -> list[Path]:
-    """Write the HTML (and the PDF beside it) atomically."""
+    """Write the HTML (and the PDF beside it): both appear, or neither changes."""
     html_path = Path(html_path)
-    written = [write_atomic(html_path, lambda tmp: tmp.write_text(render_html(title, sections), encoding="utf-8"))]
-    if pdf:
-        pdf_path = html_path.with_suffix(".pdf")
-        written.append(write_atomic(pdf_path, lambda tmp: render_pdf(title, sections, tmp)))
-    return written
+    targets = [html_path, html_path.with_suffix(".pdf")] if pdf else [html_path]
+    with atomic_group(targets) as temps:
+        temps[0].write_text(render_html(title, sections), encoding="utf-8")
+        if pdf:
+            render_pdf(title, sections, temps[1])
+    return targets

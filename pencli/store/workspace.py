@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import datetime as dt
 import json
+import math
 import os
 import re
 import shutil
@@ -45,6 +46,8 @@ from pencli.store.migrations import LATEST, MIGRATIONS
 from pencli.store.rundata import RAW_COLUMNS, RunData, content_hash, table_hash
 
 DEFAULT_LOCK_TIMEOUT_S = 30.0
+MAX_LOCK_TIMEOUT_S = 86_400.0
+"""A day: longer than any pen command holds the catalog; a larger wait is a typo. [s]"""
 RAW_STAGE = "raw"
 _ID_SAFE = re.compile(r"[^A-Za-z0-9._-]+")
 _TEMPORARY = re.compile(r"^\.(?:.+\.(?P<pid>\d+)\.tmp"                       # a stage or fit being written
@@ -63,6 +66,30 @@ def crash_point(name: str) -> None:
     """Die here, as kill -9 would, when ``PEN_TEST_CRASH_AT`` names this point (for the crash tests only)."""
     if os.environ.get("PEN_TEST_CRASH_AT") == name:
         os.kill(os.getpid(), signal.SIGKILL)
+
+
+MAX_ID_LENGTH = 80
+"""Longest run id kept: a folder name on every file system, and a column a table shows whole. [characters]"""
+
+
+def safe_id(text: str) -> str:
+    """The run id pen stores for ``text``: runs of other characters become '-', at most MAX_ID_LENGTH long."""
+    return (_ID_SAFE.sub("-", text).strip("-.") or "run")[:MAX_ID_LENGTH]
+
+
+def lock_timeout_from_environment() -> float:
+    """``PEN_LOCK_TIMEOUT_S`` [s] (default 30 s), or one line saying what is wrong with it."""
+    text = os.environ.get("PEN_LOCK_TIMEOUT_S")
+    if text is None or not text.strip():
+        return DEFAULT_LOCK_TIMEOUT_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (0.0 <= value <= MAX_LOCK_TIMEOUT_S):
+        raise StoreError(f"PEN_LOCK_TIMEOUT_S={text!r}: expected seconds to wait for a locked workspace, a number "
+                         f"from 0 to {MAX_LOCK_TIMEOUT_S:g} (default {DEFAULT_LOCK_TIMEOUT_S:g})")
+    return value
 
 
 def _pid_alive(pid: int) -> bool:
@@ -84,6 +111,8 @@ class AddedRun:
     run_id: str
     created: bool
     source: str
+    renamed: str | None = None
+    """When the run is stored under another id than it asked for: one line saying which and why."""
 
 
 @dataclass(frozen=True)
@@ -153,7 +182,7 @@ class Workspace:
         self.db_path = Path(db_path)
         self.runs_dir = self.db_path.parent / "runs"
         if lock_timeout_s is None:
-            lock_timeout_s = float(os.environ.get("PEN_LOCK_TIMEOUT_S", DEFAULT_LOCK_TIMEOUT_S))
+            lock_timeout_s = lock_timeout_from_environment()
         self.lock_timeout_s = lock_timeout_s
         self._batch: dict | None = None
         self._recovered = False
@@ -191,13 +220,25 @@ class Workspace:
             if shared["con"] is None:
                 shared["con"] = self._open(write=True)
                 shared["since"] = time.monotonic()
-            yield shared["con"]
+            with self._catalog_faults():
+                yield shared["con"]
             return
         con = self._open(write=write)
         try:
-            yield con
+            with self._catalog_faults():
+                yield con
         finally:
             con.close()
+
+    @contextlib.contextmanager
+    def _catalog_faults(self) -> Iterator[None]:
+        """A catalog write that the machine refuses (a full disk, a read-only folder) as one line naming the
+        catalog; the transaction it was in is rolled back by DuckDB."""
+        try:
+            yield
+        except (duckdb.IOException, duckdb.FatalException, duckdb.PermissionException) as exc:
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise StoreError(f"{self.db_path}: the catalog could not be written: {first}") from None
 
     def _open(self, *, write: bool, config: dict | None = None) -> duckdb.DuckDBPyConnection:
         if not write and not self.exists():
@@ -436,18 +477,22 @@ class Workspace:
             run_id = wanted
             if con.execute("SELECT 1 FROM runs WHERE run_id = ?", [run_id]).fetchone() is not None:
                 run_id = f"{wanted}-{digest[:8]}"
+            asked = str(run.info.get("id") or Path(run.source).name or "run")
             table = run.to_table()
             record = {
                 "stage": RAW_STAGE, "run_id": run_id, "parent": None, "command": command,
                 "parameters": {"source": run.source, "format": run.source_format, **run.reader_options},
             }
             stage = self._write_stage(con, run_id, 0, table, record, digest, run_rows=(run, digest))
-        return AddedRun(stage.run_id, True, run.source)
+        renamed = None
+        if run_id != asked:
+            why = (f"'{wanted}' is another run's id" if run_id != wanted else
+                   f"ids keep letters A-Z and a-z, digits, '.', '_' and '-', at most {MAX_ID_LENGTH} characters")
+            renamed = f"{run.source}: run id {asked!r} stored as {run_id!r} ({why})"
+        return AddedRun(stage.run_id, True, run.source, renamed)
 
     def _wanted_id(self, run: RunData) -> str:
-        raw = str(run.info.get("id") or Path(run.source).name or "run")
-        name = _ID_SAFE.sub("-", raw).strip("-.") or "run"
-        return name[:80]
+        return safe_id(str(run.info.get("id") or Path(run.source).name or "run"))
 
     def _check_same_parameters(self, con, run_id: str, run: RunData) -> None:
         stored = {k: json.loads(p) for k, p in con.execute(
@@ -606,8 +651,9 @@ class Workspace:
     def resolve(self, ref: str) -> str:
         """A run id, a run folder under runs/, or an ingested source folder → run id."""
         with self.connect() as con:
-            if con.execute("SELECT 1 FROM runs WHERE run_id = ?", [ref]).fetchone():
-                return ref
+            for candidate in dict.fromkeys((ref, safe_id(ref))):  # an id as it was asked for, or as stored
+                if con.execute("SELECT 1 FROM runs WHERE run_id = ?", [candidate]).fetchone():
+                    return candidate
             path = Path(ref)
             if path.exists():
                 resolved = path.resolve()
@@ -665,6 +711,8 @@ class Workspace:
         The connection is read-only and has no external access, locked: no COPY to a file, no ATTACH of
         another database, no file reads (stage Parquet files included), no extensions.
         """
+        if not sql.strip(" \t\r\n;"):
+            raise StoreError(f"query {sql!r} is empty; give a statement, e.g. \"SELECT run_id, material FROM runs\"")
         con = self._open(write=False, config={"enable_external_access": False, "lock_configuration": True})
         try:
             try:
@@ -674,7 +722,7 @@ class Workspace:
                 if "disabled by configuration" in first or "read-only" in first or "attached in read-only" in first:
                     first += " (pen runs query reads the catalog only: it writes nothing and opens no file)"
                 raise StoreError(f"query failed: {first}") from None
-            if cur.description is None:
+            if cur is None or cur.description is None:
                 return [], []
             return [d[0] for d in cur.description], cur.fetchall()
         finally:
