@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import glob
 import json
+import math
 import os
 import shutil
 from dataclasses import dataclass, field
@@ -16,7 +17,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from pencli.errors import DataError, ParameterError, PenError, StoreError
+from pencli.errors import DataError, ParameterError, PenError, StoreError, describe_os_error
 from pencli.model.design import Design, design_from_sets
 
 if TYPE_CHECKING:
@@ -294,7 +295,10 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
                     added = ws.add_run(run, command=command)
                 except PenError as exc:
                     outcome = IngestOutcome(str(folder), "rejected", message=str(exc))
-                except (OSError, MemoryError, ValueError) as exc:  # a full disk, no memory: this run, not the batch
+                except OSError as exc:  # a full disk: this run, not the batch
+                    outcome = IngestOutcome(str(folder), "rejected",
+                                            message=f"{folder}: not stored: {describe_os_error(exc)}")
+                except (MemoryError, ValueError) as exc:  # no memory: this run, not the batch
                     outcome = IngestOutcome(str(folder), "rejected", message=f"{folder}: not stored: {_one_line(exc)}")
                 else:
                     notes = (ignored_columns_warning(run), added.renamed) if added.created else ()
@@ -398,6 +402,14 @@ def run_detail(db: str | Path, ref: str) -> RunDetail:
 def query(db: str | Path, sql: str) -> tuple[list[str], list[tuple]]:
     """Read-only SQL on the catalog."""
     return workspace(db).query(sql)
+
+
+def remove_runs(db: str | Path, refs: Sequence[str], *, stage: str | None = None, purge: bool = False) -> list:
+    """``pen runs rm``: take runs (or a stage of each and what was made from it) out of the workspace; their
+    files go to quarantine unless ``purge``.  Returns a :class:`~pencli.store.workspace.Removal` per run."""
+    ws = workspace(db)
+    ids = expand_run_refs(ws, refs)
+    return [ws.remove(run_id, stage=stage, purge=purge) for run_id in ids]
 
 
 def check_workspace(db: str | Path, *, repair: bool = False) -> list[str]:
@@ -1089,10 +1101,14 @@ def parse_checks(items: Sequence[str]) -> list[tuple[str, str, float]]:
     out = []
     for item in items:
         match = re.fullmatch(r"\s*(nrmse|r2|rms_n|shrink)\s*(<=|>=)\s*([0-9.eE+-]+)\s*", item)
-        if not match:
+        try:
+            threshold = float(match.group(3)) if match else math.nan
+        except ValueError:
+            threshold = math.nan
+        if not match or not math.isfinite(threshold):
             raise ParameterError(f"--check {item!r}: expected METRIC<=VALUE or METRIC>=VALUE with METRIC one of "
                                  f"nrmse, r2, rms_n (each run of each material's latest fit) or shrink (diagnosis)")
-        out.append((match.group(1), match.group(2), float(match.group(3))))
+        out.append((match.group(1), match.group(2), threshold))
     return out
 
 

@@ -10,6 +10,9 @@ where it helps, what to do.
 
 from __future__ import annotations
 
+import errno
+import re
+
 
 class PenError(Exception):
     """Base class of every error pen reports to a user as one line."""
@@ -48,3 +51,25 @@ class OutputError(PenError, ValueError):
 
 class RigError(PenError, RuntimeError):
     """The rig driver refused or failed (arming, firing, streaming)."""
+
+
+_OS_ADVICE = {
+    errno.ENOSPC: "no space left on the device; free some, or write elsewhere",
+    errno.EDQUOT: "disk quota exceeded; free some space, or write elsewhere",
+    errno.EROFS: "the file system is read-only; write elsewhere",
+    errno.EACCES: "permission denied; fix the permissions, or write elsewhere",
+    errno.EPERM: "not permitted; fix the permissions, or write elsewhere",
+    errno.ENAMETOOLONG: "a file name is too long; choose a shorter name",
+}
+
+
+def describe_os_error(exc: OSError) -> str:
+    """An operating-system fault in a user's words: the file where known, what went wrong, what to do."""
+    code = exc.errno
+    if code is None:  # pyarrow and others put "[Errno 28] ..." in the text only
+        found = re.search(r"\[?errno[ =:]*(\d+)", str(exc), re.IGNORECASE)
+        code = int(found.group(1)) if found else None
+    text = str(exc).strip()
+    what = _OS_ADVICE.get(code) or exc.strerror or (text.splitlines()[0] if text else type(exc).__name__)
+    where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+    return f"{where}{what}"

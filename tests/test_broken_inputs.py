@@ -1,4 +1,4 @@
-"""The broken-input corpus (issue 13): every case is one line naming the file, row, column, key or option, exit 1
+"""The broken-input corpus: every case is one line naming the file, row, column, key or option, exit 1
 (2 for a usage error), no traceback, and a workspace byte-identical to before.
 
 One workspace (a copy of the bundled example: runs with every stage, fitted materials, a sweep) serves every
@@ -31,6 +31,8 @@ class Case:
     when the maker knows them best."""
     words: tuple[str, ...]
     code: int = 1
+    env: tuple[tuple[str, str], ...] = ()
+    """Environment variables the case sets."""
 
 
 def _folder_with(name: str, edit: Callable[[Path], None]) -> Callable[[Path, Path], list]:
@@ -124,6 +126,97 @@ CASES += [
 ]
 
 
+def _edit_data(edit: Callable[[bytes], bytes]) -> Callable[[Path], None]:
+    def change(folder: Path) -> None:
+        (folder / "data.csv").write_bytes(edit((folder / "data.csv").read_bytes()))
+    return change
+
+
+def _scale_columns(names: tuple[str, ...], factor: float) -> Callable[[Path], None]:
+    """A run recorded in other units than the file claims: each named column divided by ``factor``."""
+    def change(folder: Path) -> None:
+        lines = (folder / "data.csv").read_text().splitlines()
+        header = lines[0].split(",")
+        at = [header.index(n) for n in names]
+        out = [lines[0]]
+        for line in lines[1:]:
+            fields = line.split(",")
+            for i in at:
+                fields[i] = repr(float(fields[i]) / factor)
+            out.append(",".join(fields))
+        (folder / "data.csv").write_text("\n".join(out) + "\n")
+    return change
+
+
+def _xlsx_beside(folder: Path) -> None:
+    from openpyxl import Workbook
+
+    book = Workbook()
+    book.active.append(["time_s"])
+    book.save(folder / "data.xlsx")
+
+
+def _deep_yaml(inputs: Path, ws: Path) -> list:
+    (inputs / "deep.yaml").write_text("kind: penetrator\nname: " + "[" * 200_000 + "]" * 200_000 + "\n")
+    return ["predict", "-p", str(inputs / "deep.yaml"), "-m", "grill_brick", "-e", "appendix_c"]
+
+
+def _latin1_parameter_file(inputs: Path, ws: Path) -> list:
+    (inputs / "latin1.yaml").write_bytes("kind: material\nname: caf\xe9\n".encode("latin-1"))
+    return ["predict", "-p", "appendix_c", "-m", str(inputs / "latin1.yaml"), "-e", "appendix_c"]
+
+
+CASES += [
+    Case("ingest:latin1_header", _folder_with("latin1", _edit_data(lambda b: b.replace(b"time_s", b"time_s\xb5", 1))),
+         ("row 1", "0xb5", "UTF-8")),
+    Case("ingest:invalid_date", _folder_with("date", lambda f: (f / "run.yaml").write_text("date: 2026-13-45\n")),
+         ("run.yaml", "month")),
+    Case("ingest:invalid_date_quoted", _folder_with("date2", lambda f: (f / "run.yaml").write_text(
+        "date: '2026-13-45'\n")), ("run.yaml", "'2026-13-45'", "YYYY-MM-DD")),
+    Case("ingest:csv_beside_xlsx", _folder_with("both", _xlsx_beside), ("data.csv and data.xlsx", "keep one")),
+    Case("ingest:forces_in_kN", _folder_with("kn", _scale_columns(("fx_n", "fy_n", "fz_n"), 1000.0)),
+         ("fz_n", "kN", "--allow-implausible-units")),
+    Case("ingest:positions_in_inches", _folder_with("inch", _scale_columns(("position_mm",), 25.4)),
+         ("position_mm", "inches", "--allow-implausible-units")),
+    Case("params:dev_zero", _args("predict", "-p", "/dev/zero", "-m", "grill_brick", "-e", "appendix_c"),
+         ("/dev/zero", "bytes")),
+    Case("params:200k_deep_yaml", _deep_yaml, ("deep.yaml", "nested")),
+    Case("params:latin1_file", _latin1_parameter_file, ("latin1.yaml", "0xe9", "UTF-8")),
+    Case("query:empty", _args("runs", "query", ""), ("empty",)),
+    Case("query:only_a_semicolon", _args("runs", "query", ";"), ("empty",)),
+    Case("env:lock_timeout_not_a_number", _args("runs"), ("PEN_LOCK_TIMEOUT_S", "'soon'"),
+         env=(("PEN_LOCK_TIMEOUT_S", "soon"),)),
+    Case("env:lock_timeout_negative", _args("tare", "all"), ("PEN_LOCK_TIMEOUT_S",),
+         env=(("PEN_LOCK_TIMEOUT_S", "-1"),)),
+    Case("predict:speed_at_contact_1e200", _args("predict", "-p", "appendix_c", "-m", "grill_brick", "-e",
+                                                 "appendix_c", "--speed-at-contact", "1e200"),
+         ("speed at contact", "1000 m/s")),
+    Case("sweep:speed_at_contact_1e200", _args("sweep", "--speed-at-contact", "1e200", "--vary",
+                                               "blade_width_mm=100:200", "--out", "{in}/s.parquet"),
+         ("speed at contact", "1000 m/s")),
+    Case("sweep:vary_speed_to_1e200", _args("sweep", "--vary", "speed_at_contact=1:1e200", "--out",
+                                            "{in}/s.parquet"), ("speed_at_contact", "1000 m/s")),
+    Case("fit:material_300_characters", _args("fit", "--material", "m" * 300, "gb-*"), ("--material", "300")),
+    Case("fit:material_empty", _args("fit", "--material", "", "gb-*"), ("--material", "empty")),
+    Case("usage:fit_terms_empty", _args("fit", "--material", "x", "gb-*", "--terms", ""), ("--terms", "no model term"),
+         2),
+    Case("usage:predict_terms_empty", _args("predict", "-p", "figure10", "-m", "figure10", "-e", "figure10",
+                                            "--terms", ""), ("--terms", "no model term"), 2),
+    Case("usage:report_check_malformed", _args("report", "gb-1.0-2", "--out", "{in}/r.html", "--check", "nrmse<=1e"),
+         ("--check", "nrmse<=1e"), 2),
+    Case("export:to_an_existing_file", lambda inputs, ws: ((inputs / "f").write_text("x"),
+                                                           ["export", "gb-1.0-2", "--to", inputs / "f"])[1],
+         ("--to", "is a file")),
+    Case("report:all_to_an_existing_file", lambda inputs, ws: ((inputs / "f").write_text("x"),
+                                                               ["report", "--all", "--out", inputs / "f"])[1],
+         ("--out", "is a file")),
+    Case("report:all_to_dev_full", _args("report", "--all", "--out", "/dev/full"), ("/dev/full", "not a folder")),
+    Case("export:to_dev_full", _args("export", "gb-1.0-2", "--to", "/dev/full"), ("/dev/full", "not a folder")),
+    Case("runs:rm_unknown_stage", _args("runs", "rm", "gb-1.0-2", "--stage", "polish"), ("no stage 'polish'",)),
+    Case("runs:rm_unknown_run", _args("runs", "rm", "nope"), ("nope",)),
+]
+
+
 def test_the_corpus_has_at_least_40_cases():
     assert len(CASES) >= 40 and len({c.name for c in CASES}) == len(CASES)
 
@@ -146,6 +239,8 @@ def test_broken_input_is_one_line_and_leaves_the_workspace_byte_identical(case, 
     monkeypatch.chdir(tmp_path)
     db = shared_workspace / "runs.duckdb"
     monkeypatch.setenv("PEN_DB", str(db))
+    for name, value in case.env:
+        monkeypatch.setenv(name, value)
     before = _bytes_of(shared_workspace)
     inputs = tmp_path / "inputs"
     inputs.mkdir()

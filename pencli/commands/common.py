@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import errno
 import functools
 import json
 import math
@@ -18,7 +17,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from pencli.errors import PenError, PenNotice
+from pencli.errors import PenError, PenNotice, describe_os_error
 
 console = Console()
 err_console = Console(stderr=True)
@@ -80,27 +79,9 @@ def _show_notice(message, category, filename, lineno, file=None, line=None) -> N
         _python_showwarning(message, category, filename, lineno, file, line)
 
 
-_OS_ADVICE = {
-    errno.ENOSPC: "no space left on the device; free some, or write elsewhere",
-    errno.EDQUOT: "disk quota exceeded; free some space, or write elsewhere",
-    errno.EROFS: "the file system is read-only; write elsewhere",
-    errno.EACCES: "permission denied; fix the permissions, or write elsewhere",
-    errno.EPERM: "not permitted; fix the permissions, or write elsewhere",
-    errno.ENAMETOOLONG: "a file name is too long; choose a shorter name",
-}
-
-
 def os_error_line(exc: OSError) -> str:
-    """An operating-system fault as one line: the file, what went wrong, what to do; pen's writes are atomic,
-    so what was being written is not there."""
-    code = exc.errno
-    if code is None:  # pyarrow and others put "[Errno 28] ..." in the text only
-        found = re.search(r"\[Errno (\d+)\]|errno[ =:]+(\d+)", str(exc))
-        code = int(found.group(1) or found.group(2)) if found else None
-    what = _OS_ADVICE.get(code) or (exc.strerror or str(exc).strip().splitlines()[0] if str(exc).strip() else
-                                    type(exc).__name__)
-    where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-    return f"{where}{what} (nothing was half-written)"
+    """An operating-system fault as one line; pen's writes are atomic, so nothing was half-written."""
+    return f"{describe_os_error(exc)} (nothing was half-written)"
 
 
 def pen_errors(fn: Callable) -> Callable:

@@ -53,12 +53,12 @@ def diagnose(
     effect or pair removes half of).
     Example: pen diagnose 'mc-*' --json diagnosis.json --false-alarm 0.01
     """
-    if plot is not None and plot.suffix.lower() not in (".png", ".pdf"):
-        raise typer.BadParameter(f"'{plot}' must end in .png or .pdf", param_hint="--plot")
     if json_file is not None and str(json_file) != "-":
         api.check_output(json_file, db_path(db), "--json")
     if plot is not None:
         api.check_output(plot, db_path(db), "--plot")
+    if plot is not None and plot.suffix.lower() not in (".png", ".pdf"):
+        raise typer.BadParameter(f"'{plot}' must end in .png or .pdf", param_hint="--plot")
     chosen = [e.strip() for e in effects.split(",")] if effects else None
     with progress_bar("diagnosing") as progress:
         result = api.diagnose(db_path(db), runs, effects=chosen, false_alarm=false_alarm, bootstrap=bootstrap,

@@ -52,10 +52,10 @@ def fit(
     would.
     Example: pen fit --material mpacs_c runs/mc-* --out mpacs_c_fit.yaml
     """
-    if out is not None and out.suffix.lower() not in (".yaml", ".yml"):
-        raise typer.BadParameter(f"'{out}' must end in .yaml", param_hint="--out")
     if out is not None:
         api.check_output(out, db_path(db), "--out")
+    if out is not None and out.suffix.lower() not in (".yaml", ".yml"):
+        raise typer.BadParameter(f"'{out}' must end in .yaml", param_hint="--out")
     with progress_bar("fitting", disable=json_out) as progress:
         outcome = api.fit(db_path(db), material, runs, mode=mode, terms=terms, fix=fix or (),
                           all_subsets=all_subsets, bootstrap=bootstrap, out=out, progress=progress)

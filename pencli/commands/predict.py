@@ -64,10 +64,10 @@ def predict(
 
     Example: pen predict -p al6061_1mm -m mpacs_c -e springs_4 --set blade_width_mm=150 --json
     """
-    if out is not None and out.suffix.lower() != ".parquet":
-        raise typer.BadParameter(f"'{out}' must end in .parquet", param_hint="--out")
     if out is not None:
         api.check_output(out, db_path(db), "--out")
+    if out is not None and out.suffix.lower() != ".parquet":
+        raise typer.BadParameter(f"'{out}' must end in .parquet", param_hint="--out")
     prediction = api.predict(penetrator, material, energizing, overrides=set_ or (), terms=terms,
                              speed_at_contact_m_s=speed_at_contact, allow_out_of_range=allow_out_of_range,
                              output_rate_hz=rate)

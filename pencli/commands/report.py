@@ -10,6 +10,7 @@ from rich.markup import escape
 
 from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, fail, print_json, progress_bar
+from pencli.errors import PenError
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
@@ -43,11 +44,14 @@ def report(
     """
     from pencli.report.build import write_report
 
-    checks = api.parse_checks(check or [])
     catalog = db_path(db)
+    api.check_output(out, catalog, "--out", folder=all_)
+    try:
+        checks = api.parse_checks(check or [])
+    except PenError as exc:  # a malformed gate is a usage error (exit 2), not a breach
+        raise typer.BadParameter(str(exc), param_hint="--check") from None
     written: list[Path] = []
     diagnosis = None
-    api.check_output(out, catalog, "--out", folder=all_)
     if all_:
         with progress_bar("reports", disable=json_out) as progress:
             written += api.report_all(catalog, out, pdf=pdf, progress=progress)

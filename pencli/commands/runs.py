@@ -251,6 +251,33 @@ def check(
         raise typer.Exit(1)
 
 
+@runs_app.command("rm")
+def remove(
+    ctx: typer.Context,
+    runs: List[str] = typer.Argument(..., help="Run ids, run folders or id patterns ('gb-*')."),
+    stage: Optional[str] = typer.Option(None, "--stage", help="Remove only this stage (name or number) and every "
+                                                              "stage made from it; the raw stage means the run."),
+    purge: bool = typer.Option(False, "--purge", help="Delete the files instead of moving them to quarantine/."),
+    json_out: bool = typer.Option(False, "--json", help="Print what was removed as JSON."),
+    db: Optional[Path] = DbOption,
+) -> None:
+    """Remove runs, or a stage and what was made from it, from the workspace.
+
+    The files move to quarantine/<time>-removed/ beside the catalog (nothing is deleted unless --purge);
+    a removed run can be ingested again from its source.
+    Example: pen runs rm mc-1.5-2 --stage tare
+    """
+    removed = api.remove_runs(_db_from(ctx, db), runs, stage=stage, purge=purge)
+    if json_out:
+        print_json([{"run_id": r.run_id, "stages": list(r.stages), "whole_run": r.whole_run,
+                     "quarantine": str(r.quarantine) if r.quarantine else None} for r in removed])
+        return
+    for r in removed:
+        what = "run" if r.whole_run else "stage(s) " + ", ".join(r.stages) + " of run"
+        where = f"; files in {r.quarantine}" if r.quarantine else ("; files deleted" if purge else "")
+        console.print(f"removed {what} {escape(r.run_id)}{escape(where)}", highlight=False)
+
+
 @app.command("export")
 def export(
     run: str = typer.Argument(..., help="Run id or run folder."),

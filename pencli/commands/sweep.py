@@ -62,10 +62,10 @@ def sweep(
     Without --out the result is Parquet under sweeps/ beside the workspace catalog, indexed in it.
     Example: pen sweep -p figure10 -m figure10 -e figure10 --speed-at-contact 7.155133 --vary speed_at_contact=+20%,-50% --vary friction_coefficient=+40%,-30% --resolution 20
     """
-    if out is not None and out.suffix.lower() != ".parquet":
-        raise typer.BadParameter(f"'{out}' must end in .parquet", param_hint="--out")
     if out is not None:
         api.check_output(out, db_path(db), "--out")
+    if out is not None and out.suffix.lower() != ".parquet":
+        raise typer.BadParameter(f"'{out}' must end in .parquet", param_hint="--out")
     if sensitivity:
         rows = api.sensitivity(penetrator, material, energizing, overrides=set_ or (),
                                allow_out_of_range=allow_out_of_range)

@@ -25,7 +25,7 @@ import stat
 import tempfile
 from pathlib import Path
 
-from pencli.errors import OutputError
+from pencli.errors import OutputError, describe_os_error
 
 DATA_FOLDERS = ("runs", "fits", "sweeps", "quarantine")
 """The workspace's folders beside the catalog, which pen alone writes."""
@@ -99,7 +99,7 @@ def check_output(target: str | Path, db: str | Path | None, option: str, *, fold
     try:
         fd, probe = tempfile.mkstemp(prefix=".pen-probe-", dir=parent)
     except OSError as exc:
-        raise OutputError(f"{option} {text}: cannot write in {parent}: {exc.strerror or exc}") from None
+        raise OutputError(f"{option} {text}: cannot write in {parent}: {describe_os_error(exc)}") from None
     os.close(fd)
     with contextlib.suppress(OSError):
         os.unlink(probe)

@@ -41,6 +41,7 @@ import pyarrow.parquet as pq
 
 from pencli import __version__
 from pencli.errors import PenError, PenNotice, StoreError
+from pencli.io.atomic import make_parents, remove_made
 from pencli.params.validate import validate_mapping
 from pencli.store.migrations import LATEST, MIGRATIONS
 from pencli.store.rundata import RAW_COLUMNS, RunData, content_hash, table_hash
@@ -236,7 +237,8 @@ class Workspace:
         catalog; the transaction it was in is rolled back by DuckDB."""
         try:
             yield
-        except (duckdb.IOException, duckdb.FatalException, duckdb.PermissionException) as exc:
+        except (duckdb.IOException, duckdb.FatalException, duckdb.PermissionException,
+                duckdb.TransactionException) as exc:  # "Failed to commit: Could not write file ..."
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise StoreError(f"{self.db_path}: the catalog could not be written: {first}") from None
 
@@ -367,13 +369,17 @@ class Workspace:
         listed.  ``repair`` first runs the crash recovery (adopt, quarantine, remove stale temporaries).
         """
         if repair:
-            with self.connect(write=True):
-                pass
+            with self.connect(write=True) as con:
+                self._repair_catalog(con)
         root = self.db_path.parent
         problems = []
         with self.connect() as con:
             for run_id in [r[0] for r in con.execute("SELECT run_id FROM runs ORDER BY run_id").fetchall()]:
-                for record in self._stages(con, run_id):
+                records = self._stages(con, run_id)
+                if not records or records[0].stage_no != 0:
+                    problems.append(f"run '{run_id}': its raw stage is not in the catalog (a removal was interrupted; "
+                                    f"pen runs check --repair finishes it)")
+                for record in records:
                     try:
                         self._read_record(record)
                     except StoreError as exc:
@@ -388,6 +394,115 @@ class Workspace:
                         else f"{kind} file not in the catalog")
                 problems.append(f"{path}: {what} (pen runs check --repair adopts, quarantines or removes it)")
         return problems
+
+    def _repair_catalog(self, con) -> None:
+        """Make the catalog agree with the files again, each action one :class:`PenNotice`: a stage whose file
+        is missing or changed goes from the catalog with every stage made from it (their files to quarantine;
+        a raw stage takes the run, which can then be ingested again from its source); a fitted material's
+        missing model-vs-data table is forgotten (the fit itself is kept); a sweep whose table is missing goes."""
+        root = self.db_path.parent
+        for run_id in [r[0] for r in con.execute("SELECT run_id FROM runs ORDER BY run_id").fetchall()]:
+            records = self._stages(con, run_id)
+            broken = []
+            if not records or records[0].stage_no != 0:
+                broken = records[:1] or [None]
+            for record in records:
+                if broken:
+                    break
+                try:
+                    self._read_record(record)
+                except StoreError:
+                    broken = [record]
+            if not broken:
+                continue
+            first = broken[0]
+            dropped = records if first is None or first.stage_no == 0 else _lineage(records, first.stage_no)
+            where = self._drop(con, run_id, dropped, whole=first is None or first.stage_no == 0)
+            what = (f"run '{run_id}'" if first is None or first.stage_no == 0 else
+                    f"stage {first.stage_no} ({first.stage})" + (f" and {len(dropped) - 1} stage(s) made from it"
+                                                                 if len(dropped) > 1 else "") + f" of run '{run_id}'")
+            source = self.db_path if first is None else first.path
+            warnings.warn(PenNotice(f"{source}: missing or changed, so {what} left the catalog"
+                                    + (f"; the files that remained were moved to {where.relative_to(root)}"
+                                       if where is not None else "")
+                                    + ("; ingest the run again from its source" if first is None or first.stage_no == 0
+                                       else "; run that step again")), stacklevel=3)
+        for material, version, relative in con.execute(
+                "SELECT material, version, model_data_path FROM materials WHERE model_data_path IS NOT NULL"
+        ).fetchall():
+            if not (root / relative).is_file():
+                con.execute("UPDATE materials SET model_data_path = NULL WHERE material = ? AND version = ?",
+                            [material, version])
+                warnings.warn(PenNotice(f"{root / relative}: missing, so version {version} of fitted material "
+                                        f"'{material}' keeps its coefficients without its model-vs-data table"),
+                              stacklevel=3)
+        for sweep_id, relative in con.execute("SELECT sweep_id, path FROM sweeps").fetchall():
+            if not (root / relative).is_file():
+                con.execute("DELETE FROM sweeps WHERE sweep_id = ?", [sweep_id])
+                warnings.warn(PenNotice(f"{root / relative}: missing, so sweep {sweep_id} left the catalog"),
+                              stacklevel=3)
+
+    # ------------------------------------------------------------------ removal
+    def remove(self, ref: str, *, stage: str | int | None = None, purge: bool = False) -> "Removal":
+        """Take a run (or one derived stage and every stage made from it) out of the workspace.
+
+        The files go to ``quarantine/<time>-removed/`` (deleted with ``purge``); the catalog rows go after the
+        files have moved, so an interruption leaves files in quarantine and rows that ``pen runs check
+        --repair`` finishes removing, never a row that names a file still in place of another.
+        """
+        run_id = self.resolve(ref)
+        with self.connect(write=True) as con:
+            records = self._stages(con, run_id)
+            chosen = records
+            if stage is not None:
+                matches = [r for r in records if r.stage == str(stage) or str(r.stage_no) == str(stage)]
+                if not matches:
+                    raise StoreError(f"run '{run_id}' has no stage {stage!r}; it has: "
+                                     f"{', '.join(f'{r.stage_no}:{r.stage}' for r in records)}")
+                if matches[-1].stage_no != 0:
+                    chosen = _lineage(records, matches[-1].stage_no)
+            whole = not chosen or chosen[0].stage_no == 0
+            where = self._drop(con, run_id, chosen, whole=whole)
+        if purge and where is not None:
+            shutil.rmtree(where, ignore_errors=True)
+            with contextlib.suppress(OSError):
+                where.parent.rmdir()  # quarantine/, when this removal made it
+            where = None
+        return Removal(run_id, tuple(f"{r.stage_no}:{r.stage}" for r in chosen), whole, where)
+
+    def _drop(self, con, run_id: str, records: Sequence[StageRecord], *, whole: bool) -> Path | None:
+        """Move ``records``' files to quarantine, then delete their rows (and the run's, when ``whole``).
+        Returns the quarantine folder, or None when no file was there to move."""
+        root = self.db_path.parent
+        folder = root / QUARANTINE / f"{_now().strftime('%Y%m%dT%H%M%S')}-removed"
+        moved: list[tuple[Path, Path]] = []
+        made: list[Path] = []
+        try:
+            for record in records:
+                if record.path.is_file():
+                    target = folder / record.path.relative_to(root)
+                    made += make_parents(target.parent)
+                    os.replace(record.path, target)
+                    moved.append((record.path, target))
+            numbers = [r.stage_no for r in records]
+            if numbers:
+                con.execute(f"DELETE FROM stages WHERE run_id = ? AND stage_no IN ({', '.join('?' * len(numbers))})",
+                            [run_id, *numbers])
+        except BaseException:
+            for original, target in moved:  # rows still in place: put their files back
+                with contextlib.suppress(OSError):
+                    os.replace(target, original)
+            remove_made(made)
+            raise
+        if whole:
+            # DuckDB checks a foreign key against rows deleted earlier in the same transaction, so each table
+            # goes in its own; a run row left without stages is finished by --repair
+            con.execute("DELETE FROM stages WHERE run_id = ?", [run_id])
+            con.execute("DELETE FROM run_parameters WHERE run_id = ?", [run_id])
+            con.execute("DELETE FROM runs WHERE run_id = ?", [run_id])
+            with contextlib.suppress(OSError):
+                (self.runs_dir / run_id).rmdir()
+        return folder if moved else None
 
     def _settle(self, path: Path, kind: str, adopt) -> None:
         """Adopt one file the catalog does not know (``adopt()`` returns what it became), or quarantine it."""
@@ -622,7 +737,8 @@ class Workspace:
             table = pq.read_table(chosen.path)
         except FileNotFoundError:
             raise StoreError(f"{chosen.path}: stage '{chosen.stage}' of run '{run_id}' is missing from the workspace; "
-                             f"restore the file, or re-ingest the run") from None
+                             f"restore the file, or let pen runs check --repair drop it and the stages made from "
+                             f"it") from None
         except (OSError, pa.ArrowException) as exc:
             raise StoreError(f"{chosen.path}: cannot read stage '{chosen.stage}' of run '{run_id}': {exc}") from None
         try:
@@ -631,8 +747,8 @@ class Workspace:
             digest = None  # a column is gone
         if digest != chosen.content_sha256:
             raise StoreError(f"{chosen.path}: stage '{chosen.stage}' of run '{run_id}' has changed since it was "
-                             f"written (its content no longer matches the catalog's hash); restore it, or re-ingest "
-                             f"the run")
+                             f"written (its content no longer matches the catalog's hash); restore it, or let pen "
+                             f"runs check --repair drop it and the stages made from it")
         return table
 
     def read_table(self, relative: str, what: str, *, filters=None, columns=None) -> pa.Table:
@@ -837,6 +953,27 @@ class Workspace:
             return [r[0] for r in con.execute("SELECT run_id FROM runs ORDER BY run_id").fetchall()]
 
 
+@dataclass(frozen=True)
+class Removal:
+    """What ``pen runs rm`` took out: a run, or a stage and what was made from it."""
+
+    run_id: str
+    stages: tuple[str, ...]
+    """``stage_no:stage`` of each stage removed."""
+    whole_run: bool
+    quarantine: Path | None
+    """Where the files went (None: deleted with --purge, or none were there)."""
+
+
+def _lineage(records: Sequence[StageRecord], stage_no: int) -> list[StageRecord]:
+    """Stage ``stage_no`` and every stage made from it, directly or through others, in stage order."""
+    chosen = {stage_no}
+    for record in records:
+        if record.parent_no in chosen:
+            chosen.add(record.stage_no)
+    return [r for r in records if r.stage_no in chosen]
+
+
 def _same_parameters(a: Any, b: Any, rtol: float = 1e-9) -> bool:
     """Stage parameters equal up to round-off in the derived numbers they carry (events, offsets): another
     numpy may put the last bit of a contact speed elsewhere; that is not another stage."""
@@ -876,4 +1013,4 @@ def raw_columns_of(table: pa.Table) -> dict:
     return {name: table.column(name).to_numpy() for name in RAW_COLUMNS}
 
 
-__all__: Sequence[str] = ("AddedRun", "StageRecord", "Workspace", "RAW_STAGE", "raw_columns_of")
+__all__: Sequence[str] = ("AddedRun", "Removal", "StageRecord", "Workspace", "RAW_STAGE", "raw_columns_of")
