@@ -221,10 +221,21 @@ WRITERS = {
 }
 
 
+@pytest.fixture(scope="module")
+def work_to_do(tmp_path_factory) -> Path:
+    """One copy of the example with work left for every writing command, made once and copied per case."""
+    root = tmp_path_factory.mktemp("work")
+    _example_with_work_to_do(root)
+    return root
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("command", list(WRITERS))
-def test_a_full_disk_is_one_line_and_nothing_half_written(command, tmp_path):
-    with tmpfs(tmp_path / "disk", "48m", _example_with_work_to_do, full=True) as root:
+def test_a_full_disk_is_one_line_and_nothing_half_written(command, tmp_path, work_to_do):
+    def prepare(root: Path) -> None:
+        shutil.copytree(work_to_do, root, dirs_exist_ok=True)
+
+    with tmpfs(tmp_path / "disk", "48m", prepare, full=True) as root:
         ws = root / "ws"
         before = _bytes_of(root), _folders_of(root)
         args = [a.replace("{root}", str(root)) for a in WRITERS[command]]
