@@ -1,7 +1,7 @@
 """Time of a 12-run fit in each mode beside scipy least_squares over per-run solve_ivp simulations.
 
 Run: python -m bench.bench_fit
-Targets (issue 4): resistance mode under 1 s, dynamic mode under 20 s.
+Targets: resistance mode under 1 s, dynamic mode under 20 s.
 The baseline is what a straightforward port of BAM would do: resistance
 mode, Eq. 9 evaluated sample by sample in Python inside least_squares;
 dynamic mode, for every candidate coefficient vector, integrate each run with

@@ -3,7 +3,7 @@
 Run: python -m bench.bench_predict
 Prints the median of repeated timings for both and their ratio, plus the
 accuracy of each against a tight independent integration (tests/reference.py).
-Target (issue 2): pen under 20 ms per prediction.
+Target: pen under 20 ms per prediction.
 """
 
 from __future__ import annotations

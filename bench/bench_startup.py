@@ -3,7 +3,7 @@
 Run: python -m bench.bench_startup [--repeat N]
 - pen: ``pen --help`` (the installed entry point), median of N runs (default 15).
 - baseline: ``python -c pass`` in the same loop: the floor any Python command pays.
-Target (issue 12): ``pen --help`` under 0.3 s.
+Target: ``pen --help`` under 0.3 s.
 """
 
 from __future__ import annotations

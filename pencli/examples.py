@@ -91,13 +91,32 @@ def build_report(db: Path, out: Path, pdf: bool = False) -> list[Path]:
     return written
 
 
+def build_figure(db: Path, out: Path, material: str = "mpacs_c") -> Path:
+    """The user guide's opening figure: the latest fit of ``material`` against its runs, as a PNG."""
+    from pencli.io.atomic import write_atomic
+    from pencli.report.figures import campaign_fit
+
+    ws = api.workspace(db)
+    version = ws.material_versions(material)[-1]
+    table = ws.read_table(version["model_data_path"], "model-vs-data table")
+    fig, _ = campaign_fit(material, {name: table.column(name).to_numpy(zero_copy_only=False)
+                                     for name in table.column_names})
+    write_atomic(out, lambda tmp: fig.savefig(tmp, format="png", dpi=160))
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "examples" / "workspace" / "runs.duckdb",
                         help="catalog to write (runs/ goes beside it)")
     parser.add_argument("--report", type=Path, nargs="?", const=Path(__file__).resolve().parents[1] / "examples"
                         / "report", help="also condition, fit, sweep, diagnose and write the full report here")
+    parser.add_argument("--figure", type=Path, nargs="?", const=Path(__file__).resolve().parents[1] / "docs" / "img"
+                        / "fit-mpacs-c.png", help="only draw the user guide's opening figure from the workspace")
     args = parser.parse_args()
+    if args.figure is not None:
+        print(f"wrote {build_figure(args.out, args.figure)}")
+        return
     ids = build(args.out)
     print(f"built {len(ids)} runs into {args.out}")
     if args.report is not None:

@@ -1,4 +1,4 @@
-"""Modules loaded on first use, so that ``pen --help`` does not pay for numpy and the API (issue 12).
+"""Modules loaded on first use, so that ``pen --help`` does not pay for numpy and the API.
 
 ``np = lazy("numpy")`` gives a module object whose body runs the first time one of its attributes is
 read; a module that is already imported is returned as it is.  The standard library's

@@ -1,4 +1,4 @@
-"""`pen acquire`: the simulated rig end to end, and the nidaq driver against a fake nidaqmx (issue 3)."""
+"""`pen acquire`: the simulated rig end to end, and the nidaq driver against a fake nidaqmx."""
 
 from __future__ import annotations
 
@@ -308,7 +308,7 @@ def test_nidaq_without_the_package_says_how_to_install(workspace, runner, monkey
 
 
 def test_a_shot_that_cannot_be_saved_is_not_fired(workspace, runner, monkeypatch):
-    """Issue 13 item 7: on a read-only workspace the shot was recorded, then lost.  Now nothing fires."""
+    """On a read-only workspace the shot was recorded, then lost.  Now nothing fires."""
     import os
     import stat
 
@@ -341,7 +341,7 @@ def test_a_taken_run_id_is_refused_before_firing(workspace, runner, monkeypatch)
 
 
 def test_without_a_terminal_a_recorded_shot_is_kept_not_dropped_at_a_prompt(workspace, runner):
-    """Issue 13 item 7: with --yes --json and no terminal, the shot was fired and then discarded at the
+    """With --yes --json and no terminal, the shot was fired and then discarded at the
     save prompt."""
     r = invoke(runner, "acquire", "--springs", "2", "--yes", "--json")
     assert r.exit_code == 0, r.output
@@ -384,7 +384,7 @@ def test_a_workspace_in_a_missing_folder_is_refused_before_firing(workspace, run
 
 
 def test_the_bundled_example_catalog_holds_no_machine_paths():
-    """Issue 13: the example catalog stored absolute build paths (a temporary rig file, the install's data
+    """The example catalog stored absolute build paths (a temporary rig file, the install's data
     folder).  Bundled files are named bundled:<name>, an in-memory rig is 'inline'."""
     import json as _json
     import re

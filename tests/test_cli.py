@@ -103,7 +103,7 @@ def test_malformed_options_are_usage_errors(workspace, runner, args):
 
 
 def test_long_commands_report_progress(tmp_path):
-    """Issue 13: tare, subtract-inertia, fit and a single report ran in silence (a diagnosis 146 s)."""
+    """Tare, subtract-inertia, fit and a single report ran in silence (a diagnosis 146 s)."""
     import shutil
 
     from pencli import api
@@ -127,7 +127,7 @@ def test_long_commands_report_progress(tmp_path):
 
 
 def test_help_loads_neither_numpy_nor_the_api():
-    """`pen --help` under 0.3 s (issue 12) rests on this: the heavy modules load when a command runs."""
+    """`pen --help` under 0.3 s rests on this: the heavy modules load when a command runs."""
     import subprocess
     import sys
 

@@ -1,4 +1,4 @@
-"""`pen diagnose` on simulated-rig campaigns whose hidden effects the diagnoser never sees (issue 5).
+"""`pen diagnose` on simulated-rig campaigns whose hidden effects the diagnoser never sees.
 
 Campaigns are made at test time from seeds by the sim driver; the true
 forms differ from the catalogue's terms (a plateau layer against a step, a
@@ -121,7 +121,7 @@ def test_propulsion_loss_is_a_drive_side_gap(tmp_path):
 
 
 def test_a_guide_friction_is_a_propulsion_loss_though_it_reaches_the_surface_at_another_time(tmp_path):
-    """Issue 11, the fifty-eighth session: a launcher that loses energy to a friction (99 N over the whole travel,
+    """A launcher that loses energy to a friction (99 N over the whole travel,
     no loss of efficiency; campaign 3 of ``bench_diagnose --varied 12 310000 --only propulsion_loss
     --guide-losses``) slows the flight otherwise than the drive view's loss of efficiency does.  Judged on the
     clock from release, the fitted loss moved the predicted motion away (dynamic shrink −6.9 %) because its
@@ -136,7 +136,7 @@ def test_a_guide_friction_is_a_propulsion_loss_though_it_reaches_the_surface_at_
 
 @pytest.mark.campaign
 def test_a_speed_deficit_whose_loss_moves_the_motion_away_is_not_a_propulsion_loss(tmp_path):
-    """Issue 11: a loud development null (null 9 of 20 on seed 86000, the force noise redrawn at 5–6 N) was called
+    """A loud development null (null 9 of 20 on seed 86000, the force noise redrawn at 5–6 N) was called
     a propulsion loss: its contact speeds fell 0.44 % short (t 4.08), but the loss fitted to them made the
     predicted motion worse (dynamic shrink −23.8 %).  A loss that does not bring the motion closer explains
     nothing.  The truth has no effect at all."""
@@ -170,7 +170,7 @@ def test_two_effects_are_both_found(tmp_path):
 
 
 def test_a_ringing_between_two_grid_frequencies_is_followed(tmp_path):
-    """Issue 11: one mode at 1,110 Hz, ζ 0.03, half-way between the family's grid frequencies 1,067 and 1,154 Hz
+    """One mode at 1,110 Hz, ζ 0.03, half-way between the family's grid frequencies 1,067 and 1,154 Hz
     (7.9 % apart) and between its damping ratios 0.02 and 0.04.  Over the 1/σ ≈ 5 ms it rings the nearest grid
     mode drifts a radian in phase, and the family took 51 % of the misfit (the same mode on a grid point: 90 %).
     A single-mode member now carries the mode's first-order change in frequency and decay: 75 %."""
@@ -239,7 +239,7 @@ def test_varied_null_campaign_is_none_and_says_what_it_would_have_seen(tmp_path)
     # of the order of the noise floor.  Velocity friction, nearly collinear with Eq. 9's P, sits highest: 3.0–3.1 ×
     # on this campaign while the threshold was a Gumbel tail (9.93 z); the replicates' largest z here has a heavy
     # tail (GEV shape −0.54 from 40 replicates), and extrapolated to 1/3000 the threshold is 42 z, which puts
-    # the friction at 4.0 × (thirty-first session).  At strict rates, more replicates.
+    # the friction at 4.0 ×.  At strict rates, more replicates.
     friction = limits.pop("velocity_friction")
     assert 0 < friction < 5 * strict.noise_floor_n, friction
     assert all(0 < v < 4 * strict.noise_floor_n for v in limits.values()), limits
@@ -251,7 +251,7 @@ def test_varied_null_campaign_is_none_and_says_what_it_would_have_seen(tmp_path)
 @pytest.mark.campaign
 @pytest.mark.slow
 def test_the_whole_catalogue_nulls_a_pair_and_an_outside_effect(tmp_path):
-    """Issue 5's test set at one magnitude each, generated from seeds here (the bench uses other seeds and
+    """The test set at one magnitude each, generated from seeds here (the bench uses other seeds and
     the larger set): every catalogue effect, nulls with block scatter, a two-effect campaign, an outside
     effect."""
     import statistics
@@ -353,7 +353,7 @@ def test_a_null_read_by_a_flickering_encoder_is_none_and_its_position_error_is_r
 
 @pytest.mark.slow
 def test_a_strong_gradient_in_scattered_blocks_is_a_gradient(tmp_path):
-    """Issue 11: the block's strength scatter multiplies a gradient as it multiplies the strength.  Fitted
+    """The block's strength scatter multiplies a gradient as it multiplies the strength.  Fitted
     as a shared column beside per-run strength factors, ±5 % of scatter on a gradient that more than doubles
     the strength by 100 mm was a per-run misfit that a speed law took up (dev gradient-10 of seed 41000)."""
     gradient = {"name": "strength_gradient", "change_per_100mm": 1.6, "shape": 1, "exponent": 1.6}
@@ -368,7 +368,7 @@ def test_a_strong_gradient_in_scattered_blocks_is_a_gradient(tmp_path):
 @pytest.mark.campaign
 @pytest.mark.slow
 def test_a_gradient_of_two_slopes_is_a_gradient(tmp_path):
-    """Issue 11: a gradient no one curve of the family matched (steepening threefold at 50 mm) was named a
+    """A gradient no one curve of the family matched (steepening threefold at 50 mm) was named a
     plateau layer (74 % shrink against the best curve's 67 %) until the family held smooth monotone sums, which
     carried it until the forty-second session.  The family now holds two straight slopes meeting at a depth, and
     the fit must find the truth's: the kink at 50 mm, the slope tripling there, the strength ×2.5 at 100 mm."""
@@ -381,7 +381,7 @@ def test_a_gradient_of_two_slopes_is_a_gradient(tmp_path):
 
 
 def test_a_drift_with_a_velocity_friction_is_a_pair(tmp_path):
-    """Issue 11: two drift shapes together match a velocity friction on five runs about as well as the friction
+    """Two drift shapes together match a velocity friction on five runs about as well as the friction
     does, so "better than a second own shape by more than the null's noise" failed and the friction was lost.
     What the friction adds on top of the best pair of drift shapes told them apart.  Since the thirtieth session
     the drift family has powers, logarithms and time constants √2 apart: one drift shape follows this drift,
@@ -401,7 +401,7 @@ def test_a_drift_with_a_velocity_friction_is_a_pair(tmp_path):
 @pytest.mark.campaign
 @pytest.mark.slow
 def test_a_friction_beside_a_drift_is_found_though_it_extrapolates_wildly_on_null_replicates(tmp_path):
-    """Issue 11: a velocity friction (a linear fall, 53 % of μ at 3.3 m/s) beside a drift on four runs at two
+    """A velocity friction (a linear fall, 53 % of μ at 3.3 m/s) beside a drift on four runs at two
     spring counts.  Beside the drift, each friction member fitted to a null replicate's noise extrapolated
     wildly to some held-out run on more than half of the replicates (median improvement −37 N², down to
     −159,000 N²); the null's MAD was 46 N², and a friction that removed all of the drift's remainder (102 → 5.5
@@ -421,7 +421,7 @@ def test_a_friction_beside_a_drift_is_found_though_it_extrapolates_wildly_on_nul
                           "stops hold the lowest speeds a speed law is told apart by (found in the fortieth session: "
                           "`-m campaign` is not in the default run, and no session had run it since)")
 def test_a_friction_beside_a_drift_between_the_old_time_constants_is_a_pair(tmp_path):
-    """Issue 11: a drift 1 − e^(−t/33 ms) fell between the family's time constants (20 and 50 ms); a second
+    """A drift 1 − e^(−t/33 ms) fell between the family's time constants (20 and 50 ms); a second
     drift shape took that mismatch, did better than the friction beside the first (over the own pair z −12),
     and the friction was lost.  With time constants √2 apart (and logarithmic and power drifts) the friction
     removes 59 % of what the drift leaves and adds on top of the own pair.  Campaign 6 of ``--pairs 12 105000
@@ -441,7 +441,7 @@ def test_a_friction_beside_a_drift_between_the_old_time_constants_is_a_pair(tmp_
     "the optimum on some null replicates' plug fits, and only with the SkylakeX kernel (7.94 against 7.79; Zen "
     "7.15 against 7.72). Non-strict: the friction's own z still moves with the kernel (5.12 Zen, 4.90 SkylakeX)"))
 def test_a_friction_that_closes_more_than_a_plug_growth_the_familywise_test_passes_is_named(tmp_path):
-    """Issue 11, forty-first session: a velocity friction (a linear fall of 46 % to 3.5 m/s) on five grill-brick
+    """A velocity friction (a linear fall of 46 % to 3.5 m/s) on five grill-brick
     runs at mixed rates behind an anti-alias filter, a 0.32 mm encoder, 4.3 N white and 1.2 N correlated noise.
     A plug growth passed the family-wise test (z 7.9 against 7.7) closing 7.7 % of the held-out error and was
     named; the friction closed 19.4 % at z 5.3 (its null wide: a speed law on a coarse encoder's speeds).  The
@@ -459,7 +459,7 @@ def test_a_friction_that_closes_more_than_a_plug_growth_the_familywise_test_pass
 @pytest.mark.campaign
 @pytest.mark.slow
 def test_a_gradient_whose_slope_falls_to_a_sixth_at_a_depth_is_a_gradient(tmp_path):
-    """Issue 11, forty-second session: strength rising ×3.5 by 100 mm, steeply to 57 mm and at a sixth of that
+    """Strength rising ×3.5 by 100 mm, steeply to 57 mm and at a sixth of that
     slope after it (sim truth shape 3), on eight grill-brick runs, was named a strength layer: a step at the kink
     was the nearest other shape.  The gradient family now holds two straight slopes meeting at a depth.
     Campaign 6 of ``--varied 12 181000 --only strength_gradient --two-slopes``."""
@@ -477,7 +477,7 @@ def test_a_gradient_whose_slope_falls_to_a_sixth_at_a_depth_is_a_gradient(tmp_pa
 @pytest.mark.campaign
 @pytest.mark.slow
 def test_an_exponential_gradient_between_the_old_lengths_is_named_alone(tmp_path):
-    """Issue 11: a strength growing as 3.95^(x/100 mm) (e-folding over 73 mm) fell between the gradient family's
+    """A strength growing as 3.95^(x/100 mm) (e-folding over 73 mm) fell between the gradient family's
     exponential lengths (40, 80 and 160 mm); fitted at 80 mm it left 5 × the null floor, and a strength layer
     beside it took that mismatch and was reported as a second effect.  With lengths 2^¼ apart the gradient
     leaves 1.6 × the floor and stands alone.  Campaign 17 of ``--varied 28 106000`` (7 grill-brick runs, a
@@ -493,7 +493,7 @@ def test_an_exponential_gradient_between_the_old_lengths_is_named_alone(tmp_path
 
 
 def test_a_delay_whose_late_rise_falls_outside_the_stand_off_tolerance_is_a_lag(tmp_path):
-    """Issue 11: a pure delay of 0.44 ms with block surfaces up to 3.9 mm off the file's stand-off moved one run's
+    """A pure delay of 0.44 ms with block surfaces up to 3.9 mm off the file's stand-off moved one run's
     force rise past where its contact was looked for, the window took the step in, and the campaign was named a
     force drift that closed 0.8 % of the gap (the lag: −5.6 %).  The drawn campaign 3 of the development lags of
     seed 62000 (7 grill-brick runs at 30 kHz, 0.65 N of noise, anti-alias filter)."""
@@ -514,7 +514,7 @@ def test_a_delay_whose_late_rise_falls_outside_the_stand_off_tolerance_is_a_lag(
 @pytest.mark.campaign
 @pytest.mark.parametrize("index", [1, 2])
 def test_a_delay_between_the_old_grid_delays_under_late_rises_is_a_lag(tmp_path, index):
-    """Issue 11: pure delays of 0.65 and 0.58 ms (dev sensor lags 1 and 2 of ``--varied 16 190000 --only
+    """Pure delays of 0.65 and 0.58 ms (dev sensor lags 1 and 2 of ``--varied 16 190000 --only
     sensor_lag``: Grill Brick, 6 and 4 runs, 4.6 and 4.9 N of noise) were named a load-cell mass error, the lag
     not even significant.  Two causes: the surfaces were read from change points before the late rises (one run's
     put 4.3 mm deep, where the right delay then scored 2,986 N²), and the delay members stood 0.45 and 0.7 ms
@@ -531,7 +531,7 @@ def test_a_delay_between_the_old_grid_delays_under_late_rises_is_a_lag(tmp_path,
 
 
 def test_a_pressure_growth_under_ringing_counts_against_what_ringings_own_pair_leaves(tmp_path):
-    """Issue 11: the struck modes (a second one 1.62 × the first's frequency, decaying twice as fast) are more than
+    """The struck modes (a second one 1.62 × the first's frequency, decaying twice as fast) are more than
     one ringing member follows, so the ringing alone leaves a misfit of its own; the pressure growth removed a
     third of that (z 260 against 4.2), short of the half a second effect must remove, though it removed 80 % of
     what the best pair of ringing shapes leaves.  Campaign 1 of ``bench_diagnose --pairs 12 66000
@@ -556,7 +556,7 @@ def test_a_pressure_growth_under_ringing_counts_against_what_ringings_own_pair_l
 
 @pytest.mark.campaign
 def test_a_gradient_saturating_within_a_few_millimetres_is_a_gradient(tmp_path):
-    """Issue 11: strength that rises 2.4-fold within the first 4.3 mm (saturating) was named a strength layer or a
+    """Strength that rises 2.4-fold within the first 4.3 mm (saturating) was named a strength layer or a
     plug growth; the gradient family's saturating members started at 20 mm.  Campaign 5 of a development
     scratch set: the drawn gradients of ``--varied 8 68000 --only strength_gradient --short-gradients``, made
     saturating, 4–15 mm long (a stream of their own), here 5 Grill Brick runs at mixed rates behind an anti-alias filter.  Its
@@ -578,7 +578,7 @@ def test_a_gradient_saturating_within_a_few_millimetres_is_a_gradient(tmp_path):
 
 @pytest.mark.campaign
 def test_a_gradient_rising_in_an_s_wider_than_a_layers_edge_is_a_gradient(tmp_path):
-    """Issue 11: strength rising in an S (a tanh step tens of millimetres wide) was named a strength layer or a
+    """Strength rising in an S (a tanh step tens of millimetres wide) was named a strength layer or a
     plug growth: the gradient family had no S-shaped member, the layer's widest edge (12 mm) came nearest.
     Campaign 1 of ``bench_diagnose --varied 8 78000 --only strength_gradient --s-gradients`` (the S's centre and
     width from a stream of their own), named a plug growth.  Single S-shaped rises in the gradient family (da3bce6)
@@ -603,7 +603,7 @@ def test_a_gradient_rising_in_an_s_wider_than_a_layers_edge_is_a_gradient(tmp_pa
 
 @pytest.mark.campaign
 def test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_on_some_replicates(tmp_path):
-    """Issue 11: the layer beat a second ringing shape by 11,902 N² on the data, but two ringing shapes together
+    """The layer beat a second ringing shape by 11,902 N² on the data, but two ringing shapes together
     extrapolate wildly on a few null replicates (−10¹⁵ N²), and the plain sd of the difference (4·10¹⁴) hid it.
     The drawn campaign 2 of the development pairs of seed 60000 (4 runs, coloured noise, anti-alias filter)."""
     from tests.campaigns import BLOCKS, varied_campaigns
@@ -622,7 +622,7 @@ def test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_
                  marks=pytest.mark.campaign),
 ])
 def test_a_strong_effects_size_is_stated_against_the_fit_that_has_it(tmp_path, effect, seed, key, truth, tolerance):
-    """Issue 11: an effect's size is stated against the strength factor of the fit with the effect in.  The
+    """An effect's size is stated against the strength factor of the fit with the effect in.  The
     baseline's absorbs part of a strong effect: against it a 2.0 mm plug read 0.95 mm and a 1.8 × layer 1.52."""
     db = conditioned(make_campaign(tmp_path, "mpacs_c", seed=seed, shots=SIX, effects=[effect], block_kpa=BLOCKS,
                                    strength_scale=[0.95, 1.04, 0.97, 1.03, 0.96, 1.05]))
@@ -638,7 +638,7 @@ def test_a_strong_effects_size_is_stated_against_the_fit_that_has_it(tmp_path, e
                  marks=pytest.mark.campaign),
 ])
 def test_a_strong_effects_trajectory_change_leads_to_the_measured_run(tmp_path, effect, seed, figure, left):
-    """Issue 11: the trajectory with the effect is the fit *with* the effect (its own strength, P, C and K)
+    """The trajectory with the effect is the fit *with* the effect (its own strength, P, C and K)
     plus the effect's force.  On the baseline's coefficients, which absorb part of a strong effect, the force
     was counted twice: a 2 mm plug's blade stopped at 84 mm against the 110 mm measured (the baseline's at
     128 mm), a gradient's penetration took 15.3 ms against 13.2 ms measured (the baseline's 12.9 ms).
@@ -646,7 +646,7 @@ def test_a_strong_effects_trajectory_change_leads_to_the_measured_run(tmp_path, 
     baseline's error the effect may leave.  The gradient (e-folding over 144 mm) was fitted at 160 mm and left
     under 0.3; since the lengths are 2^¼ apart it is fitted at 134.5 mm, with its change at 100 mm 0.72 for
     1.0 (the baseline's P and K take the rest), and leaves 0.31 (13.14 ms against 13.23 ms measured, the
-    baseline's 12.93 ms).  Why an exponential is not followed closer is open (README, thirty-first session)."""
+    baseline's 12.93 ms).  Why an exponential is not followed closer is open."""
     db = conditioned(make_campaign(tmp_path, "mpacs_c", seed=seed, shots=SIX, effects=[effect]))
     result = api.diagnose(db, ["all"])
     top = result.effects[0]
@@ -658,7 +658,7 @@ def test_a_strong_effects_trajectory_change_leads_to_the_measured_run(tmp_path, 
 
 
 def test_a_null_read_by_a_coarse_encoder_at_30_khz_is_none(tmp_path):
-    """Issue 11: the data's tip meets the material between two samples; the replicates' did on one.  With each
+    """The data's tip meets the material between two samples; the replicates' did on one.  With each
     replicate's acceleration jumping exactly at the derivatives' break, the data's derivative error around
     contact was larger than any replicate's, and this null (0.32 mm encoder, 30 kHz, dev null-26 of seed 43000
     in that configuration) was called a sensor lag at z 7.8 against 4.4.  On 30 such nulls the data's lag
@@ -678,7 +678,7 @@ def test_a_null_read_by_a_coarse_encoder_at_30_khz_is_none(tmp_path):
 
 
 def test_a_steep_plug_in_blocks_whose_surfaces_scatter_is_a_plug_of_its_size(tmp_path):
-    """Issue 11: a plug 2.5 mm wide at saturation (exponential, 23 mm) on blades of 1–2 mm, in four blocks whose
+    """A plug 2.5 mm wide at saturation (exponential, 23 mm) on blades of 1–2 mm, in four blocks whose
     surfaces lay −0.6 to +2.3 mm from the file's stand-off.  With depth counted from the file's stand-off the
     plug's own exact shape left a held-out RMS of 54 N against 2.5 N of noise (7.5 N with no stand-off
     scatter), fitted growth 1.7 mm, and the campaign was named a strength layer; depth counted from each
@@ -697,7 +697,7 @@ def test_a_steep_plug_in_blocks_whose_surfaces_scatter_is_a_plug_of_its_size(tmp
 
 
 def test_a_stribeck_friction_is_a_velocity_friction_not_a_plug(tmp_path):
-    """Issue 11: friction that falls with speed (by 39 % of μ, 1.5 m/s) and rises again past it (a viscous part,
+    """Friction that falls with speed (by 39 % of μ, 1.5 m/s) and rises again past it (a viscous part,
     54 % of μ at 10 m/s), a form outside the development sim's ``--varied`` draws.  No one-law speed member
     follows a fall and a rise; the plug's depth-growing damping and inertia columns came closer, and the
     campaign was named a plug (34 % shrink against the friction's 33 %).  Campaign 10 of the development set
@@ -714,7 +714,7 @@ def test_a_stribeck_friction_is_a_velocity_friction_not_a_plug(tmp_path):
 @pytest.mark.campaign
 @pytest.mark.slow
 def test_a_plug_that_drives_the_baselines_strength_factor_below_zero_is_still_a_plug(tmp_path):
-    """Issue 11: a plug 2.7 mm wide at 49 mm (a capped power of depth, exponent 2.5) on blades of 1–2 mm more than
+    """A plug 2.7 mm wide at 49 mm (a capped power of depth, exponent 2.5) on blades of 1–2 mm more than
     triples the frontal force of the thinnest.  The baseline without it fits negative strength factors (its P and
     K take the growth), and the plug's strength column, built at their mean, pointed against the plug, whose
     growth is bounded ≥ 0: the plug's own exact shape was held at zero growth (48–173 N per held-out run) and the
@@ -731,7 +731,7 @@ def test_a_plug_that_drives_the_baselines_strength_factor_below_zero_is_still_a_
 @pytest.mark.campaign
 @pytest.mark.slow
 def test_a_plug_that_forms_slowly_then_fast_is_not_taken_by_a_staircase_of_two_layer_edges(tmp_path):
-    """Issue 11: a plug 2.2 mm wide that forms as (x/18.1 mm)^2.48 and then stays was named a strength layer: the
+    """A plug 2.2 mm wide that forms as (x/18.1 mm)^2.48 and then stays was named a strength layer: the
     layer family's "plateau" 5–15 mm had both edges rising (+0.70 and +1.02 of the strength), a two-step
     staircase, a graded profile no layer has, and it fitted the plug's rise better than the plug family did
     (996 against 1,060 N² held out).  A plateau is now a band (its bottom edge goes back).  Campaign 2 of
@@ -749,7 +749,7 @@ def test_a_plug_that_forms_slowly_then_fast_is_not_taken_by_a_staircase_of_two_l
 @pytest.mark.campaign
 @pytest.mark.slow
 def test_a_plug_that_forms_as_the_square_root_of_depth_is_a_plug(tmp_path):
-    """Issue 11: a plug 2.8 mm wide that forms as (x/14.5 mm)^0.44 and then stays: steep at the surface, a corner
+    """A plug 2.8 mm wide that forms as (x/14.5 mm)^0.44 and then stays: steep at the surface, a corner
     at 14.5 mm.  None of the exponential, hyperbolic or straight capped rises follows both, and the campaign was
     named a strength layer.  Campaign 8 of ``--varied 12 99400 --only plug_growth --wide-plugs`` (its nuisances;
     the form written out).  Its size reads low, 1.76 mm for 2.79, and 2.08 with the exact form as the only

@@ -1,4 +1,4 @@
-"""The diagnosis' building blocks against independent computations (issue 11).
+"""The diagnosis' building blocks against independent computations.
 
 - Leave-one-run-out scores from Gram matrices against stacked least squares
   solved directly (numpy lstsq, scipy lsq_linear for the bounds).
@@ -91,7 +91,7 @@ def test_gram_leave_one_out_matches_stacked_least_squares(c_true):
 
 
 def test_an_effect_whose_sign_is_fixed_is_fitted_with_its_bound_as_stacked_bounded_least_squares():
-    """Issue 11: a plug or a pressure rise is ≥ 0 by meaning; its column is bounded in every fold and target."""
+    """A plug or a pressure rise is ≥ 0 by meaning; its column is bounded in every fold and target."""
     rng = np.random.default_rng(11)
     mats, ys = _random_runs(rng, n_extra=2, c_true=0.4)
     ys = [y - 3.0 * m[:, 5] for y, m in zip(ys, mats)]  # the second extra's truth is negative
@@ -172,7 +172,7 @@ def _scattered_blocks(rng, scatter):
 
 
 def test_a_strength_law_rides_on_each_blocks_strength():
-    """Issue 11: block scatter multiplies a strength law as it multiplies the strength.  With its columns
+    """Block scatter multiplies a strength law as it multiplies the strength.  With its columns
     scaled by each run's profiled strength factor, a strong gradient in scattered blocks is fitted to the noise
     and each run's factor is its block's; unscaled, the scatter times the gradient is a misfit that no shared
     coefficient removes (dev gradient-10 of seed 41000 lost its verdict to it)."""
@@ -201,7 +201,7 @@ def test_a_strength_law_rides_on_each_blocks_strength():
 
 
 def test_a_column_measured_per_target_is_fitted_with_that_targets_values():
-    """Issue 11: the acceleration column carries the same derivative error as the target it is fitted to;
+    """The acceleration column carries the same derivative error as the target it is fitted to;
     each target (a null replicate) is scored with its own version of that column, as a direct stacked fit of
     that target on that column does, and models without the column are scored as before."""
     rng = np.random.default_rng(17)
@@ -618,7 +618,7 @@ def test_an_effect_the_dynamic_model_cannot_finish_is_a_note_not_a_crash(monkeyp
 
 
 def test_a_family_held_at_its_bound_on_most_replicates_does_not_blind_the_threshold():
-    """Issue 11: a sign-bounded family (plug growth ≥ 0) gains exactly nothing on the replicates where it sits at
+    """A sign-bounded family (plug growth ≥ 0) gains exactly nothing on the replicates where it sits at
     its bound; the MAD of that point mass is round-off (dev null 27, seed 6000: threshold 1.7 × 10¹¹ z), or the
     spread of a few replicates just below it (dev varied-16, seed 7000: 1,097 z).  Standardised by it, the one
     replicate that does fit stood out by thousands and set the family-wise threshold of every effect."""

@@ -1,4 +1,4 @@
-"""The simulator against closed-form solutions and energy balance (issue 2).
+"""The simulator against closed-form solutions and energy balance.
 
 Each oracle below is derived by hand from CONTRACT §2 for a special case;
 none calls pencli.model except the function under test.

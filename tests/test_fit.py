@@ -1,4 +1,4 @@
-"""Conditioning and fitting on simulated-rig campaigns whose truth the fit never sees (issue 4).
+"""Conditioning and fitting on simulated-rig campaigns whose truth the fit never sees.
 
 The campaigns are fired through the sim driver (its own RK4 world and sensor
 models); the fit only reads the workspace.  Truth values below are the

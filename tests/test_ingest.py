@@ -1,4 +1,4 @@
-"""Ingest, export, the catalog and its guarantees (issue 3)."""
+"""Ingest, export, the catalog and its guarantees."""
 
 from __future__ import annotations
 
@@ -353,7 +353,7 @@ def test_store_error_is_an_oserror():
 
 
 def test_runs_list_never_cuts_an_id(workspace, runner, tmp_path):
-    """Issue 13: ids were cut ("mc-1…") at 80–100 columns and when piped; piped output is plain text."""
+    """Ids were cut ("mc-1…") at 80–100 columns and when piped; piped output is plain text."""
     import shutil
 
     long_id = "mpacs-c-block-7-blade-1.5mm-springs-4-repeat-12"
@@ -369,7 +369,7 @@ def test_runs_list_never_cuts_an_id(workspace, runner, tmp_path):
 
 
 def test_a_dropped_sample_is_named_at_its_own_row(tmp_path, workspace, runner):
-    """Issue 13: a row missing at file row 8002 was reported at row 3684 (where the drift crossed tolerance)."""
+    """A row missing at file row 8002 was reported at row 3684 (where the drift crossed tolerance)."""
     import shutil
 
     folder = tmp_path / "dropped"
@@ -383,7 +383,7 @@ def test_a_dropped_sample_is_named_at_its_own_row(tmp_path, workspace, runner):
 
 
 def test_any_failure_is_one_line_for_that_run_and_the_batch_goes_on(tmp_path, workspace, runner, monkeypatch):
-    """Issue 13: a full disk, a reader's unexpected error, a 'billion laughs' run.yaml and a repeated header
+    """A full disk, a reader's unexpected error, a 'billion laughs' run.yaml and a repeated header
     each become one line for their run; the other runs are stored and the summary is printed."""
     import shutil
 
@@ -477,7 +477,7 @@ def test_export_never_touches_the_workspace_and_force_replaces_only_its_own_file
 
 
 def test_conditioning_again_with_the_same_options_gives_the_same_stage(workspace, runner):
-    """Issue 13: each `pen tare` stacked a new stage (one run reached 8)."""
+    """Each `pen tare` stacked a new stage (one run reached 8)."""
     invoke(runner, "ingest", EXAMPLE)
     for _ in range(3):
         assert invoke(runner, "tare", "all").exit_code == 0
@@ -508,7 +508,7 @@ def test_stage_parameters_that_differ_by_round_off_are_the_same_stage(tmp_path):
 
 
 def test_ingest_accepts_out_of_range_parameters_when_asked(workspace, runner, tmp_path):
-    """Issue 13: ingest advised --allow-out-of-range, which it did not have."""
+    """Ingest advised --allow-out-of-range, which it did not have."""
     import shutil
 
     folder = tmp_path / "thick"
@@ -522,7 +522,7 @@ def test_ingest_accepts_out_of_range_parameters_when_asked(workspace, runner, tm
 
 
 def test_written_files_and_folders_honour_the_umask(workspace, runner, tmp_path):
-    """Issue 13: outputs were 0600 and folders 0700 whatever the umask (tempfile's modes)."""
+    """Outputs were 0600 and folders 0700 whatever the umask (tempfile's modes)."""
     import stat
 
     from pencli.io.atomic import write_atomic
@@ -540,7 +540,7 @@ def test_written_files_and_folders_honour_the_umask(workspace, runner, tmp_path)
 
 
 def test_an_extra_column_is_named_not_dropped_in_silence(workspace, runner, tmp_path):
-    """Issue 13: an extra column was dropped silently, so export looked lossless and was not."""
+    """An extra column was dropped silently, so export looked lossless and was not."""
     columns = synthetic_columns()
     columns_with_extra = {**columns, "temp_c": np.full(len(columns["time_s"]), 21.5)}
     header = [*COLUMNS[:3], "temp_c", *COLUMNS[3:]]

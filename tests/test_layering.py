@@ -62,7 +62,7 @@ def test_heavy_libraries_are_not_imported_at_module_level_by_the_cli():
 
 
 def test_the_example_workspace_has_a_folder_of_its_own():
-    """Issue 13 item 4: the example's runs/ sat in the repository root, where the default workspace
+    """The example's runs/ sat in the repository root, where the default workspace
     (./runs.duckdb) keeps its runs, so `pen acquire --save` wrote into the tracked example."""
     from tests.conftest import REPO
 

@@ -1,4 +1,4 @@
-"""Edge classes of the CONTRACT §2 model found by the outside check (issue 12), against the independent oracle."""
+"""Edge classes of the CONTRACT §2 model found by the outside check, against the independent oracle."""
 
 from __future__ import annotations
 

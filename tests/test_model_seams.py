@@ -1,4 +1,4 @@
-"""The geometry and drive seams of the scalar simulator (issue 12): a new penetrator or a new drive is one
+"""The geometry and drive seams of the scalar simulator: a new penetrator or a new drive is one
 class, written here as a user would write it in a module of their own, passed to ``simulate``; nothing in
 pencli changes.  Each is checked against a closed form derived by hand or against an integration written
 here with scipy directly, and the energy balance must close with the new energies booked.

@@ -1,4 +1,4 @@
-"""Parameter files: presets, the contract's examples, and every bad case (issue 2)."""
+"""Parameter files: presets, the contract's examples, and every bad case."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Every `pen` command the README shows runs as written (issue 13: the README's own LHS example failed).
+"""Every `pen` command the README shows runs as written (the README's own LHS example failed).
 
 The commands are read from the README's indented code blocks, in order, and run through a shell in a scratch
 folder laid out as the README assumes: the example workspace under ``examples/workspace``, lab folders to

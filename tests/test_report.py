@@ -1,4 +1,4 @@
-"""`pen report`: every figure kind from the example workspace, HTML and PDF, the CI gate (issue 7)."""
+"""`pen report`: every figure kind from the example workspace, HTML and PDF, the CI gate."""
 
 from __future__ import annotations
 
@@ -128,7 +128,7 @@ window.addEventListener('load', () => {
 
 
 def test_a_workspace_copied_without_its_fits_folder_is_one_line(example, tmp_path, runner):
-    """Issue 13: a missing fits/ folder made `pen report` print a FileNotFoundError traceback."""
+    """A missing fits/ folder made `pen report` print a FileNotFoundError traceback."""
     import shutil
 
     copy = tmp_path / "copy"

@@ -1,4 +1,4 @@
-"""Batch simulator and `pen sweep` (issue 6)."""
+"""Batch simulator and `pen sweep`."""
 
 from __future__ import annotations
 

@@ -75,7 +75,7 @@ def _resistance(effects, x, v):
     (4, lambda c, e, L: c * (math.tanh((50 - L) / 20) + math.tanh(L / 20)) / (math.tanh((100 - L) / 20)
                                                                              + math.tanh(L / 20)))])
 def test_each_form_of_a_strength_gradient_changes_the_frontal_strength_as_described(shape, at_50mm):
-    """The sim world's random forms (issue 11): at 100 mm every form has changed the frontal strength force
+    """The sim world's random forms: at 100 mm every form has changed the frontal strength force
     (R at the surface, at rest) by change_per_100mm; at 50 mm by its own profile, written out here."""
     change, exponent, length = 1.7, 2.2, 30.0
     effect = [{"name": "strength_gradient", "change_per_100mm": change, "shape": shape, "exponent": exponent,

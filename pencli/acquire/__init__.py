@@ -1,1 +1,1 @@
-"""Rig drivers (edge): the simulated rig and the NI-DAQ rig behind one interface (issue 3)."""
+"""Rig drivers (edge): the simulated rig and the NI-DAQ rig behind one interface."""

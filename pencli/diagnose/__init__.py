@@ -1,4 +1,4 @@
-"""Sim-to-real gap diagnosis (pure core, issue 5)."""
+"""Sim-to-real gap diagnosis (pure core)."""
 
 FALSE_ALARM = 0.01
 """Default probability that a campaign with no effect gets any verdict but ``none``."""

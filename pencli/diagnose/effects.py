@@ -679,7 +679,7 @@ def _lag_members() -> tuple[Member, ...]:
     # Tried a third time with the sign mended (d68edca, reverted): the lag's null rank on 60 dev nulls rose from 15
     # to 22 of 60, but the per-replicate null is narrower and the test suite's propulsion-loss campaign was named
     # a lag (z 7.2 against 2.1 for the same 0.45 % improvement): the data's own error in every replicate's target
-    # had been hiding a lag-like feature of the data that the replicates lack (README, the eighteenth session).
+    # had been hiding a lag-like feature of the data that the replicates lack.
     out = [Member({"tau_ms": t, "order": 1, "shape": "first_order"}, chain=_poles(t, 1)) for t in _TAUS_MS]
     out += [Member({"tau_ms": t, "order": 2, "shape": "second_order"}, chain=_poles(t, 2)) for t in _TAUS_MS[:-1]]
     out += [Member({"delay_ms": t, "shape": "delay"}, chain=_delay(t)) for t in _DELAYS_MS]

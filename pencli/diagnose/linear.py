@@ -352,7 +352,7 @@ def _bounded_optimum(As: np.ndarray, bs: np.ndarray, theta: np.ndarray, bounded:
     optimality-conditions test; none of that test's systems does).
     In numpy the first stage solved one batch per distinct active set, and a
     strong effect's pair search meets thousands of them: 122 of a plug
-    campaign's 143 s (README, the thirty-fourth session)."""
+    campaign's 143 s."""
     M, q, T = theta.shape
     work = np.empty((q, q))
     rhs = np.empty(q)

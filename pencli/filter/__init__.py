@@ -1,1 +1,1 @@
-"""Signal conditioning (pure core): tare, derivatives, inertia subtraction (issue 4)."""
+"""Signal conditioning (pure core): tare, derivatives, inertia subtraction."""

@@ -1,1 +1,1 @@
-"""Fitting the Eq. 9 coefficients across runs (pure core, issue 4)."""
+"""Fitting the Eq. 9 coefficients across runs (pure core)."""

@@ -1,4 +1,4 @@
-"""Prediction beyond one design (pure core): batch simulation and sweeps (issue 6).
+"""Prediction beyond one design (pure core): batch simulation and sweeps.
 
 One design is simulated by :func:`pencli.model.dynamics.simulate`.
 """

@@ -1,7 +1,7 @@
 r"""The CONTRACT §2 model over arrays of designs (the engine of ``pen sweep``).
 
 Same physics as :func:`pencli.model.dynamics.simulate`, organised for throughput instead of one
-trajectory, and exact at the edges (issue 12):
+trajectory, and exact at the edges:
 
 - the flight is the same closed form (:func:`pencli.model.flight.reach`, compiled);
 - without damping (C = 0, every Table 1 material) the penetration has a closed form over depth

@@ -1,1 +1,1 @@
-"""Figures and HTML/PDF reports from result objects (edge, issue 7)."""
+"""Figures and HTML/PDF reports from result objects (edge)."""

@@ -252,3 +252,39 @@ def fit_intervals(material: str, fit: Mapping):
     fig.colorbar(im, ax=ax2, label="correlation")
     fig.suptitle(f"{material}: coefficients and their correlation")
     return fig
+
+
+def campaign_fit(material: str, data: Mapping[str, np.ndarray]):
+    """Paper Figs. 13–14 for a whole fit: every run's measured resistance against depth with its Eq. 9 model
+    (measured x, v) on one axis, and each run's residual beneath, over the analysis window.
+
+    Returns the figure and its caption, which states the answer: the RMS the model leaves per run.
+    """
+    plt = _plt()
+    runs = list(dict.fromkeys(np.asarray(data["run_id"]).tolist()))
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6.4), sharex=True, constrained_layout=True,
+                                      gridspec_kw={"height_ratios": [2.2, 1]})
+    colours = plt.get_cmap("tab10").colors  # colour-blind-safe enough for ≤ 10 runs, one colour per run
+    rms_all = []
+    for k, run_id in enumerate(runs):
+        mine = (np.asarray(data["run_id"]) == run_id) & np.asarray(data["in_window"], dtype=bool)
+        depth = np.asarray(data["depth_m"])[mine] * 1e3
+        measured = np.asarray(data["resistance_n"])[mine]
+        model = np.asarray(data["resistance_model_n"])[mine]
+        residual = measured - model
+        rms = float(np.sqrt(np.mean(residual ** 2)))
+        r2 = 1.0 - float(np.sum(residual ** 2) / np.sum((measured - measured.mean()) ** 2))
+        rms_all.append(rms)
+        colour = colours[k % len(colours)]
+        top.plot(depth, measured, color=colour, lw=0.6, alpha=0.55)
+        top.plot(depth, model, color=colour, lw=1.4, label=f"{run_id}: RMS {rms:.1f} N, R² {r2:.4f}")
+        bottom.plot(depth, residual, color=colour, lw=0.6)
+    top.set_ylabel("resistance [N]")
+    top.legend(fontsize=7, title="thin: measured; thick: Eq. 9 with measured depth and speed", title_fontsize=7)
+    bottom.axhline(0.0, color="0.4", lw=0.6)
+    bottom.set_ylabel("measured − model [N]")
+    bottom.set_xlabel("depth below the surface [mm]")
+    caption = (f"{material}: Eq. 9 fitted over {len(runs)} runs leaves {min(rms_all):.1f}–{max(rms_all):.1f} N RMS "
+               f"per run within the analysis window (contact + 0.5 ms to stop − 0.5 ms).")
+    top.set_title(caption, fontsize=9, loc="left", wrap=True)
+    return fig, caption

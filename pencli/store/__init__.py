@@ -1,4 +1,4 @@
-"""The workspace: run stages as Parquet, indexed in DuckDB (edge, issue 3).
+"""The workspace: run stages as Parquet, indexed in DuckDB (edge).
 
 Only this package imports duckdb.
 """
