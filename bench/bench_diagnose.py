@@ -23,13 +23,13 @@ stream; ``--varied`` draws 1–6 m/s), where a saturating law is flat over most 
 truth shapes 3 and 4; its own stream).
 ``--onset-rates``: every rate strength flat below an onset speed of 1–4 m/s, a power of the speed past it (sim truth
 shape 3; its own stream).  A lead read off world three's second draw, whose rate strengths were named velocity
-frictions (README, "Diagnosis: measured"); it tells whether the development world shows the swap at all.
+frictions (docs/guide/diagnosis.md); it tells whether the development world shows the swap at all.
 ``--guide-losses``: every propulsion loss a friction on the moving body alone (no loss of efficiency), of 30–120 N
 log-uniform, that acts over the whole travel, in the material too (its own stream, 20; ``--varied`` draws a loss of
 efficiency of 10–30 % with a 10 N friction).  A friction takes the same force from each run, so its share of the
 energy falls with the springs; and it slows the flight otherwise than a loss of efficiency does, so a model whose
-launcher loses efficiency reaches the surface at the right speed at another time (world three draw 2's guide
-frictions, README).
+launcher loses efficiency reaches the surface at the right speed at another time (world three's guide
+frictions).
 ``--wide-plugs``: every plug a power of depth up to its length, then constant (sim truth shape 3; its own stream).
 ``--short-gradients``: every strength gradient saturates (sim truth shape 2) within 4–15 mm (its own stream;
 ``--varied`` draws 15–80 mm).
@@ -43,13 +43,13 @@ frictions, README).
 half of them damped (0.2–3 kPa·s/m; the tabled simulants are not), recorded as they are true (its own stream).
 ``--resonant-noise``: every campaign's gauges also pick up narrow-band noise (the sim rig's ``resonant_noise_*``):
 a level of 0.5–1.2 × its white noise, at 150–3000 Hz, damping ratio 0.02–0.3, campaign i's drawn from the stream
-``[SEED, i, 78]`` (the forty-sixth session's test of a lead from world three: ``--nulls 30 213000
+``[SEED, i, 78]`` (a test of a lead from world three: ``--nulls 30 213000
 --resonant-noise`` called null 19, whose noise model reads an anti-alias filter the rig does not have).
 ``--filter-kinds``: every campaign's force channels behind an anti-alias low-pass that is no 4th-order Butterworth
 (the only kind the noise model reads): a Bessel or a Chebyshev type I (ripple 0.1–1 dB, log-uniform), half each, of
 order 2–8, its corner the campaign's own where it has one, else 0.1–0.4 of the rate; campaign i's drawn from the
 stream ``[SEED, i, 79]``.  ``--butterworth-filters``: the same corners behind the 4th-order Butterworth, the
-baseline of the forty-seventh session's test of world three's filters on the development world.
+baseline of a test of world three's filters on the development world.
 ``--pink-noise``: every campaign's gauges also make flicker noise (the sim rig's ``pink_noise_n``) of 0.3–1.5 ×
 its white noise, campaign i's drawn from the stream ``[SEED, i, 80]`` (world three draws pink gauge noise; the
 development world did not).

@@ -3,8 +3,8 @@
 Run: python -m bench.bench_diagnose_holdout [--quick] [--base SEED] [--no-ladder] [--out FILE.jsonl] [--world three]
      [--ladder-only]
 
-``--world three`` measures on world three (tests/world_three.py) instead, written by the forty-sixth session
-after the method was frozen and drawn once blind (README): its own pairs, three draws of every effect and three
+``--world three`` measures on world three (tests/world_three.py) instead, written by a developer who had not worked
+on the method after it was frozen, and drawn once blind: its own pairs, three draws of every effect and three
 outside campaigns.  ``--ladder-only`` runs part 3 alone (with the two nulls it is twinned on), so that it can run
 beside parts 1-2 in a second process.
 
@@ -242,7 +242,7 @@ def summarise(rows: dict, n_nulls: int) -> None:
     print(f"diagnosis time per campaign: median {statistics.median(times):.1f} s, max {max(times):.1f} s "
           f"(4-8 runs; 2 cores)")
     whole = [r["pipeline_seconds"] for r in acc if "pipeline_seconds" in r]
-    if whole:  # ingest, tare, subtract-inertia and diagnose, as a lab runs them (rows from the fifty-second session on)
+    if whole:  # ingest, tare, subtract-inertia and diagnose, as a lab runs them 
         print(f"whole pipeline per campaign (ingest to diagnose): median {statistics.median(whole):.1f} s, "
               f"max {max(whole):.1f} s")
     print()

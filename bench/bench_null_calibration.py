@@ -6,13 +6,11 @@ Each trial draws 61 rows (the data, then 60 null replicates) of 11 families' hel
 the same null law, so the data holds no effect; the data is a false alarm when its largest standardised
 improvement beats the threshold.  Printed per law: the false-alarm rate of pen's rule
 (:func:`pencli.diagnose.engine.familywise_threshold`, replicates standardised out of sample) beside the
-rule that standardises the replicates by the scale they helped set (pen's rule before issue 11's tenth
-session), in the same run, on the same draws, at a stated rate of 1 %.  The laws: normal, χ²₁ (skewed), t₃
+rule that standardises the replicates by the scale they helped set (the rule pen does not use), in the same run, on the same draws, at a stated rate of 1 %.  The laws: normal, χ²₁ (skewed), t₃
 (heavy-tailed), and a point mass at 0 with 5 % χ²₁ (a sign-bounded family at its bound).
 
 ``--engine``: the rate the diagnosis actually states for its effect test (its default false-alarm rate shared by
-three tests, :data:`pencli.diagnose.FALSE_ALARM` / 3), pen's rule with 60 replicates (the default before
-issue 11's twenty-fourth session) beside the current default (:data:`pencli.diagnose.BOOTSTRAP`), each on its own
+three tests, :data:`pencli.diagnose.FALSE_ALARM` / 3), pen's rule with 60 replicates (an older default) beside the current default (:data:`pencli.diagnose.BOOTSTRAP`), each on its own
 draws of the same laws.  The Gumbel tail is extrapolated further at that rate, and from fewer points with 60.
 """
 

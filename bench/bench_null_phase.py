@@ -9,8 +9,8 @@ time the diagnosis scores the families on the data and on its 200 replicates.  T
 phase of every run by one random amount, so if they are the data's null, the data's rank among them
 (replicates at least as high) is uniform over the phases the rig could have rested at: about 5.5 % of
 phases at rank <= 10 of 200.  Printed per phase: each family's rank; then per family, how many phases
-ranked <= 10.  The thirty-fifth session found the sensor lag at rank <= 10 on 4 of the 10 default phases of
-dev null 25 of 40 at seed 124000, and of null 34 (README).  Tuned on: this is the development world.
+ranked <= 10.  The sensor lag was found at rank <= 10 on 4 of the 10 default phases of
+dev null 25 of 40 at seed 124000, and of null 34.  Tuned on: this is the development world.
 """
 
 from __future__ import annotations

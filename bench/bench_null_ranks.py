@@ -11,7 +11,7 @@ among them is uniform: beaten by k of the B replicates with probability 1/(B+1) 
 family: the median rank (B/2 expected) and how often 2 or fewer replicates beat the data (3/(B+1) of the
 campaigns expected); and for the largest z over the families, which decides, how often 1 or fewer beat
 it (2/(B+1) expected).  A family whose data rank sits low is one whose null the replicates miss, whatever
-the threshold; this is how the sub-sample contact (README, "Null replicates meet the material between
+the threshold; this is how the sub-sample contact ("Null replicates meet the material between
 samples") was found.  Tuned on: this is the development world.
 """
 

@@ -8,7 +8,7 @@ spline's "moving a count at most" test, and FITPACK's knot search then places a 
 and 407 s for one 12,000-sample segment of that run.  ``pencli.filter.derivatives.derivatives`` with ``at_rest``
 takes a segment the events put at rest as its mean instead, and the search is bounded (``MAX_KNOTS``) where a
 segment is not at rest.  This times the three (skipped; every segment fitted with the bound; every segment fitted
-without it, as before the fifty-second session) on one synthetic run (a rest record of
+without it) on one synthetic run (a rest record of
 N samples at 60 kHz, 25 ms of motion, N more at rest) for N = 1,500, 3,000 and 6,000 (with ``--long`` also 12,000,
 which takes minutes unbounded), checks that the motion's derivatives are the same to the bit, and prints the
 ratio of unbounded to skipped.  The figures are wall time in one process, after one untimed call (imports).

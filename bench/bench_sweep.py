@@ -9,7 +9,7 @@ Run: python -m bench.bench_sweep [--designs N] [--rounds R]
   the ratio between 2,800x and 9,600x on this shared machine, most of it in the baseline.
 - accuracy: 300 of pen's designs against the scalar simulator (DOP853 rtol 1e-10).
 Target: ≥ 1,000,000 designs/s end to end and ≥ 8,000× the solve_ivp loop, penetration time
-and final depth within 1e-4 (issue 6's was 100,000 designs/s).
+and final depth within 1e-4 .
 """
 
 from __future__ import annotations

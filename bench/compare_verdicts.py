@@ -2,7 +2,7 @@
 
 Run: python -m bench.compare_verdicts BEFORE.txt AFTER.txt [BEFORE2.txt AFTER2.txt ...]
 
-A keep rule in docs/diagnosis-log.md asks for counts of this kind: how many campaigns each method names right,
+A rule for keeping a change of the diagnosis asks for counts of this kind: how many campaigns each method names right,
 which campaigns changed their verdict, how many went from right to wrong, and the ratio of the median times.
 Each pair of files is one set (the same ``--varied``/``--nulls``/``--pairs`` command at the two commits); only
 campaigns present in both are compared, so a set still running can be read.  Prints, per set, the campaigns in

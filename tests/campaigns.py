@@ -246,8 +246,8 @@ def varied_campaigns(count: int, seed: int, *, only: str | None = None):
 def judge(result, truth: set[str]) -> tuple[bool, float | None]:
     """(correct, shrink of the verdict's effect) by the hold-out bench's rules: the verdict names the true
     effect; both effects of a pair are among the verdict's effects; ``none`` and ``unexplained`` by verdict.
-    (Until issue 11's fourth session a single effect ranked first, or named indistinguishable from the
-    first, counted even when the verdict was something else.)"""
+    A single effect ranked first, or named indistinguishable from the first, does not count when the verdict is
+    something else."""
     if len(truth) == 1:
         ok = result.verdict in truth
     else:

@@ -1,7 +1,7 @@
 """The hold-out truth world: a second rig simulator, written apart from pen and from its `sim` driver.
 
 It is used to *measure* the diagnosis, never to develop or tune it: the
-figures it gives are reported as hold-out figures (README, bench/
+figures it gives are reported as hold-out figures (docs/guide/diagnosis.md, bench/
 bench_diagnose_holdout.py).  Nothing here is imported by pen.
 
 What differs from the `sim` driver's world (pencli/acquire/truth.py, sim.py):

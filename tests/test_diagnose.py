@@ -52,7 +52,7 @@ def catalogue_campaign(tmp_path, index):
 
 
 def conditioned(db):
-    """The campaign tared and inertia-subtracted, as the README's diagnosis needs it."""
+    """The campaign tared and inertia-subtracted, as the diagnosis needs it."""
     api.tare_runs(db, ["all"])
     api.subtract_inertia_runs(db, ["all"])
     return db
@@ -369,8 +369,8 @@ def test_a_strong_gradient_in_scattered_blocks_is_a_gradient(tmp_path):
 @pytest.mark.slow
 def test_a_gradient_of_two_slopes_is_a_gradient(tmp_path):
     """A gradient no one curve of the family matched (steepening threefold at 50 mm) was named a
-    plateau layer (74 % shrink against the best curve's 67 %) until the family held smooth monotone sums, which
-    carried it until the forty-second session.  The family now holds two straight slopes meeting at a depth, and
+    plateau layer (74 % shrink against the best curve's 67 %) and then, with smooth monotone sums in the family,
+    a monotone sum.  The family holds two straight slopes meeting at a depth, and
     the fit must find the truth's: the kink at 50 mm, the slope tripling there, the strength ×2.5 at 100 mm."""
     gradient = {"name": "strength_gradient", "change_per_100mm": 1.5, "shape": 3, "kink_mm": 50, "slope_ratio": 3}
     result = api.diagnose(campaign(tmp_path, [gradient], seed=62), ["all"])
@@ -383,8 +383,7 @@ def test_a_gradient_of_two_slopes_is_a_gradient(tmp_path):
 def test_a_drift_with_a_velocity_friction_is_a_pair(tmp_path):
     """Two drift shapes together match a velocity friction on five runs about as well as the friction
     does, so "better than a second own shape by more than the null's noise" failed and the friction was lost.
-    What the friction adds on top of the best pair of drift shapes told them apart.  Since the thirtieth session
-    the drift family has powers, logarithms and time constants √2 apart: one drift shape follows this drift,
+    What the friction adds on top of the best pair of drift shapes told them apart.  The drift family has powers, logarithms and time constants √2 apart: one drift shape follows this drift,
     and the friction beats a second one outright (it removes 97 % of what the drift leaves); the route through
     the own pair is held by ``test_a_pressure_growth_under_ringing_counts_against_what_ringings_own_pair_leaves``."""
     effects = [{"name": "force_drift", "amplitude_n": 85.0, "time_constant_s": 0.02, "shape": 2},
@@ -416,10 +415,9 @@ def test_a_friction_beside_a_drift_is_found_though_it_extrapolates_wildly_on_nul
 
 @pytest.mark.campaign
 @pytest.mark.slow
-@pytest.mark.xfail(reason="since e73bd6c (the window ends 2 ms before a hard stop) the friction beside the drift is "
-                          "lost: the best second is a strength gradient (not significant); the last 2 ms before the "
-                          "stops hold the lowest speeds a speed law is told apart by (found in the fortieth session: "
-                          "`-m campaign` is not in the default run, and no session had run it since)")
+@pytest.mark.xfail(reason="with the window ending 2 ms before a hard stop the friction beside the drift is lost: "
+                          "the best second is a strength gradient (not significant); the last 2 ms before the stops "
+                          "hold the lowest speeds a speed law is told apart by")
 def test_a_friction_beside_a_drift_between_the_old_time_constants_is_a_pair(tmp_path):
     """A drift 1 − e^(−t/33 ms) fell between the family's time constants (20 and 50 ms); a second
     drift shape took that mismatch, did better than the friction beside the first (over the own pair z −12),
@@ -435,7 +433,7 @@ def test_a_friction_beside_a_drift_between_the_old_time_constants_is_a_pair(tmp_
 @pytest.mark.campaign
 @pytest.mark.slow
 @pytest.mark.xfail(strict=False, reason=(
-    "premise gone with the exact bounded solve (fiftieth session; docs/diagnosis-log.md): the plug growth's z is "
+    "premise gone with the exact bounded solve: the plug growth's z is "
     "6.75 (OpenBLAS Zen, Haswell) or 6.77 (SkylakeX) against the family-wise 7.87 or 7.88, so nothing passes and "
     "the verdict is none on every kernel tried. The plug passed only under the old solve, which stopped short of "
     "the optimum on some null replicates' plug fits, and only with the SkylakeX kernel (7.94 against 7.79; Zen "
@@ -535,8 +533,7 @@ def test_a_pressure_growth_under_ringing_counts_against_what_ringings_own_pair_l
     one ringing member follows, so the ringing alone leaves a misfit of its own; the pressure growth removed a
     third of that (z 260 against 4.2), short of the half a second effect must remove, though it removed 80 % of
     what the best pair of ringing shapes leaves.  Campaign 1 of ``bench_diagnose --pairs 12 66000
-    --ringing-pairs`` (4 Grill Brick runs, 0.32 mm encoder, 4.6 N of noise).  Since the twenty-eighth session a
-    single ringing mode carries its first-order change in frequency and decay, the ringing alone leaves less, and
+    --ringing-pairs`` (4 Grill Brick runs, 0.32 mm encoder, 4.6 N of noise).  A single ringing mode carries its first-order change in frequency and decay, the ringing alone leaves less, and
     the pressure removes 70 % of it: the case the test was written for (under half) is gone, the verdict and
     what the pressure adds over the own pair are still checked."""
     effects = [{"name": "rig_ringing", "amplitude_n_per_m_s": 56.0, "frequency_hz": 1284.5, "damping_ratio": 0.0595,
@@ -560,10 +557,9 @@ def test_a_gradient_saturating_within_a_few_millimetres_is_a_gradient(tmp_path):
     plug growth; the gradient family's saturating members started at 20 mm.  Campaign 5 of a development
     scratch set: the drawn gradients of ``--varied 8 68000 --only strength_gradient --short-gradients``, made
     saturating, 4–15 mm long (a stream of their own), here 5 Grill Brick runs at mixed rates behind an anti-alias filter.  Its
-    margin is small (layer 86.8 % against gradient 81.2 % with the nuisances rounded to 3 digits).  From 4e725ec
-    to c02e56d this test was an expected failure: a layer member "plateau" from 5 to 15 mm (4 mm edges) scored
-    91.2 % against the gradient's 87.3 %.  Since a plateau is a band whose bottom edge goes back (76f130b) the
-    gradient is named again."""
+    margin is small (layer 86.8 % against gradient 81.2 % with the nuisances rounded to 3 digits).  A layer member
+    "plateau" from 5 to 15 mm (4 mm edges) would score 91.2 % against the gradient's 87.3 % were a plateau not a
+    band whose bottom edge goes back."""
     from tests.campaigns import varied_campaigns
 
     _, material, effects, _, nuisances = varied_campaigns(8, 68000, only="strength_gradient")[5]
@@ -581,8 +577,8 @@ def test_a_gradient_rising_in_an_s_wider_than_a_layers_edge_is_a_gradient(tmp_pa
     """Strength rising in an S (a tanh step tens of millimetres wide) was named a strength layer or a
     plug growth: the gradient family had no S-shaped member, the layer's widest edge (12 mm) came nearest.
     Campaign 1 of ``bench_diagnose --varied 8 78000 --only strength_gradient --s-gradients`` (the S's centre and
-    width from a stream of their own), named a plug growth.  Single S-shaped rises in the gradient family (da3bce6)
-    named it a gradient but were reverted: centred past the depth a fold's training runs reach, an S-rise is
+    width from a stream of their own), named a plug growth.  Single S-shaped rises in the gradient family name it a
+    gradient, but unrestricted they fail: centred past the depth a fold's training runs reach, an S-rise is
     unconstrained there and explodes on the held-out run of a tenth of the null replicates, and that wide null
     lost a layer + ringing pair
     (``test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_on_some_replicates``).  An

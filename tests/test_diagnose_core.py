@@ -477,8 +477,7 @@ SLOW_STOPS = [  # blade, springs, material, block [kPa], stand-off error [mm], r
     ("2", 2, "mpacs_c", 1100.0, -1.1, 30000.0, 2.0, None, 5),
 ]
 """Sim-rig shots that reach the hard stops at 0.3-0.4 m/s with the block's surface 0.6-1.8 mm nearer than the file
-says, on a 0.32 mm encoder: drawn by a probe of 1,100 shots near the strength that just reaches the stops (the
-forty-eighth session), where these were the four the encoder alone took for arrests."""
+says, on a 0.32 mm encoder: drawn by a probe of 1,100 shots near the strength that just reaches the stops, where these were the four the encoder alone took for arrests."""
 
 
 def _sim_shot(tmp_path, blade, springs, material, kpa, standoff_mm, rate, noise, anti_alias, seed):
@@ -509,7 +508,7 @@ def _sim_shot(tmp_path, blade, springs, material, kpa, standoff_mm, rate, noise,
 @pytest.mark.parametrize("case", SLOW_STOPS, ids=lambda c: f"{c[0]}mm-{c[1]}s-{c[2]}-{c[5] / 1e3:g}kHz")
 @pytest.mark.parametrize("strength", [1.0, 1.15], ids=["stops", "arrest"])
 def test_a_slow_arrival_at_the_stops_ends_where_the_force_falls(tmp_path, case, strength):
-    """Hold-out finding (draw 68's null 1, 41.6 N of misfit on 5.1 N of noise): at a hard stop reached at 0.3 m/s
+    """Hold-out finding (a null campaign called `unexplained` at 41.6 N of misfit on 5.1 N of noise): at a hard stop reached at 0.3 m/s
     the encoder's parabola, still decelerating, put the stop 0.7 ms late and called it an arrest, and the window
     held samples after the force had fallen to nothing.  The tare now places the stop where the force falls and
     calls the run by how far the parabola's vertex lies past it.  The same block 15 % stronger arrests nearby:
@@ -797,7 +796,7 @@ def test_a_narrow_band_of_noise_is_not_read_as_an_anti_alias_filter(seed):
     (0.4, 60000.0, 0.1, 0.2, 2.0), (0.2, 30000.0, 0.3, 0.05, 0.0),
     pytest.param(0.1, 60000.0, 0.15, 0.1, 0.0, marks=pytest.mark.xfail(
         strict=True, reason="a band at 1.5× the corner: read 26 % high (order 5 at 0.126; before the line, 6 at "
-                            "0.141); the forty-seventh session, docs/diagnosis-log.md")),
+                            "0.141)")),
     (None, 30000.0, 0.1, 0.1, 0.0), (None, 60000.0, 0.04, 0.2, 2.0), (None, 60000.0, 0.3, 0.03, 0.0)])
 def test_the_anti_alias_filter_is_read_through_a_band_of_noise(corner, rate, band, damping, correlated):
     """The simulated rig's narrow-band gauge noise (its ``resonant_noise_*``: 2 N, as strong as the white, at
@@ -1165,7 +1164,7 @@ def test_a_profile_standing_above_its_null_while_it_worsens_the_datas_fit_is_no_
     """A generic profile's z measures its improvement of the data's held-out error against the null replicates'.
     Where the replicates' fits get much worse with it (it extrapolates badly to their held-out runs), a profile
     that worsens the data's fit too stands far above them; that is no evidence of a misfit the runs share.  The
-    same profile lowering the data's error is one.  (Thirty-eighth session: a depth profile at z 3.78 against
+    same profile lowering the data's error is one.  (A depth profile at z 3.78 against
     3.77 with a held-out shrink of −21 % made a propulsion-loss campaign `unexplained`.)"""
     from pencli.diagnose.engine import _Family, _shared_gap, _standardise, _Tested, familywise_threshold
 
@@ -1188,7 +1187,7 @@ def test_a_profile_standing_above_its_null_while_it_worsens_the_datas_fit_is_no_
 
 
 def test_the_effect_named_first_is_the_one_that_closes_most_of_a_gap_the_familywise_test_found():
-    """Forty-first session: once the family-wise test finds an effect, the verdict names the effect that lowers
+    """Once the family-wise test finds an effect, the verdict names the effect that lowers
     the data's held-out error most among the family-wise significant ones and those whose improvement of the data
     is beyond every null replicate's.  A narrow family (null sd 0.7 N²) standing at z 7 on a 5 N² improvement
     was named over a wide one closing 11.6 N², the truth (dev campaign 22 of ``--varied 24 161000 --only

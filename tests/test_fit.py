@@ -26,12 +26,10 @@ TABLE1 = {
 
 
 EDGE_BIAS = (
-    "known bias, traced in issue 11: the smoothing spline's free ends at contact and stop bias the resistance "
-    "where the speed is highest, so the fit finds C = +2.5 [1.8, 3.1] kPa·s/m on MPACS C (truth 0); on Grill "
-    "Brick C = +1.4 [-0.05, 2.9] now just contains 0 since the spline breaks at the force's contact (was +1.7). "
-    "Before issue 11 the spline's failures on some encoder phases made the intervals 10x wider and hid it "
-    "(C = 2.2 [-4.3, 8.6]); trimming 3 ms instead of 0.5 ms at each window edge gives C = 0.0 [-0.6, 0.6], K 34.37 "
-    "(truth 34.4). Fix: edge-aware derivatives or a wider trim, then drop this marker")
+        "known bias: the smoothing spline's free ends at contact and stop bias the resistance where the speed is "
+    "highest, so the fit finds C = +2.5 [1.8, 3.1] kPa·s/m on MPACS C (truth 0); on Grill Brick C = +1.4 "
+    "[-0.05, 2.9] just contains 0; trimming 3 ms instead of 0.5 ms at each window edge gives C = 0.0 [-0.6, 0.6], "
+    "K 34.37 (truth 34.4). Fix: edge-aware derivatives or a wider trim, then drop this marker")
 
 
 @pytest.fixture(scope="module", params=["grill_brick", "mpacs_c"])

@@ -431,7 +431,7 @@ def test_any_failure_is_one_line_for_that_run_and_the_batch_goes_on(tmp_path, wo
 
 
 def test_runs_query_cannot_write_and_a_tampered_stage_is_detected(workspace, runner, tmp_path):
-    """Issue 13: `COPY ... TO` overwrote a raw stage, ATTACH modified another database; stage hashes were never
+    """`COPY ... TO` overwrote a raw stage, ATTACH modified another database; stage hashes were never
     re-checked."""
     import pyarrow.parquet as pq
 
@@ -456,7 +456,7 @@ def test_runs_query_cannot_write_and_a_tampered_stage_is_detected(workspace, run
 
 
 def test_export_never_touches_the_workspace_and_force_replaces_only_its_own_files(workspace, runner):
-    """Issue 13: `export ID --to runs/ID --force` destroyed the run's stages; --force deleted unrelated files."""
+    """`export ID --to runs/ID --force` destroyed the run's stages; --force deleted unrelated files."""
     invoke(runner, "ingest", EXAMPLE)
     run_folder = next((workspace / "runs").iterdir())
     before = {p: p.read_bytes() for p in run_folder.rglob("*") if p.is_file()}

@@ -21,7 +21,7 @@ def _mappings(p, m, e, **energizing):
 
 
 def test_full_depth_just_short_of_the_arrest_point_is_full_depth(runner):
-    """Issue 12 defect 1: a depth limit just short of where the blade would arrest; the tip passed the stops and
+    """A depth limit just short of where the blade would arrest; the tip passed the stops and
     came back within one step, and the run was called an arrest beyond the stops."""
     p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", spring_stiffness_kn_m=5)
     free = reference_run({**p, "penetration_depth_mm": 1000.0}, m, e)
@@ -42,7 +42,7 @@ def test_full_depth_just_short_of_the_arrest_point_is_full_depth(runner):
 
 @pytest.mark.parametrize("compressed_mm", [500.0, 620.0])  # free length 500 mm: zero stroke, and beyond it
 def test_springs_not_compressed_at_release_are_a_gravity_drop(runner, tmp_path, compressed_mm):
-    """Issue 12 defect 6: CONTRACT §2 puts the spring force at 0 beyond the free length, so springs at zero
+    """CONTRACT §2 puts the spring force at 0 beyond the free length, so springs at zero
     stroke (or longer than free) are a valid design: the body falls under gravity alone."""
     p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c", spring_compressed_length_mm=compressed_mm)
     assert e["spring_nominal_length_mm"] == 500.0
@@ -74,7 +74,7 @@ def test_springs_not_compressed_at_release_are_a_gravity_drop(runner, tmp_path, 
     (["blade_width_mm=1e300", "blade_thickness_mm=1e299"], "blade_width_mm"),
 ])
 def test_absurd_inputs_end_in_one_line(runner, sets, names):
-    """Issue 12 defect 9: density 1e300 gave a traceback, width 1e300 hung past 600 s."""
+    """Density 1e300 gave a traceback, width 1e300 hung past 600 s."""
     args = ["predict", "-p", "appendix_c", "-m", "grill_brick", "-e", "appendix_c", "--allow-out-of-range"]
     for s in sets:
         args += ["--set", s]
@@ -86,7 +86,7 @@ def test_absurd_inputs_end_in_one_line(runner, sets, names):
 
 
 def test_a_long_fall_is_sampled_within_bounded_memory(runner):
-    """Issue 12 defect 9: a stand-off of 1e9 mm sampled 450 s at 50 kHz (3.3 GB); now at most MAX_SAMPLES."""
+    """A stand-off of 1e9 mm sampled 450 s at 50 kHz (3.3 GB); now at most MAX_SAMPLES."""
     from pencli import api
     from pencli.model.dynamics import MAX_SAMPLES
 
@@ -100,7 +100,7 @@ def test_a_long_fall_is_sampled_within_bounded_memory(runner):
 
 
 def test_an_energy_balance_beyond_tolerance_is_a_warning(monkeypatch):
-    """Issue 12 defect 9: the balance error was never reported; beyond the tolerance it is a warning."""
+    """The balance error was never reported; beyond the tolerance it is a warning."""
     from pencli import api
     import pencli.model.dynamics as dyn
 
@@ -122,9 +122,9 @@ def _sweep(runner, tmp_path, name, *args):
 
 @pytest.mark.parametrize("offset", [0.0, None])  # 0: starts at the surface and creeps; None: 11.6 m/s, arrests
 def test_large_damping_in_the_batch_matches_the_oracle(runner, tmp_path, offset):
-    """Issue 12 defects 2 and 4: at C = 3,000–100,000 kPa·s/m the batch's RK4 left its stability region (final
+    """At C = 3,000–100,000 kPa·s/m the batch's RK4 left its stability region (final
     depth off by 0.16 % to 96 %), and a creeping run had no defined time (0.896 s, 3.20 s, 0.948 s by
-    round-off).  Both simulators now agree with the oracle, which implements the README's creep rule itself."""
+    round-off).  Both simulators now agree with the oracle, which implements the creep rule (docs/guide/sweeps.md) itself."""
     p, m, e = _mappings("appendix_c", "grill_brick", "appendix_c")
     sets = [] if offset is None else ["--set", f"surface_offset_mm={offset}"]
     if offset is not None:
@@ -146,7 +146,7 @@ def test_large_damping_in_the_batch_matches_the_oracle(runner, tmp_path, offset)
 
 @pytest.mark.parametrize("damping", [0.0, 300.0])  # the closed form, and the damped path
 def test_batch_near_the_full_depth_boundary_matches_the_oracle(damping):
-    """Issue 12 defect 3: with the limit within 0.1 % of the arrest depth the batch's time was off by up to 3e-3
+    """With the limit within 0.1 % of the arrest depth the batch's time was off by up to 3e-3
     and its residual energy by 0.2–100 %, and 9 of 30 such designs were called arrests."""
     from pencli.model.design import design_from_sets
     from pencli.params.load import resolve

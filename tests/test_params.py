@@ -250,7 +250,7 @@ def _write(path, mapping, yaml):
 
 
 def test_full_depth_prediction_is_not_called_outside_a_fit_that_saw_full_depth(tmp_path):
-    """Issue 13: 'depth 133 mm is outside 0–133 mm' (runs recorded a hair short of the stops)."""
+    """'depth 133 mm is outside 0–133 mm' (runs recorded a hair short of the stops)."""
     from pencli import api
 
     mapping = load_file(REPO / "pencli" / "params" / "presets" / "material" / "grill_brick.yaml").to_mapping()

@@ -1,7 +1,8 @@
-"""Every `pen` command the README shows runs as written (the README's own LHS example failed).
+"""Every `pen` command the README and the user documentation show runs as written.
 
-The commands are read from the README's indented code blocks, in order, and run through a shell in a scratch
-folder laid out as the README assumes: the example workspace under ``examples/workspace``, lab folders to
+The commands are read from the indented code blocks of the README and of each page of the documentation, in the
+site's order, and run through a shell in a scratch folder (one for the README, one for the documentation) laid
+out as they assume: the example workspace under ``examples/workspace``, lab folders to
 ingest (CONTRACT §3 folders exported from the example), a BAM-era workbook under ``old/``, ``my_blade.yaml``.
 The two set-up commands (install, test) are what CI runs; they are not re-run here.
 """
@@ -61,22 +62,55 @@ def _prepare(root: Path) -> None:
     (root / "my_blade.yaml").write_text(shown.replace("name: al6061_1mm", "name: my_blade"))
 
 
-def test_readme_commands_are_found():
+def docs_pages() -> list[Path]:
+    """The documentation's pages in the site's navigation order (generated pages have no file)."""
+    import yaml
+
+    def flat(entries):
+        for entry in entries:
+            for value in (entry.values() if isinstance(entry, dict) else [entry]):
+                if isinstance(value, list):
+                    yield from flat(value)
+                elif isinstance(value, str):
+                    yield REPO / "docs" / value
+
+    nav = yaml.safe_load((REPO / "mkdocs.yml").read_text())["nav"]
+    return [page for page in flat(nav) if page.is_file()]
+
+
+def docs_commands() -> list[str]:
+    return [c for page in docs_pages() for c in readme_commands(page.read_text())]
+
+
+def test_readme_and_docs_commands_are_found():
     commands = readme_commands((REPO / "README.md").read_text())
-    assert len(commands) > 30
-    assert any("--sample lhs" in c for c in commands) and any(c.startswith("pen diagnose") for c in commands)
-    assert not any(c.startswith(SETUP) for c in commands)
+    assert len(commands) >= 8 and any(c.startswith("pen diagnose") for c in commands)
+    documented = docs_commands()
+    assert len(documented) > 30
+    assert any("--sample lhs" in c for c in documented) and any(c.startswith("pen diagnose") for c in documented)
+    assert not any(c.startswith(SETUP) for c in commands + documented)
+
+
+def _run_all(commands: list[str], root: Path) -> list[str]:
+    _prepare(root)
+    env = {k: v for k, v in os.environ.items() if k != "PEN_DB"}
+    env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
+    failures = []
+    for command in commands:
+        done = subprocess.run(["bash", "-c", command], cwd=root, env=env, capture_output=True, text=True,
+                              timeout=600)
+        if done.returncode != 0:
+            failures.append(f"{command}\n  exit {done.returncode}: {(done.stderr or done.stdout).strip()[-400:]}")
+    return failures
 
 
 @pytest.mark.slow
 def test_every_readme_command_runs_as_written(tmp_path):
-    _prepare(tmp_path)
-    env = {k: v for k, v in os.environ.items() if k != "PEN_DB"}
-    env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
-    failures = []
-    for command in readme_commands((REPO / "README.md").read_text()):
-        done = subprocess.run(["bash", "-c", command], cwd=tmp_path, env=env, capture_output=True, text=True,
-                              timeout=600)
-        if done.returncode != 0:
-            failures.append(f"{command}\n  exit {done.returncode}: {(done.stderr or done.stdout).strip()[-400:]}")
+    failures = _run_all(readme_commands((REPO / "README.md").read_text()), tmp_path)
+    assert not failures, "\n".join(failures)
+
+
+@pytest.mark.slow
+def test_every_documented_command_runs_as_written(tmp_path):
+    failures = _run_all(docs_commands(), tmp_path)
     assert not failures, "\n".join(failures)

@@ -1,4 +1,4 @@
-"""`pen predict --json` against an independent tight integration (issue 2, Done when 1)."""
+"""`pen predict --json` against an independent tight integration ."""
 
 from __future__ import annotations
 
@@ -39,7 +39,7 @@ def test_predict_matches_reference(runner, p, m, e, speed):
 
 
 def test_figure10_preset_reproduces_the_papers_speed_at_contact(runner):
-    """Issue 12 defect 8: the bundled figure10 launcher gives BAM's 7.155133 m/s (REFERENCE.md) to 1e-6."""
+    """The bundled figure10 launcher gives BAM's 7.155133 m/s (REFERENCE.md) to 1e-6."""
     result = invoke(runner, "predict", "-p", "figure10", "-m", "figure10", "-e", "figure10", "--json")
     assert result.exit_code == 0, result.output
     assert json.loads(result.stdout)["contact_speed_m_s"] == pytest.approx(7.155133, rel=1e-6)

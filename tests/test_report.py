@@ -56,7 +56,7 @@ def test_every_figure_kind_renders_from_the_example_workspace(example, tmp_path,
 
 
 def test_report_of_a_sampled_sweep_is_binned(workspace, runner):
-    """Issue 13 #1: the report of a Latin-hypercube sweep built a grid of every sampled value against every
+    """The report of a Latin-hypercube sweep built a grid of every sampled value against every
     other (7.28 TiB at 10⁶ designs; 80 GB here, a MemoryError): a sampled sweep's maps are binned."""
     r = invoke(runner, "sweep", "-p", "appendix_c", "-m", "mpacs_c", "-e", "appendix_c",
                "--vary", "coefficients.strength_factor=0.5:2", "--vary", "coefficients.inertia_coefficient=20:60",

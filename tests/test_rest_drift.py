@@ -1,4 +1,4 @@
-"""The rest span after the stop as evidence of a force drift (issue 11; :mod:`pencli.diagnose.rest`).
+"""The rest span after the stop as evidence of a force drift (:mod:`pencli.diagnose.rest`).
 
 The noise here is made by the test itself (an AR(1) recursion plus white noise, not the diagnosis' spectral
 synthesis), and the drift is written out; the rest test reads the noise from each run's pre-trigger span as the
@@ -76,7 +76,7 @@ def test_a_drift_that_goes_on_after_the_stop_is_seen_at_rest(shape):
 
 @pytest.mark.slow
 def test_a_weak_drift_beside_a_friction_is_found_in_the_rest_after_the_stop(tmp_path):
-    """Issue 11, the hold-out's recurring pair miss made on the development world: a linear drift of 8.8 N per
+    """The hold-out's recurring pair miss made on the development world: a linear drift of 8.8 N per
     0.16 s beside a velocity friction (a 56 % fall at 3.5 m/s).  Within the penetration the friction's speed law
     takes the drift's place (the blade slows as time goes on), and the drift beside it added too little to count;
     after the stop nothing but the drift changes the force.  Campaign 4 of ``--pairs 12 153000 --drift-friction

@@ -223,7 +223,7 @@ def test_bad_sweeps_are_one_line(workspace, runner, args, words):
 
 
 def test_sampled_sweep_keeps_a_list_a_set_of_values(tmp_path):
-    """Issue 12 defect 7: ``--vary spring_count=2,4,6 --sample random`` gave 4.55 springs; a list given to
+    """``--vary spring_count=2,4,6 --sample random`` gave 4.55 springs; a list given to
     --vary stays a set of values in a sampled sweep, while a range is sampled continuously."""
     out = tmp_path / "s.parquet"
     api.sweep("al6061_1mm", "mpacs_c", "springs_4", vary=["spring_count=2,4,6", "blade_thickness_mm=1.0,1.5,2.0",
@@ -241,7 +241,7 @@ def test_sampled_sweep_keeps_a_list_a_set_of_values(tmp_path):
 
 
 def test_batch_peak_depth_is_located_inside_the_step():
-    """Issue 12 defect 5: the batch read the peak resistance's depth at step ends (up to 19 % off where R peaks
+    """The batch read the peak resistance's depth at step ends (up to 19 % off where R peaks
     inside a step); against the scalar simulator's dense output on random designs."""
     d = random_designs(400, 11)
     batch = simulate_batch(d).figures
@@ -257,7 +257,7 @@ def test_batch_peak_depth_is_located_inside_the_step():
 
 
 def test_a_huge_grid_is_refused_in_one_line_and_a_large_one_is_made_in_slices(workspace, runner, monkeypatch):
-    """Issue 13: `--resolution 100000` on two variables built the whole grid before chunking (MemoryError)."""
+    """`--resolution 100000` on two variables built the whole grid before chunking (MemoryError)."""
     r = invoke(runner, "sweep", "-p", "appendix_c", "-m", "mpacs_c", "-e", "appendix_c", "--resolution", "100000",
                "--vary", "blade_width_mm=100:200", "--vary", "blade_thickness_mm=1:2")
     assert r.exit_code == 1 and "1e+10 designs" in r.stderr and "--sample" in r.stderr, r.output

@@ -200,8 +200,7 @@ def test_the_advice_that_tells_two_effects_apart_by_blade_thickness_holds_in_the
     """``separate_with`` (an ambiguity's advice, schema/diagnosis.md) names runs of another blade thickness
     only for two effects whose true forces scale differently with the thickness T, read from the sim world's
     force law (an implementation of its own, not the diagnosis's columns): a plug adds a fixed width, so its
-    force, like sidewall friction's, does not grow with T (the advice said thickness until the forty-ninth
-    session).  And where the advice says speed tells a plug from a pressure growth, the plug's force changes
+    force, like sidewall friction's, does not grow with T (so the advice must not say thickness for them).  And where the advice says speed tells a plug from a pressure growth, the plug's force changes
     with speed at one depth and the pressure's does not."""
     from pencli.acquire.truth import TRUE_EFFECTS
     from pencli.diagnose.effects import INDISTINGUISHABLE

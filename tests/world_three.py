@@ -4,8 +4,7 @@ The development world (pencli/acquire/truth.py, sim.py) and the hold-out
 world (tests/holdout_world.py) were both written by the sessions that
 developed the diagnosis, and the hold-out world has been drawn more than
 sixty times with its misses read after each draw.  This world was written
-by the forty-sixth session of issue 11, which had not developed the method,
-to stand in for the outside check's independent simulator: other code,
+by a developer who had not worked on the method, to stand in for the outside check's independent simulator: other code,
 another sensor chain, other effect forms.  It is not innocent of the
 method: its author had read the README's description of the families and
 the other two worlds' effect lists, and chose forms by their physical
@@ -68,7 +67,7 @@ PAIRS = tuple(tuple(sorted(p)) for p in (
 """Two-effect campaigns: every catalogue effect in at least one pair, written down before any was run."""
 DRAWS, OUTSIDE_DRAWS = 3, 3
 """Campaigns per catalogue effect, and outside the catalogue, in one draw of the hold-out bench."""
-TITLE = "WORLD THREE (drawn blind once at 74e4284, --base 950000; README)"
+TITLE = "WORLD THREE (drawn blind once, --base 950000)"
 
 TABLE_1 = {  # paper Table 1 (6061 Al blades): measured properties and the fitted Eq. 9 coefficients
     "grill_brick": dict(density=110.0, strength_kpa=1630.0, mu=0.75, Cs=1.6, P_kpa=7.07, C_kpa_s_m=0.0, K=46.0),

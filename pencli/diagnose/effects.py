@@ -42,7 +42,7 @@ STOP_MARGIN_S = 2e-3
 """At a hard stop (``end == "full_depth"``) the diagnosis's window ends this long before the stop, not the tare's
 0.5 ms: over the last counts before the hard stops the acceleration read from the encoder carries an error the
 null replicates do not reproduce.  An arrest keeps the tare's end: its last milliseconds hold the lowest speeds,
-which tell the speed laws apart (README, the thirty-sixth and thirty-seventh sessions). [s]"""
+which tell the speed laws apart. [s]"""
 
 
 @dataclass(frozen=True)
@@ -359,8 +359,7 @@ are ≥ 0.  With free signs the two edges also made staircases (both steps one w
 families' effects: dev wide plug 2 of ``--varied 12 99300 --only plug_growth --wide-plugs`` was named a layer by a
 "plateau" 5–15 mm whose edges both rose (+0.70 and +1.02 of the strength; 996 N² held out against the plug's
 1,060), and the best layer member of each S-shaped gradient that ``--varied 8 84000 --only strength_gradient
---s-gradients`` names a layer was such a staircase (as bands, 2 of those 3 stay layers: README, forty-fourth
-session)."""
+--s-gradients`` names a layer was such a staircase (as bands, 2 of those 3 stay layers)."""
 
 
 def _signed(profile: Profile, sign: float) -> Profile:
@@ -407,7 +406,7 @@ def _rise(centre_m: float, half_width_m: float) -> Profile:
 
 def _monotone_members() -> list[Member]:
     """Smooth monotone strength profiles: non-negative sums of rises (or of falls), for the profiles no one
-    curve of the other members matches (issue 11's "smooth monotone profiles").  Dev gradients of two slopes
+    curve of the other members matches (smooth monotone profiles).  Dev gradients of two slopes
     (sim truth shape 3; seed 53000): 7 of 10 named a gradient with them, 3 of 10 without (the others a
     plateau layer or a capped-ramp plug)."""
     rises = [_rise(c * 1e-3, 75e-3) for c in _MONOTONE_CENTRES_MM]
@@ -436,7 +435,7 @@ def _s_rise(centre_m: float, width_m: float) -> Profile:
 _KINKS_MM = tuple(float(d) for d in range(10, 100, 10))
 """Where a two-slope gradient's slope changes: every 10 mm.  Each member enters only where every fold's training
 runs pass its kink by 20 mm (:attr:`Member.reach_m`), so that the second slope is fitted on every fold.  Added
-for the development gradients of two slopes (``--two-slopes``, sim truth shape 3): at 677911c 5 of
+for the development gradients of two slopes (``--two-slopes``, sim truth shape 3): without them 5 of
 ``--varied 12 176000``'s 12 were named a strength layer, a step at the kink being the nearest other shape."""
 
 
@@ -662,7 +661,7 @@ _DELAYS_MS = (0.05, 0.075, 0.1, 0.125, 0.15, 0.2, 0.25, 0.3, 0.375, 0.45, 0.55, 
 and between 0.45 and 0.7 ms each fold of dev sensor lags 1 and 2 of ``--varied 16 190000 --only sensor_lag`` (0.65
 and 0.58 ms) picked one or the other, the odd pick scoring 45–67 N² on its run against a baseline of 21–28 N²;
 both were named a load-cell mass error.  A finer grid for every lag shape (101 members, 12 % apart) had called
-lags on development nulls (README, "Lag members on a finer grid"); this adds 7 members."""
+lags on development nulls ; this adds 7 members."""
 LAG_SPAN_S = max(_TAUS_MS + _DELAYS_MS) * 1e-3
 """The longest delay or time constant of the lag members: how late a lagging force chain can show contact. [s]"""
 
@@ -671,12 +670,12 @@ def _lag_members() -> tuple[Member, ...]:
     # The offset H(m·a) − m·a keeps the data's acceleration on every replicate (``reads_acceleration`` off).  Built
     # from each replicate's own, it raised the lag's z on nulls (dev null-1 of seed 9000: 4.8 → 5.3, and a
     # propulsion-loss campaign named a lag at z 12.4 against 4.9): the data's acceleration carries a smoothing
-    # bias the replicates' does not (README, "flight bias"), and with the data's offset on every target that
+    # bias the replicates' does not , and with the data's offset on every target that
     # bias costs the data's fit twice and a replicate's once, which errs towards `none`.
     # Tried again once the release was placed by the first counts (which removed that flight bias): on 42 varied
     # development campaigns (seed 26000) both propulsion-loss campaigns were then named a lag (z 11.7 against
     # 5.8, 9.1 against 4.2; 0.3 and −0.3 with the data's offset), so the data's offset stays.
-    # Tried a third time with the sign mended (d68edca, reverted): the lag's null rank on 60 dev nulls rose from 15
+    # Tried a third time with the sign mended: the lag's null rank on 60 dev nulls rose from 15
     # to 22 of 60, but the per-replicate null is narrower and the test suite's propulsion-loss campaign was named
     # a lag (z 7.2 against 2.1 for the same 0.45 % improvement): the data's own error in every replicate's target
     # had been hiding a lag-like feature of the data that the replicates lack.

@@ -85,8 +85,7 @@ TAIL_REACH = 5.0
 """How far past its replicates the family-wise threshold may reach before a diagnosis says so: each of the three
 tests runs at a third of the false-alarm rate, B replicates see the largest score's law down to a tail
 probability of about 1/B, and a threshold further out than this factor rests on the fitted tail law alone
-(40 replicates at 1/3000, 75 × past them: a threshold of 42 z where the Gumbel's was 9.9; README, the
-thirty-first session). [–]"""
+(40 replicates at 1/3000, 75 × past them: a threshold of 42 z where the Gumbel's was 9.9). [–]"""
 
 Progress = Callable[[str, float], None]
 
@@ -284,8 +283,8 @@ def _improves(reference: np.ndarray, tested: _Tested) -> bool:
     The z says how far the data's improvement stands above the null replicates'; where the replicates' fits get
     much worse with the family (it extrapolates badly to held-out null runs), a family that makes the data's fit
     worse too can stand above them.  That is no evidence of the family: an effect present in the data lowers the
-    data's held-out error.  (With the window ending 1 ms before the hard stops, tried and not kept in the
-    thirty-eighth session, the suite's propulsion-loss campaign was called `unexplained` by a depth profile at
+    data's held-out error.  (With the window ending 1 ms before the hard stops, tried and not kept, the
+    suite's propulsion-loss campaign was called `unexplained` by a depth profile at
     z 3.78 against 3.77 that made the data's held-out error 21 % worse.)"""
     return float(reference[0]) > float(tested.family.heldout[0])
 
@@ -406,8 +405,7 @@ def _dynamic_rms(run: DiagnosisRun, values: Mapping[str, float], loss: float = 0
 
     The first is what a launcher loss is judged on: a loss of another form than efficiency (a friction on the
     push rod) slows the flight otherwise, so the right contact speed comes at another time, and a comparison
-    on the clock from release would read the flight's timing as a misfit in the material (the fifty-eighth
-    session's log)."""
+    on the clock from release would read the flight's timing as a misfit in the material."""
     design = replace(with_coefficients(run.design, values), efficiency=run.design.efficiency * (1.0 - loss))
     result = simulate(design, output_rate_hz=run.rate_hz, rtol=1e-8)
     traj = result.trajectory
@@ -936,7 +934,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
         verdict = "unexplained"
         notes.append(f"the runs share a misfit (a generic profile closes it on held-out runs: z {z_probe:.1f} against "
                      f"{gap_threshold:.1f}) that no catalogue effect reduces significantly; see where and axes")
-    # ---- a drift the rest after the stop shows beside the window's first effect (README, the fortieth session)
+    # ---- a drift the rest after the stop shows beside the window's first effect (docs/guide/diagnosis.md)
     rest = _rest_evidence(runs, nulls, bootstrap, seed, alpha) if "force_drift" in names else None
     if rest is not None:
         rest["beside_first_z"] = pair["beside"].get("force_drift") if pair else None
@@ -1063,8 +1061,7 @@ def _named_first(reports: Mapping[str, EffectReport], tested: Mapping[str, _Test
 
     Whether an effect is present is the family-wise test's; which one it is, is the fit's.  A family of few,
     similar shapes has a narrow null and stands far out on a slight fit, a wide one (the speed laws on a coarse
-    encoder's speeds) a broad one: dev campaign 22 of ``--varied 24 161000 --only velocity_friction`` (README,
-    the forty-first session) had a plug growth at z 7.9 against 7.7 family-wise closing 7.7 % of the held-out
+    encoder's speeds) a broad one: dev campaign 22 of ``--varied 24 161000 --only velocity_friction`` had a plug growth at z 7.9 against 7.7 family-wise closing 7.7 % of the held-out
     error, and the true friction at z 5.3 closing 19.4 % (11.6 N², its replicates at most 0.6 N²).  Neither a
     threshold fitted to one family's replicates nor its z is the bar here: a wide family extrapolates badly to
     held-out replicate runs, and that long *lower* tail sets a moment fit's scale (the friction's own threshold
@@ -1096,7 +1093,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
     mismatch, and another shape of the first family fits it at least as well, while a second cause is
     something no shape of the first can mimic.  Two shapes of a flexible family (two drifts) can together match
     a second cause about as well as the cause does, and then only what the cause adds beyond them tells them
-    apart.  Until the twenty-first session (b) also needed (a)'s share: a first effect whose form one member
+    apart.  (b) does not need (a)'s share: a first effect whose form one member
     follows only in part leaves a misfit of its own, which a second own shape takes and a second cause does
     not (two struck modes with their own decays left three times what a pressure growth beside them removed).
     """

@@ -100,7 +100,7 @@ class Design:
 
 CREEP_DISTANCE_M = 1e-6
 """δ: a run that creeps towards its rest depth (overdamped there) ends when its tip comes this close, on
-the slow mode; both simulators use this rule (README, "Creep"). [m]"""
+the slow mode; both simulators use this rule (docs/guide/sweeps.md, "Creep"). [m]"""
 
 def creep_point(m, kd, xk, mg, a0, a1, b, depth):
     """(x* − δ [m], speed limit ω0·δ [m/s], x* [m]) of a design that can creep, else (nan, nan, nan).

@@ -30,7 +30,7 @@ with :math:`f = 2F/m = f_s + \beta\Delta`, :math:`\varphi_1(z) = (e^z - 1)/z`,
 Each design is worked through on its own (scalar code compiled by numba; the sweep spreads chunks of
 designs over threads): the number of Halley steps and which segments a design crosses are its own, and no array
 temporaries are made.  Plain numpy with the same arithmetic ran at 0.47 s per 100,000 designs on one
-core; see the README's sweep bench for the compiled figure.
+core; see docs/performance.md for the compiled figure.
 
 Units SI; pure functions (no I/O).
 """

@@ -5,7 +5,7 @@ In the material the motion obeys :math:`m\ddot x = F(x) - b\dot x - d\dot x^2` w
 
 1. **RK4**, each design on its own steps: an estimate of its penetration time over :data:`STEPS`, doubled
    after every :data:`STEPS` steps, and never more than ``0.25·m/(b + 2dv)`` so that the damping's time
-   scale is resolved (explicit steps beyond it diverge: the large-damping defect of issue 12).
+   scale is resolved (explicit steps beyond it diverge at large damping).
 2. **Exact linear flow** once ``d·v ≤ LINEAR_TOL·b`` (the v² term is then a relative perturbation of the
    damping force below LINEAR_TOL, and is kept linearised about the step's starting speed): on each
    spring segment :math:`\ddot\xi = -\omega_0^2\xi + 2\sigma\dot\xi` about the segment's rest depth
