@@ -100,7 +100,8 @@ def test_check_gate_names_every_breach_and_exits_1(example, tmp_path, runner):
     assert all("nrmse" in line for line in breaches)
     assert (tmp_path / "b.html").is_file()  # the report is still published
     bad = invoke(runner, "report", "gb-1.0-2", "--out", tmp_path / "c.html", "--db", example, "--check", "nrmse<0.1")
-    assert bad.exit_code == 1 and "METRIC<=VALUE" in bad.stderr and not (tmp_path / "c.html").exists()
+    # a malformed gate is a usage error (exit 2), not a breach, and nothing is written
+    assert bad.exit_code == 2 and "METRIC<=VALUE" in bad.stderr and not (tmp_path / "c.html").exists()
 
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
