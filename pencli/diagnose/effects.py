@@ -30,6 +30,7 @@ from typing import Callable, Mapping, Sequence
 
 from pencli.lazy import lazy
 
+from pencli.filter.windows import PRE_TRIGGER_MARGIN_S, WINDOW_TRIM_S
 from pencli.model.design import Design
 from pencli.model.resistance import unit_terms
 
@@ -38,6 +39,16 @@ np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
 # ----------------------------------------------------------------------------- run data
 
 
+STRENGTH_FACTOR_FLOOR = 1e-6
+"""A baseline strength factor below this is a fit with no strength term: a plug's growth is stated against the
+factor its column was built at instead. [–]"""
+RELEASE_CLEARANCE_S = 2e-3
+"""The flight is read from this long after the release: the springs' first push rings the rig. [s]"""
+STOP_MARGINS_IN_RUN = 4
+"""The window is cut short of a hard stop only for a run longer than this many stop margins after contact, so a
+short run keeps most of its samples. [–]"""
+MIN_NOISE_SAMPLES = 10
+"""A standard deviation of fewer pre-trigger samples is no noise level; 1 N stands in. [–]"""
 STOP_MARGIN_S = 2e-3
 """At a hard stop (``end == "full_depth"``) the diagnosis's window ends this long before the stop, not the tare's
 0.5 ms: over the last counts before the hard stops the acceleration read from the encoder carries an error the
@@ -98,35 +109,40 @@ class DiagnosisRun:
 
     @property
     def flight(self) -> np.ndarray:
-        """Free flight: 2 ms after the release to 0.5 ms before the earliest contact."""
-        return (self.time_s > max(self.motion_start_s, 0.0) + 2e-3) & (self.time_s < self.contact_span_s[0] - 0.5e-3)
+        """Free flight: :data:`RELEASE_CLEARANCE_S` after the release to the tare's window trim before the earliest
+        contact."""
+        return ((self.time_s > max(self.motion_start_s, 0.0) + RELEASE_CLEARANCE_S)
+                & (self.time_s < self.contact_span_s[0] - WINDOW_TRIM_S))
 
     @property
     def window(self) -> np.ndarray:
-        """The analysis window, starting no sooner than 0.5 ms after the latest contact or a late force rise and
-        ending no later than :data:`STOP_MARGIN_S` before a hard stop (runs longer than four margins)."""
-        start = max(self.window_start_s, self.contact_span_s[1] + 0.5e-3,
-                    -math.inf if self.force_rise_s is None else self.force_rise_s + 0.5e-3)
+        """The analysis window, starting no sooner than the tare's window trim after the latest contact or a late
+        force rise and ending no later than :data:`STOP_MARGIN_S` before a hard stop (runs longer than
+        :data:`STOP_MARGINS_IN_RUN` margins)."""
+        start = max(self.window_start_s, self.contact_span_s[1] + WINDOW_TRIM_S,
+                    -math.inf if self.force_rise_s is None else self.force_rise_s + WINDOW_TRIM_S)
         end = self.window_end_s
-        if self.end == "full_depth" and self.stop_s - self.contact_s > 4 * STOP_MARGIN_S:
+        if self.end == "full_depth" and self.stop_s - self.contact_s > STOP_MARGINS_IN_RUN * STOP_MARGIN_S:
             end = min(end, self.stop_s - STOP_MARGIN_S)
         return (self.time_s >= start) & (self.time_s <= end)
 
     @property
     def context(self) -> np.ndarray:
         """From just before the release to the window end: where filters run."""
-        return (self.time_s >= min(self.motion_start_s, 0.0) - 5e-3) & (self.time_s <= self.window_end_s)
+        return ((self.time_s >= min(self.motion_start_s, 0.0) - PRE_TRIGGER_MARGIN_S)
+                & (self.time_s <= self.window_end_s))
 
     @property
     def pre_trigger(self) -> np.ndarray:
-        """At rest before the release, clear of it by 5 ms: where the sensor noise is read."""
-        return self.time_s < min(self.motion_start_s, 0.0) - 5e-3
+        """At rest before the release, clear of it by the tare's pre-trigger margin: where the sensor noise is
+        read."""
+        return self.time_s < min(self.motion_start_s, 0.0) - PRE_TRIGGER_MARGIN_S
 
     @property
     def noise_n(self) -> float:
         """Standard deviation of the resistance over the pre-trigger span (sensor noise; 1 N without one). [N]"""
         pre = self.pre_trigger
-        return float(np.std(self.resistance_n[pre])) if pre.sum() > 10 else 1.0
+        return float(np.std(self.resistance_n[pre])) if pre.sum() > MIN_NOISE_SAMPLES else 1.0
 
 
 @dataclass(frozen=True)
@@ -311,6 +327,9 @@ class Effect:
     family: tuple[Member, ...] | Callable[[], tuple[Member, ...]]
     """The members, or a function that makes them (called once, on first use: not at import)."""
     describe: Callable[[Member, np.ndarray, Mapping[str, float]], dict]
+    rest_evidence: bool = False
+    """The family is also looked for in the rest after each run's stop, where no speed or depth law acts (a
+    drift of the force offset shows there too); significant there, it joins a verdict that names another effect."""
 
     @cached_property
     def members(self) -> tuple[Member, ...]:
@@ -380,6 +399,8 @@ def _describe_layer(m: Member, c, ctx) -> dict:
 _LENGTHS_MM = (5.0, 10.0, 20.0, 40.0, 80.0, 160.0)
 _EXPONENTS = (0.5, 0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0)
 _GRADIENT_LENGTHS_MM = tuple(round(5.0 * 2.0 ** (k / 4), 1) for k in range(25))
+_EXPONENTIAL_MIN_LENGTH_MM = 40.0
+"""Exponential gradients start at this length: shorter, e^(x/L) explodes over a 130 mm block. [mm]"""
 """A gradient's saturating and exponential lengths, a factor 2^¼ (19 %) apart from 5 to 320 mm (exponentials from
 40 mm).  A factor 2 apart (5–160 mm), an exponential of 73 mm (strength ×3.95 at 100 mm) fitted at 80 mm left
 5 × the null floor, and a strength layer beside it took that as a second effect (dev gradient-17 of
@@ -450,7 +471,7 @@ def _gradient_members() -> tuple[Member, ...]:
     out += [law("strength", (lambda x, v, L=L * 1e-3: -np.expm1(-x / L)), length_mm=L, shape="saturating")
             for L in _GRADIENT_LENGTHS_MM]
     out += [law("strength", (lambda x, v, L=L * 1e-3: np.expm1(x / L)), length_mm=L, shape="exponential")
-            for L in _GRADIENT_LENGTHS_MM if L >= 40.0]
+            for L in _GRADIENT_LENGTHS_MM if L >= _EXPONENTIAL_MIN_LENGTH_MM]
     out += [law("strength", _s_rise(c * 1e-3, w * 1e-3), centre_mm=float(c), width_mm=w, shape="s_rise",
                 reach_m=(c + w) * 1e-3)  # past the S's centre by a width: 88 % risen, its top constrained
             for c in _RISE_CENTRES_MM for w in _RISE_WIDTHS_MM if c >= w]
@@ -548,7 +569,7 @@ def _describe_plug(m: Member, c, ctx) -> dict:
     built_at = ctx["cs_columns"]
     # against the fit's own mean strength factor; a fit whose strength factors stay at or below 0 has none, and
     # the growth is then stated against the factor the column was built at
-    own = ctx["cs_mean"] if ctx["cs_mean"] > 1e-6 else built_at
+    own = ctx["cs_mean"] if ctx["cs_mean"] > STRENGTH_FACTOR_FLOOR else built_at
     growth = float(c[0]) * 1e3 * built_at / own
     return {"growth_mm": growth, "growth_mm_damping": over(c[1], ctx.get("c_kpa_s_m", 0.0)),
             "growth_mm_inertia": over(c[2], ctx.get("k", 0.0)), **dict(m.params)}
@@ -823,7 +844,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "The force offset drifts during the run (linear, quadratic, a power, exponential or logarithmic in "
            "time since the release). Signature: a misfit growing with time, in flight as much as in the "
            "material.",
-           _drift_members, _describe_drift),
+           _drift_members, _describe_drift, rest_evidence=True),
     Effect("propulsion_loss", "drive", "flight",
            "The launcher delivers less energy than modelled (efficiency × (1 − loss)). Signature: measured "
            "contact speeds below the predicted ones; resistance with measured kinematics fits, the fully "

@@ -87,6 +87,22 @@ tests runs at a third of the false-alarm rate, B replicates see the largest scor
 probability of about 1/B, and a threshold further out than this factor rests on the fitted tail law alone
 (40 replicates at 1/3000, 75 × past them: a threshold of 42 z where the Gumbel's was 9.9). [–]"""
 
+ROUND_OFF = 1e-9
+"""Products that are 1 in exact arithmetic may come out this far below it in floating point. [–]"""
+CONTACT_PHASE_S = 3e-3
+"""The misfit's ``contact`` phase: the first milliseconds in the material (CONTRACT §4's "first few ms"). [s]"""
+REST_PHASE_S = (20e-3, 150e-3)
+"""The misfit's ``rest`` phase after the stop: from when the stop's force step has settled to before a long
+record's end. [s]"""
+MIN_REST_SAMPLES = 10
+"""A run shows its rest phase only with more samples of it than this. [–]"""
+MIN_PHASE_SHARE = 0.05
+"""A phase holding less than this share of the misfit's excess over the null floor is not listed in ``where``."""
+AXIS_BINS = 20
+"""Quantile bins of each axis the misfit is read along (``axes``); at least two samples a bin. [–]"""
+MIN_TRAJECTORY_SAMPLES = 4
+"""A simulated trajectory with fewer samples cannot be interpolated onto a run's clock. [–]"""
+
 Progress = Callable[[str, float], None]
 
 
@@ -94,7 +110,7 @@ def tail_reach_notice(false_alarm: float, bootstrap: int) -> str | None:
     """What to tell a user whose ``false_alarm`` rate asks more of ``bootstrap`` null replicates than
     :data:`TAIL_REACH` allows (None when it does not)."""
     alpha = false_alarm / TESTS
-    if alpha * bootstrap * TAIL_REACH >= 1.0 - 1e-9:
+    if alpha * bootstrap * TAIL_REACH >= 1.0 - ROUND_OFF:
         return None
     enough = math.ceil(1.0 / (alpha * TAIL_REACH) - 1e-9)
     return (f"--false-alarm {false_alarm:g} with --bootstrap {bootstrap}: each test's threshold lies "
@@ -180,8 +196,8 @@ def _measured_acceleration(basis: Basis, replicate: np.ndarray) -> np.ndarray:
 
 def _combine(a: _Candidate, b: _Candidate, base_spec: Spec) -> Spec | None:
     """Columns of two effects together (None when both replace the Eq. 9 columns)."""
-    a_base = a.spec.columns[:4] != base_spec.columns or a.spec.offset != base_spec.offset
-    b_base = b.spec.columns[:4] != base_spec.columns or b.spec.offset != base_spec.offset
+    a_base = a.spec.columns[:len(TERMS)] != base_spec.columns or a.spec.offset != base_spec.offset
+    b_base = b.spec.columns[:len(TERMS)] != base_spec.columns or b.spec.offset != base_spec.offset
     if a_base and b_base:
         return None
     lead = a if a_base else b
@@ -369,12 +385,12 @@ def replicate_z(improvements: np.ndarray, floor: float) -> np.ndarray:
     return (null - centre) / np.maximum(scale, HELD_OUT_SCALE_GUARD * full[:, None])
 
 
-def _rest_evidence(runs: Sequence[DiagnosisRun], nulls: Sequence[RunNull], bootstrap: int, seed: int,
+def _rest_evidence(runs: Sequence[DiagnosisRun], nulls: Sequence[RunNull], effect: Effect, bootstrap: int, seed: int,
                    alpha: float) -> dict | None:
-    """The force drift as the rest after each run's stop shows it (:func:`pencli.diagnose.rest.rest_drift`): its
-    z against the campaign's own noise, the family-wise threshold at ``alpha``, and the shape and change it
-    reads.  None when no run rests long enough after its stop."""
-    members = EFFECTS["force_drift"].members
+    """``effect`` (a force drift) as the rest after each run's stop shows it
+    (:func:`pencli.diagnose.rest.rest_drift`): its z against the campaign's own noise, the family-wise threshold
+    at ``alpha``, and the shape and change it reads.  None when no run rests long enough after its stop."""
+    members = effect.members
     test = rest_drift(runs, members, [n.noise for n in nulls], bootstrap, seed)
     if test is None:
         return None
@@ -504,15 +520,16 @@ def _where(series, floor_sq: float) -> list[dict]:
     """Split the baseline's held-out misfit by phase, with depth, time and speed bands."""
     phases: dict[str, dict[str, list]] = {}
     for run, t, x, v, _, res in series:
-        phase = np.where(t < run.contact_s, "flight", np.where(t < run.contact_s + 3e-3, "contact", "penetration"))
+        phase = np.where(t < run.contact_s, "flight",
+                         np.where(t < run.contact_s + CONTACT_PHASE_S, "contact", "penetration"))
         for name in ("flight", "contact", "penetration"):
             sel = phase == name
             if sel.any():
                 d = phases.setdefault(name, {"r": [], "t": [], "x": [], "v": [], "tc": []})
                 for key, values in (("r", res), ("t", t), ("x", x), ("v", v), ("tc", t - run.contact_s)):
                     d[key].append(values[sel])
-        rest = (run.time_s > run.stop_s + 20e-3) & (run.time_s < run.stop_s + 150e-3)
-        if rest.sum() > 10:
+        rest = (run.time_s > run.stop_s + REST_PHASE_S[0]) & (run.time_s < run.stop_s + REST_PHASE_S[1])
+        if rest.sum() > MIN_REST_SAMPLES:
             d_ = run.design
             x_end = float(np.median(run.depth_m[rest]))
             held = (d_.drive_stiffness_n_m * max(d_.stroke_m - x_end - d_.surface_offset_m, 0.0)
@@ -530,7 +547,7 @@ def _where(series, floor_sq: float) -> list[dict]:
     total = sum(excess.values())
     out = []
     for name, d in phases.items():
-        if total <= 0 or excess[name] / total < 0.05:
+        if total <= 0 or excess[name] / total < MIN_PHASE_SHARE:
             continue
         r, t, x, v, tc = (np.concatenate(d[k]) for k in ("r", "t", "x", "v", "tc"))
         weight = r ** 2
@@ -571,9 +588,9 @@ def _axes(series) -> dict:
     ss = float(np.sum(res ** 2))
     for key, chunks in parts.items():
         values = np.concatenate(chunks)
-        if values.size < 40 or ss <= 0:
+        if values.size < AXIS_BINS * 2 or ss <= 0:
             continue
-        edges = np.unique(np.quantile(values, np.linspace(0, 1, 21)))
+        edges = np.unique(np.quantile(values, np.linspace(0, 1, AXIS_BINS + 1)))
         bins = np.clip(np.searchsorted(edges, values, side="right") - 1, 0, max(edges.size - 2, 0))
         counts = np.bincount(bins)
         means = np.bincount(bins, weights=res) / np.maximum(counts, 1)
@@ -720,7 +737,7 @@ def _model_motion(run: DiagnosisRun, contact_s: float, values: Mapping[str, floa
         result = simulate(design, speed_at_contact_m_s=speed, output_rate_hz=4.0 * run.rate_hz, rtol=1e-8)
     except ModelError:
         return None  # the replicates then come from the spline through the record
-    if not result.success or result.trajectory.time_s.size < 4:
+    if not result.success or result.trajectory.time_s.size < MIN_TRAJECTORY_SAMPLES:
         return None
     traj = result.trajectory
     return ModelMotion(traj.time_s, traj.depth_m, traj.acceleration_m_s2)
@@ -754,203 +771,440 @@ def _null_scale(null: np.ndarray, floor: float) -> tuple[np.ndarray, np.ndarray]
     return centre, scale
 
 
+# ----------------------------------------------------------------------------- the stages
+@dataclass(frozen=True)
+class Request:
+    """What the user asked for, checked: the effects to consider and how decisions are calibrated."""
+
+    names: tuple[str, ...]
+    false_alarm: float
+    bootstrap: int
+    seed: int
+    workers: int
+
+    @property
+    def alpha(self) -> float:
+        """Each of the :data:`TESTS` tests' share of the campaign's false-alarm rate."""
+        return self.false_alarm / TESTS
+
+    @property
+    def drive_effect(self) -> str | None:
+        """The asked-for effect on the launcher side (scored in the drive view), if any."""
+        return next((n for n in self.names if EFFECTS[n].side == "drive"), None)
+
+    @property
+    def rest_effect(self) -> str | None:
+        """The asked-for effect whose family is also looked for in the rest after the stops, if any."""
+        return next((n for n in self.names if EFFECTS[n].rest_evidence), None)
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """Eq. 9 with a strength factor per run and shared P, C, K, fitted on the measured data of every run."""
+
+    runs: tuple[DiagnosisRun, ...]
+    """The runs, depth counted from each block's surface."""
+    bases: tuple[Basis, ...]
+    uses: tuple[np.ndarray, ...]
+    """Per run, which context samples are analysed (flight and window)."""
+    ys: tuple[np.ndarray, ...]
+    """Per run, the measured resistance on those samples. [N]"""
+    columns: _Columns
+    """The candidate matrix: the baseline's columns, then every candidate's (added by the family scan)."""
+    spec: Spec
+    values: dict
+    """The baseline's mean strength factor, P [kPa], C [kPa·s/m] and K (CONTRACT §1 names)."""
+    strength_factors: np.ndarray
+    shared: np.ndarray
+    context: dict
+    """What an effect's parameters are stated against (mean strength factor, P, load-cell mass)."""
+
+    def run_values(self, k: int) -> dict:
+        """The baseline's coefficients with run ``k``'s own strength factor."""
+        return dict(self.values, strength_factor=float(self.strength_factors[k]))
+
+
+@dataclass(frozen=True)
+class NullCalibration:
+    """The campaign's null replicates: the baseline re-measured through each run's own sensor chain."""
+
+    nulls: tuple[RunNull, ...]
+    replicates: tuple
+
+
+@dataclass(frozen=True)
+class FamilyScan:
+    """Every resistance-view effect family and the generic probes, scored on the data and on each replicate."""
+
+    law_effects: tuple[Effect, ...]
+    candidates: dict
+    matrices: list
+    stats: Statistics
+    S0: np.ndarray
+    """The baseline's held-out mean square on the data (index 0) and on each replicate. [N²]"""
+    z_gap: float
+    floor_sq: float
+    excess: float
+    tested: dict
+    z_threshold: float
+    probes: dict
+    gap_threshold: float
+    z_probe: float
+    resistance_gap: bool
+
+
+@dataclass(frozen=True)
+class DriveView:
+    """Measured against predicted contact speeds, after the measurement bias the replicates show."""
+
+    bias: np.ndarray
+    ratios: np.ndarray
+    t: float
+    threshold: float
+    gap: bool
+    dynamic_rms_n: float | None = None
+    """The baseline's fully predicted RMS in the material, where the drive effect was scored. [N]"""
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The verdict, the effects behind it, and the evidence the decision weighed."""
+
+    verdict: str
+    verdict_effects: tuple[str, ...]
+    reports: dict
+    notes: tuple[str, ...]
+    top: EffectReport | None
+    pair: dict | None
+    naming: dict | None
+    rest: dict | None
+
+
 def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = None,
              false_alarm: float = FALSE_ALARM, bootstrap: int = BOOTSTRAP, seed: int = 0, workers: int = 2,
              progress: Progress | None = None) -> Diagnosis:
     """Locate, explain and size the gap between the reference model and ``runs``.
+
+    A pipeline of named stages, each taking and returning small frozen records: the request is checked, the
+    baseline fitted (:func:`fit_baseline`), the null replicates made (:func:`calibrate_nulls`), every effect
+    family and probe scored (:func:`scan_families`), the drive view read (:func:`read_drive`), each effect
+    reported (:func:`report_effects`), the verdict decided (:func:`decide`), and the result located and
+    assembled (:func:`locate`).
 
     Parameters
     ----------
     runs : conditioned runs (at least 3).
     effects : catalogue effects to consider (default all).
     false_alarm : probability that a campaign without effect gets a verdict other than ``none``.
-    bootstrap : null replicates of the campaign (≥ 20).
+    bootstrap : null replicates of the campaign (≥ :data:`MIN_BOOTSTRAP`).
     seed : seed of the replicates (the verdict is reproducible).
     workers : processes that make replicates.
     progress : called with (stage, fraction done).
     """
     started = time.perf_counter()
     say = progress or (lambda stage, fraction: None)
-    if len(runs) < 3:
-        raise FitError(f"diagnosis needs at least 3 runs to hold one out and still fit (got {len(runs)})")
-    if not 0.0 < false_alarm < 0.5:
-        raise FitError(f"false-alarm rate {false_alarm!r}: expected a probability between 0 and 0.5 (e.g. 0.01)")
-    if bootstrap < 20:
-        raise FitError(f"--bootstrap {bootstrap}: at least 20 null replicates are needed to calibrate the decisions")
-    names = list(effects or EFFECTS)
+    request = check_request(runs, effects, false_alarm, bootstrap, seed, workers)
+    say("baseline", PROGRESS["baseline"])
+    baseline = fit_baseline(runs)
+    say("null replicates", PROGRESS["null replicates"])
+    nulls = calibrate_nulls(baseline, request)
+    say("scoring effects", PROGRESS["scoring effects"])
+    scan = scan_families(baseline, nulls, request)
+    say("scoring effects", PROGRESS["probes"])
+    drive = read_drive(baseline, nulls, request)
+    reports, drive = report_effects(baseline, scan, drive, request)
+    say("pairs", PROGRESS["pairs"])
+    decision = decide(baseline, nulls, scan, drive, reports, request)
+    say("trajectories", PROGRESS["trajectories"])
+    result = locate(baseline, nulls, scan, drive, decision, request, started)
+    say("done", PROGRESS["done"])
+    return result
+
+
+PROGRESS = {"baseline": 0.0, "null replicates": 0.05, "scoring effects": 0.5, "probes": 0.85, "pairs": 0.88,
+            "trajectories": 0.94, "done": 1.0}
+"""The share of a diagnosis's time done when each stage starts (for a progress bar). [–]"""
+MIN_RUNS = 3
+"""A run is held out and the rest must still fit the baseline's four shared terms and one factor per run."""
+MIN_BOOTSTRAP = 20
+"""Fewer null replicates cannot place a family-wise tail quantile at all. [–]"""
+
+
+def check_request(runs: Sequence[DiagnosisRun], effects: Sequence[str] | None, false_alarm: float, bootstrap: int,
+                  seed: int, workers: int) -> Request:
+    """The request as a :class:`Request`, or one line saying what is wrong (and a notice when the replicates
+    are too few to see the threshold the false-alarm rate asks for)."""
+    if len(runs) < MIN_RUNS:
+        raise FitError(f"diagnosis needs at least {MIN_RUNS} runs to hold one out and still fit (got {len(runs)})")
+    if not 0.0 < false_alarm < MAX_FALSE_ALARM:
+        raise FitError(f"false-alarm rate {false_alarm!r}: expected a probability between 0 and {MAX_FALSE_ALARM:g} "
+                       f"(e.g. 0.01)")
+    if bootstrap < MIN_BOOTSTRAP:
+        raise FitError(f"--bootstrap {bootstrap}: at least {MIN_BOOTSTRAP} null replicates are needed to calibrate "
+                       f"the decisions")
+    names = tuple(effects or EFFECTS)
     unknown = [n for n in names if n not in EFFECTS]
     if unknown:
         raise FitError(f"unknown effect {unknown[0]!r}; the catalogue: {', '.join(EFFECTS)}")
-    alpha = false_alarm / TESTS
     notice = tail_reach_notice(false_alarm, bootstrap)
     if notice:
-        warnings.warn(PenNotice(notice), stacklevel=2)
-    say("baseline", 0.0)
+        warnings.warn(PenNotice(notice), stacklevel=3)
+    return Request(names, false_alarm, bootstrap, seed, workers)
 
-    # ---- baseline on the measured data (to build the frontal column and the null replicates)
-    runs = [replace(r, surface_m=s) for r, s in zip(runs, surfaces(runs))]  # depth below each block's surface
+
+MAX_FALSE_ALARM = 0.5
+"""A campaign-wise false-alarm rate of a half or more says nothing. [–]"""
+TERMS = ("strength", "friction", "damping", "inertia")
+"""Eq. 9's four terms, the baseline's first four columns in this order."""
+SHARED_TERMS = len(TERMS) - 1
+"""P, C and K are shared by the runs (the strength factor is per run): a fit's first coefficients, before any
+effect's."""
+
+
+def fit_baseline(runs: Sequence[DiagnosisRun]) -> Baseline:
+    """The baseline on the measured data: depth from each block's surface, Eq. 9's columns, one strength factor
+    per run and shared P, C, K ≥ 0; the frontal column and the context every effect is stated against."""
+    runs = tuple(replace(r, surface_m=s) for r, s in zip(runs, surfaces(runs)))  # depth below each block's surface
     bases = [basis_of(r) for r in runs]
-    uses = [(r.flight | r.window)[r.context] for r in runs]
-    ys = [r.resistance_n[r.context][u] for r, u in zip(runs, uses)]
+    uses = tuple((r.flight | r.window)[r.context] for r in runs)
+    ys = tuple(r.resistance_n[r.context][u] for r, u in zip(runs, uses))
     columns = _Columns([[] for _ in runs], {})
-    for j, key in enumerate(("strength", "friction", "damping", "inertia")):
+    for key in TERMS:
         columns.add([getattr(b, key)[u] for b, u in zip(bases, uses)])
     zero = columns.add([np.zeros(int(u.sum())) for u in uses])
-    base_spec = Spec((0, 1, 2, 3), zero)
+    spec = Spec(tuple(range(len(TERMS))), zero)
     first = Statistics(columns.matrices(), [y[:, None] for y in ys])
-    _, fitted = _score_family(first, [base_spec])
+    _, fitted = _score_family(first, [spec])
     cs = fitted["strength"][:, 0]
     shared = fitted["coefficients"][:, 0]
     values = {"strength_factor": float(np.mean(cs)), "sidewall_pressure_kpa": float(shared[0]),
               "damping_kpa_s_m": float(shared[1]), "inertia_coefficient": float(shared[2])}
     built_at = column_strength_factor(values["strength_factor"])  # a plug's strength column's factor
-    bases = [replace(b, frontal=c * b.strength + shared[1] * b.damping + shared[2] * b.inertia,
-                     strength_factor=float(c), strength_factor_mean=built_at)
-             for b, c in zip(bases, cs)]
-    context = {"cs_mean": max(values["strength_factor"], 1e-9),
-               "cs_columns": built_at,
-               "p_kpa": max(values["sidewall_pressure_kpa"], 1e-9),
+    bases = tuple(replace(b, frontal=c * b.strength + shared[1] * b.damping + shared[2] * b.inertia,
+                          strength_factor=float(c), strength_factor_mean=built_at)
+                  for b, c in zip(bases, cs))
+    context = {"cs_mean": max(values["strength_factor"], COEFFICIENT_FLOOR), "cs_columns": built_at,
+               "p_kpa": max(values["sidewall_pressure_kpa"], COEFFICIENT_FLOOR),
                "load_cell_mass_kg": float(np.mean([r.load_cell_mass_kg for r in runs]))}
+    return Baseline(runs, bases, uses, ys, columns, spec, values, cs, shared, context)
 
-    # ---- null replicates through the campaign's own chain
-    say("null replicates", 0.05)
-    fitted_ctx = [c * b.strength + b.friction * shared[0] + b.damping * shared[1] + b.inertia * shared[2]
-                  for b, c in zip(bases, cs)]
-    nulls = [_null_of(r, u, f, dict(values, strength_factor=float(c)))
-             for r, u, f, c in zip(runs, uses, fitted_ctx, cs)]
-    spreads = corner_spreads([r.rate_hz for r in runs], [n.anti_alias for n in nulls])
+
+COEFFICIENT_FLOOR = 1e-9
+"""A coefficient an effect's size is divided by is kept above this, so a term fitted to 0 gives a finite ratio."""
+
+
+def calibrate_nulls(baseline: Baseline, request: Request) -> NullCalibration:
+    """The null replicates: each run's noise, anti-alias filter and encoder read from its record, the
+    filters' corners spread as the campaign's runs read them, the baseline re-measured through that chain."""
+    b = baseline
+    fitted_ctx = [c * basis.strength + basis.friction * b.shared[0] + basis.damping * b.shared[1]
+                  + basis.inertia * b.shared[2] for basis, c in zip(b.bases, b.strength_factors)]
+    nulls = [_null_of(r, u, f, b.run_values(k)) for k, (r, u, f) in enumerate(zip(b.runs, b.uses, fitted_ctx))]
+    spreads = corner_spreads([r.rate_hz for r in b.runs], [n.anti_alias for n in nulls])
     nulls = [replace(n, anti_alias=replace(n.anti_alias, spread=s)) if n.anti_alias is not None else n
              for n, s in zip(nulls, spreads)]
-    replicates = replicate_campaign(nulls, bootstrap, seed, workers=workers)
+    return NullCalibration(tuple(nulls), tuple(replicate_campaign(nulls, request.bootstrap, request.seed,
+                                                                  workers=request.workers)))
 
-    # ---- every candidate of every resistance-view effect (and the probes), one matrix per run
-    say("scoring effects", 0.5)
-    law_effects = [EFFECTS[n] for n in names if EFFECTS[n].side != "drive"]
-    measured = [_measured_acceleration(b, rep.acceleration_m_s2) for b, rep in zip(bases, replicates)]
+
+LOG_FLOOR = 1e-300
+"""Mean squares are kept above this before a logarithm (a perfect fit is 0). [N²]"""
+GAP_Z_FLOOR = 1e-9
+"""The gap's log mean square is standardised by a spread of at least this (replicates that agree exactly). [–]"""
+
+
+def scan_families(baseline: Baseline, calibration: NullCalibration, request: Request) -> FamilyScan:
+    """Every candidate of every resistance-view effect and of the probes, one matrix per run, scored on the
+    data and on every replicate; the family-wise thresholds of the effects and of the probes."""
+    b = baseline
+    law_effects = tuple(EFFECTS[n] for n in request.names if EFFECTS[n].side not in ("drive",))
+    measured = [_measured_acceleration(basis, rep.acceleration_m_s2)
+                for basis, rep in zip(b.bases, calibration.replicates)]
     varying: dict[int, list[np.ndarray]] = {}
-    reach = _fold_reach(bases, uses)
+    reach = _fold_reach(b.bases, b.uses)
     candidates: dict[str, list[_Candidate]] = {
-        e.name: [_register(columns, bases, runs, uses, m, base_spec, measured, varying)
+        e.name: [_register(b.columns, b.bases, b.runs, b.uses, m, b.spec, measured, varying)
                  for m in e.members if m.reach_m <= reach]
         for e in (*law_effects, *PROBES.values())}
-    matrices = columns.matrices()
-    stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(ys, replicates)],
-                       np.array(columns.nonnegative), varying,
-                       noise_resolution([n.noise.level_n for n in nulls], [y.size for y in ys]))
-    baseline, _ = _score_family(stats, [base_spec])
-    S0 = baseline.heldout
-    z_gap = _standardise(np.log(np.maximum(S0, 1e-300)), 1e-9)[0]
+    matrices = b.columns.matrices()
+    stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(b.ys, calibration.replicates)],
+                       np.array(b.columns.nonnegative), varying,
+                       noise_resolution([n.noise.level_n for n in calibration.nulls], [y.size for y in b.ys]))
+    reference, _ = _score_family(stats, [b.spec])
+    S0 = reference.heldout
+    z_gap = _standardise(np.log(np.maximum(S0, LOG_FLOOR)), GAP_Z_FLOOR)[0]
     floor_sq = float(np.mean(S0[1:]))
-    excess = float(S0[0]) - floor_sq
     tested, z_threshold = _familywise(stats, S0, {e.name: [c.spec for c in candidates[e.name]]
-                                                  for e in law_effects}, alpha)
-    say("scoring effects", 0.85)
+                                                  for e in law_effects}, request.alpha)
     # a gap the runs share: a generic profile (in depth or in time since contact) closing part of it on held-out
     # runs beyond what it closes on the null replicates
-    probes, gap_threshold = _familywise(stats, S0, {n: [c.spec for c in candidates[n]] for n in PROBES}, alpha)
-    z_probe = max(t.z for t in probes.values())
-    resistance_gap = _shared_gap(S0, probes, gap_threshold)
+    probes, gap_threshold = _familywise(stats, S0, {n: [c.spec for c in candidates[n]] for n in PROBES},
+                                        request.alpha)
+    return FamilyScan(law_effects, candidates, matrices, stats, S0, z_gap, floor_sq, float(S0[0]) - floor_sq, tested,
+                      z_threshold, probes, gap_threshold, max(t.z for t in probes.values()),
+                      _shared_gap(S0, probes, gap_threshold))
 
-    # ---- drive view
+
+SPEED_FLOOR_M_S = 1e-9
+"""A predicted contact speed is kept above this before a ratio (a blade that never reaches the surface). [m/s]"""
+T_FLOOR = 1e-12
+"""The drive view's t statistic is divided by a spread of at least this (contact speeds that agree exactly)."""
+
+
+def read_drive(baseline: Baseline, calibration: NullCalibration, request: Request) -> DriveView:
+    """The drive view: how far the measured contact speeds, less the bias the replicates' detector shows, fall
+    below the launcher's prediction, against their scatter and measurement error (one-sided t)."""
+    runs, replicates = baseline.runs, calibration.replicates
     measured = np.array([r.contact_speed_m_s for r in runs])
     bias = np.array([float(np.nanmean(rep.contact_speed_m_s)) - rep.true_contact_speed_m_s
                      if np.isfinite(rep.contact_speed_m_s).any() else 0.0 for rep in replicates])
     predicted = np.array([_predicted_contact_speed(r) for r in runs])
-    ratios = (measured - bias) / np.maximum(predicted, 1e-9) - 1.0
+    ratios = (measured - bias) / np.maximum(predicted, SPEED_FLOOR_M_S) - 1.0
     spread = float(np.std(ratios, ddof=1)) / math.sqrt(len(runs))
     measurement = float(np.sqrt(np.mean([np.nanvar(rep.contact_speed_m_s) for rep in replicates]))
                         / np.mean(predicted)) / math.sqrt(len(runs))
-    t_drive = -float(np.mean(ratios)) / max(spread, measurement, 1e-12)
-    drive_threshold = student_quantile(alpha, len(runs) - 1)
-    drive_gap = "propulsion_loss" in names and t_drive > drive_threshold
+    t_drive = -float(np.mean(ratios)) / max(spread, measurement, T_FLOOR)
+    threshold = student_quantile(request.alpha, len(runs) - 1)
+    return DriveView(bias, ratios, t_drive, threshold, request.drive_effect is not None and t_drive > threshold)
 
-    # ---- effect reports
+
+INTERVAL_Z = 1.96
+"""A coefficient's 95 % interval is its value ± this many standard deviations of its replicates' values."""
+PERCENT = 100.0
+
+
+def report_effects(baseline: Baseline, scan: FamilyScan, drive: DriveView, request: Request
+                   ) -> tuple[dict[str, EffectReport], DriveView]:
+    """One report per effect: its best member's parameters and intervals, held-out RMS, shrink, z, share of the
+    gap and detection limit; the drive effect scored on the fully predicted motion in the material (a loss that
+    brings it no closer explains nothing, and the drive view's gap goes)."""
     reports: dict[str, EffectReport] = {}
-    for e in law_effects:
-        t = tested[e.name]
+    S0 = scan.S0
+    for e in scan.law_effects:
+        t = scan.tested[e.name]
         family, fit = t.family, t.fit
-        cand = candidates[e.name][family.best]
-        coefs = fit["coefficients"][3:, 0]
-        spread_c = np.std(fit["coefficients"][3:, 1:], axis=1, ddof=1) if coefs.size else np.zeros(0)
-        shrink = 100.0 * (1.0 - math.sqrt(max(family.heldout[0], 0.0) / S0[0])) if S0[0] > 0 else 0.0
-        chosen = [candidates[e.name][k].member.params for k in family.chosen]
-        intervals = {"coefficients_95": [[float(c - 1.96 * s), float(c + 1.96 * s)] for c, s in zip(coefs, spread_c)],
+        cand = scan.candidates[e.name][family.best]
+        coefs = fit["coefficients"][SHARED_TERMS:, 0]
+        spread_c = np.std(fit["coefficients"][SHARED_TERMS:, 1:], axis=1, ddof=1) if coefs.size else np.zeros(0)
+        shrink = PERCENT * (1.0 - math.sqrt(max(family.heldout[0], 0.0) / S0[0])) if S0[0] > 0 else 0.0
+        chosen = [scan.candidates[e.name][k].member.params for k in family.chosen]
+        intervals = {"coefficients_95": [[float(c - INTERVAL_Z * s), float(c + INTERVAL_Z * s)]
+                                         for c, s in zip(coefs, spread_c)],
                      "shapes_chosen_per_fold": _shape_spread(chosen)}
         reports[e.name] = EffectReport(
-            e.name, e.side, "resistance", e.describe(cand.member, coefs, _own_context(context, fit)), intervals,
-            math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), _counts(S0, t, z_threshold), round(t.z, 2),
-            (S0[0] - family.heldout[0]) / excess if excess > 0 else None,
-            math.sqrt(max(t.centre + z_threshold * t.scale, 0.0)))
-    dyn_base = None
-    if "propulsion_loss" in names:
-        loss = _fit_loss(runs, measured - bias)
-        base_rms = np.square([_dynamic_rms(r, dict(values, strength_factor=float(c))) for r, c in zip(runs, cs)])
-        loss_rms = np.square([_dynamic_rms(r, dict(values, strength_factor=float(c)), loss) for r, c in zip(runs, cs)])
-        (dyn_base, release_base), (dyn_loss, release_loss) = (map(float, np.sqrt(a.mean(0)))
-                                                              for a in (base_rms, loss_rms))
-        # a loss explains the contact speeds only if it brings the predicted motion in the material closer to
-        # the measured one
-        drive_gap = drive_gap and dyn_loss < dyn_base
-        reports["propulsion_loss"] = EffectReport(
-            "propulsion_loss", "drive", "drive",
-            {"loss": loss, "contact_speed_deficit_pct": -100 * float(np.mean(ratios)),
-             "dynamic_shrink_from_release_pct": round(100.0 * (1 - release_loss / release_base), 2)
-             if release_base > 0 else 0.0},
-            {}, dyn_loss, round(100.0 * (1 - dyn_loss / dyn_base), 2) if dyn_base > 0 else 0.0,
-            bool(drive_gap), round(t_drive, 2), None, None)
+            e.name, e.side, "resistance", e.describe(cand.member, coefs, _own_context(baseline.context, fit)),
+            intervals, math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), _counts(S0, t, scan.z_threshold),
+            round(t.z, 2), (S0[0] - family.heldout[0]) / scan.excess if scan.excess > 0 else None,
+            math.sqrt(max(t.centre + scan.z_threshold * t.scale, 0.0)))
+    name = request.drive_effect
+    if name is None:
+        return reports, drive
+    runs = baseline.runs
+    measured = np.array([r.contact_speed_m_s for r in runs])
+    loss = _fit_loss(runs, measured - drive.bias)
+    base_rms = np.square([_dynamic_rms(r, baseline.run_values(k)) for k, r in enumerate(runs)])
+    loss_rms = np.square([_dynamic_rms(r, baseline.run_values(k), loss) for k, r in enumerate(runs)])
+    (dyn_base, release_base), (dyn_loss, release_loss) = (map(float, np.sqrt(a.mean(0))) for a in (base_rms, loss_rms))
+    gap = drive.gap and dyn_loss < dyn_base
+    reports[name] = EffectReport(
+        name, "drive", "drive",
+        {"loss": loss, "contact_speed_deficit_pct": -PERCENT * float(np.mean(drive.ratios)),
+         "dynamic_shrink_from_release_pct": round(PERCENT * (1 - release_loss / release_base), 2)
+         if release_base > 0 else 0.0},
+        {}, dyn_loss, round(PERCENT * (1 - dyn_loss / dyn_base), 2) if dyn_base > 0 else 0.0,
+        bool(gap), round(drive.t, 2), None, None)
+    return reports, replace(drive, gap=bool(gap), dynamic_rms_n=dyn_base)
 
-    # ---- verdict
-    say("pairs", 0.88)
-    significant = [r for r in reports.values() if r.significant and r.view == "resistance"]
-    verdict, verdict_effects, notes, pair, naming = "none", [], [], None, None
-    if significant:
-        gate, top = _named_first(reports, tested, S0)
-        naming = {"familywise_first": gate.name, "named_first": top.name}
-        if not top.significant:
-            reports[top.name] = top = replace(top, significant=True)
-            notes.append(f"{top.name} is named first: it closes most of the gap (held-out shrink {top.shrink_pct:.0f} %; "
-                         f"its improvement beyond all {bootstrap} null replicates'); "
-                         f"{gate.name} shows there is a gap (z {gate.z:.1f} against {z_threshold:.1f} over all "
-                         f"effects) but closes less ({gate.shrink_pct:.0f} %)")
-        pair = _best_second(stats, {e.name: candidates[e.name] for e in law_effects}, tested, top.name, base_spec,
-                            S0, alpha)
-        top_share = reports[top.name].explained_share
-        explains = not resistance_gap or top_share is None or top_share >= EXPLAIN_SHARE
-        pair_share = (S0[0] - pair["heldout"]) / excess if pair and excess > 0 else None
-        if explains or (pair and pair["significant"] and pair_share is not None and pair_share >= EXPLAIN_SHARE):
-            verdict, verdict_effects = top.name, [top.name]
-            if pair and pair["significant"]:
-                verdict_effects.append(pair["effect"])
-                reports[pair["effect"]] = replace(reports[pair["effect"]], significant=True)
-                notes.append(f"{pair['effect']} is significant on top of {top.name} (z {pair['z']:.1f} against "
-                             f"{pair['threshold']:.1f}); together they shrink the held-out error by "
-                             f"{pair['shrink_pct']:.0f} %")
-        else:
-            verdict = "unexplained"
-            best = f"{top.name} + {pair['effect']}" if pair else top.name
-            notes.append(f"the runs share a misfit (probe z {z_probe:.1f}); the best catalogue explanation "
-                         f"({best}) removes only {100 * max(pair_share or 0, top_share or 0):.0f} % of its excess")
-    elif resistance_gap:
+
+def decide(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, drive: DriveView,
+           reports: dict[str, EffectReport], request: Request) -> Decision:
+    """The verdict: the effect (and second) that explains the resistance view's misfit, ``unexplained`` when a
+    shared misfit stays that no catalogue effect or pair removes :data:`EXPLAIN_SHARE` of, the rest's drift
+    and the drive effect beside it, ``none`` otherwise; with the notes a user needs to read it."""
+    reports = dict(reports)
+    verdict, verdict_effects, notes, pair, naming, top = "none", [], [], None, None, None
+    if any(r.significant and r.view == "resistance" for r in reports.values()):
+        verdict, verdict_effects, top, pair, naming = _resistance_verdict(scan, reports, request, notes,
+                                                                          baseline.spec)
+    elif scan.resistance_gap:
         verdict = "unexplained"
-        notes.append(f"the runs share a misfit (a generic profile closes it on held-out runs: z {z_probe:.1f} against "
-                     f"{gap_threshold:.1f}) that no catalogue effect reduces significantly; see where and axes")
-    # ---- a drift the rest after the stop shows beside the window's first effect (docs/guide/diagnosis.md)
-    rest = _rest_evidence(runs, nulls, bootstrap, seed, alpha) if "force_drift" in names else None
-    if rest is not None:
-        rest["beside_first_z"] = pair["beside"].get("force_drift") if pair else None
-    if (rest is not None and rest["significant"] and verdict not in ("none", "unexplained")
-            and "force_drift" not in verdict_effects):
-        verdict_effects.append("force_drift")
-        reports["force_drift"] = replace(reports["force_drift"], significant=True)
-        notes.append(f"force_drift is significant in the rest after the stop (z {rest['z']:.1f} against "
+        notes.append(f"the runs share a misfit (a generic profile closes it on held-out runs: z {scan.z_probe:.1f} "
+                     f"against {scan.gap_threshold:.1f}) that no catalogue effect reduces significantly; see where "
+                     f"and axes")
+    rest = _rest_beside(baseline, calibration, request, pair, verdict, verdict_effects, reports, notes)
+    if drive.gap:
+        if verdict == "none":
+            verdict, verdict_effects = request.drive_effect, [request.drive_effect]
+        else:
+            verdict_effects.append(request.drive_effect)
+    notes += _context_notes(baseline.runs, verdict, reports, rest, request.false_alarm)
+    return Decision(verdict, tuple(verdict_effects), reports, tuple(notes), top, pair, naming, rest)
+
+
+def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], request: Request, notes: list[str],
+                        base_spec: Spec):
+    """The resistance view's verdict once an effect passed the family-wise test: the effect named first and a
+    significant second, or ``unexplained`` when neither it nor the pair explains a shared misfit."""
+    S0, excess = scan.S0, scan.excess
+    gate, top = _named_first(reports, scan.tested, S0)
+    naming = {"familywise_first": gate.name, "named_first": top.name}
+    if not top.significant:
+        reports[top.name] = top = replace(top, significant=True)
+        notes.append(f"{top.name} is named first: it closes most of the gap (held-out shrink {top.shrink_pct:.0f} %; "
+                     f"its improvement beyond all {request.bootstrap} null replicates'); "
+                     f"{gate.name} shows there is a gap (z {gate.z:.1f} against {scan.z_threshold:.1f} over all "
+                     f"effects) but closes less ({gate.shrink_pct:.0f} %)")
+    pair = _best_second(scan.stats, {e.name: scan.candidates[e.name] for e in scan.law_effects}, scan.tested,
+                        top.name, base_spec, S0, request.alpha)
+    top_share = reports[top.name].explained_share
+    explains = not scan.resistance_gap or top_share is None or top_share >= EXPLAIN_SHARE
+    pair_share = (S0[0] - pair["heldout"]) / excess if pair and excess > 0 else None
+    if not (explains or (pair and pair["significant"] and pair_share is not None and pair_share >= EXPLAIN_SHARE)):
+        best = f"{top.name} + {pair['effect']}" if pair else top.name
+        notes.append(f"the runs share a misfit (probe z {scan.z_probe:.1f}); the best catalogue explanation "
+                     f"({best}) removes only {PERCENT * max(pair_share or 0, top_share or 0):.0f} % of its excess")
+        return "unexplained", [], top, pair, naming
+    verdict_effects = [top.name]
+    if pair and pair["significant"]:
+        verdict_effects.append(pair["effect"])
+        reports[pair["effect"]] = replace(reports[pair["effect"]], significant=True)
+        notes.append(f"{pair['effect']} is significant on top of {top.name} (z {pair['z']:.1f} against "
+                     f"{pair['threshold']:.1f}); together they shrink the held-out error by "
+                     f"{pair['shrink_pct']:.0f} %")
+    return top.name, verdict_effects, top, pair, naming
+
+
+def _rest_beside(baseline: Baseline, calibration: NullCalibration, request: Request, pair: dict | None, verdict: str,
+                 verdict_effects: list[str], reports: dict[str, EffectReport], notes: list[str]) -> dict | None:
+    """The rest effect (a force drift) as the rest after the stops shows it; it joins a verdict that names
+    another effect when significant there, where no speed or depth law acts."""
+    name = request.rest_effect
+    if name is None:
+        return None
+    rest = _rest_evidence(baseline.runs, calibration.nulls, EFFECTS[name], request.bootstrap, request.seed,
+                          request.alpha)
+    if rest is None:
+        return None
+    rest["beside_first_z"] = pair["beside"].get(name) if pair else None
+    if rest["significant"] and verdict not in ("none", "unexplained") and name not in verdict_effects:
+        verdict_effects.append(name)
+        reports[name] = replace(reports[name], significant=True)
+        notes.append(f"{name} is significant in the rest after the stop (z {rest['z']:.1f} against "
                      f"{rest['threshold']:.1f} over {rest['runs']} runs; {rest['rms_n']:.2g} N RMS of change), "
                      f"where no speed or depth law acts")
-    if drive_gap:
-        if verdict == "none":
-            verdict, verdict_effects = "propulsion_loss", ["propulsion_loss"]
-        else:
-            verdict_effects.append("propulsion_loss")
-    late = {r.run_id: round((r.force_rise_s - r.contact_s) * 1e3, 3) for r in runs if r.force_rise_s is not None}
+    return rest
+
+
+MS_PER_S = 1e3
+MM_PER_M = 1e3
+UM_PER_M = 1e6
+
+
+def _context_notes(runs: Sequence[DiagnosisRun], verdict: str, reports: Mapping[str, EffectReport],
+                   rest: dict | None, false_alarm: float) -> list[str]:
+    """Notes that help read the verdict: runs whose force rises late, and what a ``none`` could have seen."""
+    notes = []
+    late = _late_rises(runs)
     if late:
         notes.append(f"in {len(late)} of {len(runs)} runs the force rises {min(late.values()):.2f}–"
                      f"{max(late.values()):.2f} ms after the position's contact, later than a block surface within the "
@@ -965,81 +1219,107 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
             notes.append(f"the force drifts in the rest after the stop (z {rest['z']:.1f} against "
                          f"{rest['threshold']:.1f}; {rest['rms_n']:.2g} N RMS of change), too little within the "
                          f"windows to matter to the resistance model")
+    return notes
 
-    # ---- how far: trajectory change of the reported effects
-    say("trajectories", 0.94)
-    final = []
-    for r in reports.values():
-        change = {}
-        if r.significant or r.name in verdict_effects:
-            effect = EFFECTS[r.name]
-            if effect.side == "drive":
-                change = _trajectory_change(effect, None, (), runs, values, r.params["loss"])
-            else:
-                t = tested[r.name]
-                change = _trajectory_change(effect, candidates[r.name][t.family.best].member,
-                                            t.fit["coefficients"][3:, 0], runs, values, own_values=_own_values(t.fit))
-        final.append(replace(r, trajectory_change=change, axis=EFFECTS[r.name].axis))
-    final.sort(key=lambda r: (-int(r.significant), -r.shrink_pct))
-    ambiguities = _ambiguities(final, tested, S0)
 
-    # ---- where, along what, series
-    base_res = _residuals(stats, matrices, ys, base_spec)
-    series_data = _residual_series(runs, uses, base_res)
-    where = _where(series_data, floor_sq)
-    if drive_gap:
-        where.insert(0, {"phase": "flight", "depth_mm": None, "time_ms": [0.0, round(float(np.mean(
-            [r.contact_s for r in runs])) * 1e3, 2)], "contact_speed_error_pct": [round(100 * float(ratios.min()), 2),
-                                                                               round(100 * float(ratios.max()), 2)],
-            "share_of_gap": None, "above_noise": True, "view": "drive"})
+def _late_rises(runs: Sequence[DiagnosisRun]) -> dict[str, float]:
+    """Per run whose force rises after the stand-off tolerance, how long after the position's contact. [ms]"""
+    return {r.run_id: round((r.force_rise_s - r.contact_s) * MS_PER_S, 3) for r in runs if r.force_rise_s is not None}
+
+
+def locate(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, drive: DriveView, decision: Decision,
+           request: Request, started: float) -> Diagnosis:
+    """How far each reported effect changes the trajectory, which effects cannot be told apart, where the gap
+    lies and along what, and the result assembled."""
+    runs, S0 = baseline.runs, scan.S0
+    final = sorted((_with_trajectory(r, baseline, scan, decision) for r in decision.reports.values()),
+                   key=lambda r: (-int(r.significant), -r.shrink_pct))
+    ambiguities = _ambiguities(final, scan.tested, S0)
+    series_data = _residual_series(runs, baseline.uses, _residuals(scan.stats, scan.matrices, baseline.ys,
+                                                                   baseline.spec))
+    where = _where(series_data, scan.floor_sq)
+    if drive.gap:
+        where.insert(0, {"phase": "flight", "depth_mm": None,
+                         "time_ms": [0.0, round(float(np.mean([r.contact_s for r in runs])) * MS_PER_S, 2)],
+                         "contact_speed_error_pct": [round(PERCENT * float(drive.ratios.min()), 2),
+                                                     round(PERCENT * float(drive.ratios.max()), 2)],
+                         "share_of_gap": None, "above_noise": True, "view": "drive"})
+    after = _verdict_residuals(scan.stats, scan.matrices, baseline.ys, scan.candidates, scan.tested,
+                               list(decision.verdict_effects), baseline.spec)
+    series = [{"run_id": run.run_id, "time_s": t, "depth_m": x, "time_since_contact_s": t - run.contact_s,
+               "baseline_residual_n": res, "effect_residual_n": after[i] if after is not None else None}
+              for i, (run, t, x, _, _, res) in enumerate(series_data)]
     noise_floor = math.sqrt(float(np.mean([r.noise_n ** 2 for r in runs])))
-    baseline_out = {
+    return Diagnosis(tuple(r.run_id for r in runs), _baseline_record(baseline, scan, drive, decision), tuple(where),
+                     tuple(final), decision.verdict, decision.verdict_effects, tuple(ambiguities), noise_floor,
+                     decision.notes, decision=_decision_record(calibration, scan, drive, request, runs, started),
+                     axes=_axes(series_data), series=tuple(series))
+
+
+def _with_trajectory(report: EffectReport, baseline: Baseline, scan: FamilyScan, decision: Decision) -> EffectReport:
+    """The report with how its effect changes the median-speed run's trajectory (significant or verdict effects
+    only) and the axis its effect follows."""
+    change = {}
+    effect = EFFECTS[report.name]
+    if report.significant or report.name in decision.verdict_effects:
+        if effect.side == "drive":
+            change = _trajectory_change(effect, None, (), baseline.runs, baseline.values, report.params["loss"])
+        else:
+            t = scan.tested[report.name]
+            change = _trajectory_change(effect, scan.candidates[report.name][t.family.best].member,
+                                        t.fit["coefficients"][SHARED_TERMS:, 0], baseline.runs, baseline.values,
+                                        own_values=_own_values(t.fit))
+    return replace(report, trajectory_change=change, axis=effect.axis)
+
+
+def _baseline_record(baseline: Baseline, scan: FamilyScan, drive: DriveView, decision: Decision) -> dict:
+    """The JSON's ``baseline``: the reference model's fit and misfit, and what each view's test read."""
+    runs, S0 = baseline.runs, scan.S0
+    out = {
         "heldout_rms_n": math.sqrt(float(S0[0])),
         "heldout_nrmse": math.sqrt(float(S0[0])) / float(np.mean([np.max(r.resistance_n[r.window]) for r in runs])),
-        "null_rms_n": math.sqrt(floor_sq),
-        "gap_z": round(z_gap, 2),
-        "resistance_gap": bool(resistance_gap),
-        "probes": {name: {"z": round(t.z, 2), "shrink_pct": round(100.0 * (1.0 - math.sqrt(
-            max(t.family.heldout[0], 0.0) / S0[0])), 2)} for name, t in probes.items()},
-        "contact_speed_error_mean": float(np.mean(ratios)),
-        "drive_t": round(t_drive, 2),
-        "drive_gap": bool(drive_gap),
-        "dynamic_heldout_rms_n": dyn_base,
-        "coefficients": values,
-        "strength_factor_per_run": {r.run_id: float(c) for r, c in zip(runs, cs)},
-        "late_force_rise_ms": late,
-        "surface_mm": {r.run_id: round(r.surface_m * 1e3, 3) for r in runs},
+        "null_rms_n": math.sqrt(scan.floor_sq),
+        "gap_z": round(scan.z_gap, 2),
+        "resistance_gap": bool(scan.resistance_gap),
+        "probes": {name: {"z": round(t.z, 2), "shrink_pct": round(PERCENT * (1.0 - math.sqrt(
+            max(t.family.heldout[0], 0.0) / S0[0])), 2)} for name, t in scan.probes.items()},
+        "contact_speed_error_mean": float(np.mean(drive.ratios)),
+        "drive_t": round(drive.t, 2),
+        "drive_gap": bool(drive.gap),
+        "dynamic_heldout_rms_n": drive.dynamic_rms_n,
+        "coefficients": baseline.values,
+        "strength_factor_per_run": {r.run_id: float(c) for r, c in zip(runs, baseline.strength_factors)},
+        "late_force_rise_ms": _late_rises(runs),
+        "surface_mm": {r.run_id: round(r.surface_m * MM_PER_M, 3) for r in runs},
     }
-    if rest is not None:
-        baseline_out["rest_drift"] = rest
-    if naming is not None:
-        baseline_out["naming"] = naming
+    if decision.rest is not None:
+        out["rest_drift"] = decision.rest
+    if decision.naming is not None:
+        out["naming"] = decision.naming
+    pair = decision.pair
     if pair is not None:
-        baseline_out["best_pair"] = {"effects": [top.name, pair["effect"]], "shrink_pct": pair["shrink_pct"],
-                                     "z": pair["z"], "share_of_remainder": pair["share_of_remainder"],
-                                     "beyond_own_family": pair["beyond_own_family"],
-                                     "significant": pair["significant"], "over_own_pair": pair["over_own_pair"]}
-    series = []
-    after = _verdict_residuals(stats, matrices, ys, candidates, tested, verdict_effects, base_spec)
-    for i, (run, t, x, _, _, res) in enumerate(series_data):
-        series.append({"run_id": run.run_id, "time_s": t, "depth_m": x, "time_since_contact_s": t - run.contact_s,
-                       "baseline_residual_n": res, "effect_residual_n": after[i] if after is not None else None})
-    decision = {
-        "false_alarm": false_alarm, "bootstrap": bootstrap, "seed": seed,
-        "effect_threshold_z": round(z_threshold, 3), "gap_threshold_z": round(gap_threshold, 3),
-        "drive_threshold_t": round(drive_threshold, 3), "explain_share": EXPLAIN_SHARE,
+        out["best_pair"] = {"effects": [decision.top.name, pair["effect"]], "shrink_pct": pair["shrink_pct"],
+                            "z": pair["z"], "share_of_remainder": pair["share_of_remainder"],
+                            "beyond_own_family": pair["beyond_own_family"], "significant": pair["significant"],
+                            "over_own_pair": pair["over_own_pair"]}
+    return out
+
+
+def _decision_record(calibration: NullCalibration, scan: FamilyScan, drive: DriveView, request: Request,
+                     runs: Sequence[DiagnosisRun], started: float) -> dict:
+    """The JSON's ``decision``: the rates asked for, the thresholds the replicates gave, each run's noise model."""
+    return {
+        "false_alarm": request.false_alarm, "bootstrap": request.bootstrap, "seed": request.seed,
+        "effect_threshold_z": round(scan.z_threshold, 3), "gap_threshold_z": round(scan.gap_threshold, 3),
+        "drive_threshold_t": round(drive.threshold, 3), "explain_share": EXPLAIN_SHARE,
         "noise_model": [{**n.noise.to_dict(),
                          "anti_alias": n.anti_alias.to_dict(r.rate_hz) if n.anti_alias else None,
                          "line": n.noise_line.to_dict(r.rate_hz) if n.noise_line else None,
-                         "position_noise_um": round(rep.position_noise_m * 1e6, 3)}
-                        for n, r, rep in zip(nulls, runs, replicates)],
-        "encoder_step_mm": [round(r.encoder_step_m * 1e3, 4) for r in runs],
+                         "position_noise_um": round(rep.position_noise_m * UM_PER_M, 3)}
+                        for n, r, rep in zip(calibration.nulls, runs, calibration.replicates)],
+        "encoder_step_mm": [round(r.encoder_step_m * MM_PER_M, 4) for r in runs],
         "seconds": round(time.perf_counter() - started, 2),
     }
-    say("done", 1.0)
-    return Diagnosis(tuple(r.run_id for r in runs), baseline_out, tuple(where), tuple(final), verdict,
-                     tuple(verdict_effects), tuple(ambiguities), noise_floor, tuple(notes), decision=decision,
-                     axes=_axes(series_data), series=tuple(series))
 
 
 def _shape_spread(chosen: Sequence[Mapping]) -> dict:
@@ -1099,7 +1379,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
     """
     lead = candidates[top][tested[top].family.best]
     S_top = tested[top].family.heldout
-    if _standardise(np.log(np.maximum(S_top, 1e-300)), 1e-9)[0] <= normal_quantile(alpha):
+    if _standardise(np.log(np.maximum(S_top, LOG_FLOOR)), GAP_Z_FLOOR)[0] <= normal_quantile(alpha):
         return None  # the first effect leaves no gap its own null would not
     combined = {}
     for name, cands in candidates.items():
@@ -1168,12 +1448,12 @@ def _ambiguities(reports: Sequence[EffectReport], tested: Mapping[str, _Tested],
     for other in significant[1:]:
         diff = d_top - (S0 - tested[other.name].family.heldout)
         sd = float(np.std(diff[1:], ddof=1))
-        if abs(float(diff[0])) > AMBIGUITY_Z * max(sd, 1e-300):
+        if abs(float(diff[0])) > AMBIGUITY_Z * max(sd, LOG_FLOOR):
             continue
         advice = INDISTINGUISHABLE.get(frozenset({top.name, other.name}),
                                        "runs that vary blade thickness, contact speed and depth")
         out.append({"effects": [top.name, other.name], "shrink_pct": [top.shrink_pct, other.shrink_pct],
-                    "difference_z": round(float(diff[0]) / max(sd, 1e-300), 2), "separate_with": advice})
+                    "difference_z": round(float(diff[0]) / max(sd, LOG_FLOOR), 2), "separate_with": advice})
     return out
 
 

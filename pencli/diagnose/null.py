@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Sequence
 
 import numpy as np
 from numba import njit
@@ -47,6 +48,27 @@ from pencli.errors import DataError
 from pencli.filter.derivatives import derivatives, smooth_motion
 from pencli.filter.inertia import motion_breaks, motion_joins
 from pencli.filter.tare import Events, detect_events
+
+MIN_SPECTRUM_SAMPLES = 64
+"""Fewer samples than this give a spectrum of too few bins to read a colour from: the noise is taken as white."""
+NYQUIST = 0.5
+"""The Nyquist frequency in cycles per sample."""
+MIN_ROLL_OFF_BINS = 16
+"""A low-pass is read from at least this many spectrum bins above its search's lower edge (fewer fit anything)."""
+PLAIN_PARAMETERS, LINE_PARAMETERS = 4, 7
+"""Parameters of the plain noise spectrum (white, coloured part) and of the same with a narrow band, for BIC."""
+HALF_COUNT = 0.5
+"""A quantised reading disagrees with the record when it lies more than half an encoder count from it."""
+MIN_ROUGHNESS_SAMPLES = 32
+"""The position noise is read from the flight's third differences only over at least this many samples."""
+MIN_GEV_SAMPLES = 10
+"""Fewer scores than this leave a generalised extreme-value law's three moments unread: the Gumbel stands."""
+GEV_SHAPE_ROUND_OFF = 1e-9
+"""Below this the GEV's shape is 0 in floating point: the moment ratio takes its limit, log 3 / log 2."""
+GUMBEL_SHAPE = 1e-6
+"""A GEV whose shape is within this of 0 is a Gumbel: its quantile is taken from the Gumbel's closed form."""
+
+
 
 @dataclass(frozen=True)
 class NoiseModel:
@@ -93,7 +115,7 @@ class NoiseModel:
         the noise may be: the slowly varying columns see in them the low frequencies the data may have, not
         one estimate of them taken as exact.  None when the spectrum is taken as exact (no record, or one too
         short to read a spectrum from)."""
-        if self.samples < 64 or self.frequency.size <= 2:
+        if self.samples < MIN_SPECTRUM_SAMPLES or self.frequency.size <= 2:
             return None
         white = noise_spectrum(rng.standard_normal((self.samples, count)))[1]
         return self.psd[:, None] * np.clip(2.0 / np.maximum(white, 1e-12), *SPECTRUM_RATIO_RANGE)
@@ -122,9 +144,10 @@ def noise_spectrum(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
     e = np.asarray(samples, dtype=float)
     e = e - e.mean(axis=0)
-    frequency, psd = welch(e, fs=1.0, nperseg=max(64, e.shape[0] // NOISE_SEGMENTS), detrend=False, axis=0)
+    frequency, psd = welch(e, fs=1.0, nperseg=max(MIN_SPECTRUM_SAMPLES, e.shape[0] // NOISE_SEGMENTS), detrend=False,
+                           axis=0)
     psd = np.array(psd, dtype=float)
-    if frequency[-1] == 0.5:
+    if frequency[-1] == NYQUIST:
         psd[-1] = psd[-2]  # Welch halves the Nyquist bin too
     # each bin averages ~7 segments (±38 %); three bins together, ±22 %, and the zero bin from the three above
     psd[0] = np.mean(psd[1:4], axis=0)
@@ -140,7 +163,7 @@ def fit_noise(samples: np.ndarray) -> NoiseModel:
     e = np.asarray(samples, dtype=float)
     e = e - e.mean() if e.size else e
     level = float(e.std()) if e.size else 0.0
-    if e.size < 64 or level == 0.0:
+    if e.size < MIN_SPECTRUM_SAMPLES or level == 0.0:
         return NoiseModel.white(level)
     frequency, psd = noise_spectrum(e)
     return NoiseModel(frequency, psd, level, int(e.size))
@@ -378,6 +401,27 @@ def fit_anti_alias(noise: NoiseModel) -> AntiAlias | None:
     return read_noise_chain(noise)[0]
 
 
+def _unfiltered_fits(base: np.ndarray, w: np.ndarray, t: np.ndarray, total: float, lines: np.ndarray
+                     ) -> tuple[float, np.ndarray]:
+    """The noise without a filter: the least weighted error of A g + C over every slope and colour, and of
+    A g + C + D L per (slope and colour, line)."""
+    gg, gw, gt = np.sum(base * base, axis=1), base @ w, base @ t
+    gram = np.empty((base.shape[0], 2, 2))
+    gram[:, 0, 0], gram[:, 0, 1] = gg, gw
+    gram[:, 1, 0], gram[:, 1, 1] = gw, float(w @ w)
+    rhs = np.column_stack([gt, np.full(base.shape[0], float(w @ t))])
+    plain = float(np.min(_nonnegative_sse(gram, rhs, total)))
+    gram = np.empty((base.shape[0], lines.shape[0], 3, 3))
+    gram[..., 0, 0], gram[..., 0, 1] = gg[:, None], gw[:, None]
+    gram[..., 0, 2] = base @ lines.T
+    gram[..., 1, 1], gram[..., 1, 2] = float(w @ w), (lines @ w)[None, :]
+    gram[..., 2, 2] = np.sum(lines * lines, axis=1)[None, :]
+    for i, j in ((1, 0), (2, 0), (2, 1)):
+        gram[..., i, j] = gram[..., j, i]
+    rhs = np.stack(np.broadcast_arrays(gt[:, None], float(w @ t), (lines @ t)[None, :]), axis=-1)
+    return plain, _nonnegative_sse(gram, rhs, total)  # (bases, lines)
+
+
 def read_noise_chain(noise: NoiseModel) -> tuple[AntiAlias | None, NoiseLine | None]:
     r"""The force channel's anti-alias low-pass as read from its noise spectrum (or None when it shows none), and
     the narrow band read beside or under it (or None).
@@ -410,11 +454,11 @@ def read_noise_chain(noise: NoiseModel) -> tuple[AntiAlias | None, NoiseLine | N
     """
     f_lo, depth = ANTI_ALIAS_RANGE
     keep = noise.frequency >= f_lo
-    if keep.sum() < 16:
+    if keep.sum() < MIN_ROLL_OFF_BINS:
         return None, None
     keep &= noise.psd > depth * float(np.max(noise.psd[keep]))
     f, p = noise.frequency[keep], noise.psd[keep]
-    if f.size < 16:
+    if f.size < MIN_ROLL_OFF_BINS:
         return None, None
     n = f.size
     # relative error against a running geometric mean of the spectrum (15 bins): weights that do not follow each
@@ -427,27 +471,13 @@ def read_noise_chain(noise: NoiseModel) -> tuple[AntiAlias | None, NoiseLine | N
     base = (np.exp(np.outer(ANTI_ALIAS_SLOPES, np.log(f)))[:, None, :] * colour[None, :, :]).reshape(-1, n) * w
     lines = _resonances(f) * w
     total = float(t @ t)
-    # no filter: A g + C, and A g + C + D L over every line
-    gg, gw, gt = np.sum(base * base, axis=1), base @ w, base @ t
-    gram = np.empty((base.shape[0], 2, 2))
-    gram[:, 0, 0], gram[:, 0, 1] = gg, gw
-    gram[:, 1, 0], gram[:, 1, 1] = gw, float(w @ w)
-    rhs = np.column_stack([gt, np.full(base.shape[0], float(w @ t))])
-    plain = float(np.min(_nonnegative_sse(gram, rhs, total)))
-    gram = np.empty((base.shape[0], lines.shape[0], 3, 3))
-    gram[..., 0, 0], gram[..., 0, 1] = gg[:, None], gw[:, None]
-    gram[..., 0, 2] = base @ lines.T
-    gram[..., 1, 1], gram[..., 1, 2] = float(w @ w), (lines @ w)[None, :]
-    gram[..., 2, 2] = np.sum(lines * lines, axis=1)[None, :]
-    for i, j in ((1, 0), (2, 0), (2, 1)):
-        gram[..., i, j] = gram[..., j, i]
-    rhs = np.stack(np.broadcast_arrays(gt[:, None], float(w @ t), (lines @ t)[None, :]), axis=-1)
-    plain_lines = _nonnegative_sse(gram, rhs, total)  # (bases, lines)
+    plain, plain_lines = _unfiltered_fits(base, w, t, total, lines)
     plain_line = float(np.min(plain_lines))
     m = n / 3.0  # independent bins: fit_noise averages three neighbours
     bic = lambda sse, k: m * math.log(max(sse, 1e-300) / n) + k * math.log(m)  # noqa: E731
-    bic_plain = min(bic(plain, 4), bic(plain_line, 7))
-    unfiltered_line = int(np.argmin(plain_lines)) % lines.shape[0] if bic(plain_line, 7) < bic(plain, 4) else None
+    bic_plain = min(bic(plain, PLAIN_PARAMETERS), bic(plain_line, LINE_PARAMETERS))
+    unfiltered_line = (int(np.argmin(plain_lines)) % lines.shape[0]
+                       if bic(plain_line, LINE_PARAMETERS) < bic(plain, PLAIN_PARAMETERS) else None)
     # a filter: |H|²(A g + B) + F over every order, corner and coloured part
     filtered = _filtered_fits(base, w, t, total, f, None)
     # with a line under it, by turns: the line for that filter, the filter for that line, the line again (the
@@ -580,7 +610,7 @@ def encoder_phase(record_m: np.ndarray, smooth_m: np.ndarray, span: np.ndarray, 
         return step_m * np.round((x[:, None] + shift) / step_m) - shift
 
     q = quantised(smooth_m[span]) - (quantised(smooth_m[:1]) - record_m[0])
-    mismatch = np.sum(np.abs(q - record_m[span][:, None]) > 0.5 * step_m, axis=0)
+    mismatch = np.sum(np.abs(q - record_m[span][:, None]) > HALF_COUNT * step_m, axis=0)
     best = 2.0 * np.pi * f[mismatch == mismatch.min()]
     return float(np.arctan2(np.sin(best).mean(), np.cos(best).mean()) / (2.0 * np.pi)) % 1.0
 
@@ -612,7 +642,7 @@ def position_noise(record_m: np.ndarray, smooth_m: np.ndarray, span: np.ndarray,
     errs towards ``none``).
     """
     x = smooth_m[span]
-    if x.size < 32:
+    if x.size < MIN_ROUGHNESS_SAMPLES:
         return 0.0
     rng = np.random.default_rng(seed)
     shift = phase * step_m
@@ -627,6 +657,53 @@ def position_noise(record_m: np.ndarray, smooth_m: np.ndarray, span: np.ndarray,
     if target >= rough[-1]:
         return float(sizes[-1])
     return float(np.interp(target, rough, sizes))
+
+
+def _replicate_motions(null: RunNull, motion: Events, smooth: np.ndarray, rate: float, count: int,
+                       rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, list[Events]]:
+    """Each replicate's true motion (n × count, or n × 1 when all share it), its true acceleration, and its
+    events (the breaks of its derivatives): the model's dynamics from a contact drawn within the sampling
+    interval before the force shows it, continuous with the smoothed flight; without a model, the smoothed
+    record for every replicate."""
+    t, step = null.time_s, null.encoder_step_m
+    if null.model is None:
+        reference = derivatives(smooth, rate, motion_breaks(t, motion), null.method, count_m=step,
+                                joins=motion_joins(t, motion))[1][:, None]
+        return smooth[:, None], reference, [motion] * count
+    contacts = null.kinematic_contact_s - rng.uniform(0.0, 1.0, count) / rate
+    # continuous with the smoothed flight where it meets the material (the record's reading there is a whole
+    # count, up to half a count off the motion)
+    placed = [null.model.on(t, c, float(np.interp(c, t, smooth))) for c in contacts]
+    inside = np.column_stack([np.isfinite(d) for d, _, _ in placed])
+    truth = np.where(inside, np.column_stack([d for d, _, _ in placed]), smooth[:, None])
+    motions = [replace(motion, stop_s=min(stop, float(t[-1]))) for _, _, stop in placed]
+    # the true acceleration: the model's in the material; in flight D(x̃), the smoother's own reading of it
+    flight_motion = motions[0]
+    _, flight_accel = derivatives(np.where(inside[:, 0], truth[:, 0], smooth), rate,
+                                  motion_breaks(t, flight_motion), null.method, count_m=step,
+                                  joins=motion_joins(t, flight_motion))
+    reference = np.where(inside, np.column_stack([a for _, a, _ in placed]), flight_accel[:, None])
+    return truth, reference, motions
+
+
+def _measured_accelerations(null: RunNull, depth: np.ndarray, motions: Sequence[Events], rate: float) -> np.ndarray:
+    """The acceleration each replicate's encoder record gives through the run's derivative method (n × count):
+    the replicates that share their breaks in one call where the method is linear in the record."""
+    t, step = null.time_s, null.encoder_step_m
+    accel = np.empty_like(depth)
+    groups: dict[tuple, list[int]] = {}
+    for b, m in enumerate(motions):
+        groups.setdefault((tuple(motion_breaks(t, m)), tuple(motion_joins(t, m))), []).append(b)
+    for members in groups.values():
+        m = motions[members[0]]
+        breaks, joins = motion_breaks(t, m), motion_joins(t, m)
+        if null.method == "spline":  # not linear: one replicate at a time
+            for b in members:
+                accel[:, b] = derivatives(depth[:, b], rate, breaks, null.method, count_m=step)[1]
+        else:  # linear in the record: the replicates of one set of breaks in one call
+            accel[:, members] = derivatives(depth[:, members], rate, breaks, null.method, count_m=step,
+                                            joins=joins)[1]
+    return accel
 
 
 def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | None = None) -> Replicates:
@@ -664,26 +741,7 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
     else:
         fractions = (np.asarray(phases, dtype=float) + own) % 1.0
     jitter = position_noise(null.depth_m, smooth, flight, step, own, seed + 1)
-    # the motion of each replicate (columns) and the breaks of its derivatives
-    motions = [motion] * count
-    if null.model is not None:
-        contacts = null.kinematic_contact_s - rng.uniform(0.0, 1.0, count) / rate
-        # continuous with the smoothed flight where it meets the material (the record's reading there is a
-        # whole count, up to half a count off the motion)
-        placed = [null.model.on(t, c, float(np.interp(c, t, smooth))) for c in contacts]
-        inside = np.column_stack([np.isfinite(d) for d, _, _ in placed])
-        truth = np.where(inside, np.column_stack([d for d, _, _ in placed]), smooth[:, None])
-        motions = [replace(motion, stop_s=min(stop, float(t[-1]))) for _, _, stop in placed]
-        # the true acceleration: the model's in the material; in flight D(x̃), the smoother's own reading of it
-        flight_motion = motions[0]
-        _, flight_accel = derivatives(np.where(inside[:, 0], truth[:, 0], smooth), rate,
-                                      motion_breaks(t, flight_motion), null.method, count_m=step,
-                                      joins=motion_joins(t, flight_motion))
-        reference = np.where(inside, np.column_stack([a for _, a, _ in placed]), flight_accel[:, None])
-    else:
-        truth = smooth[:, None]  # one motion for every replicate
-        reference = derivatives(smooth, rate, motion_breaks(t, motion), null.method, count_m=step,
-                                joins=motion_joins(t, motion))[1][:, None]
+    truth, reference, motions = _replicate_motions(null, motion, smooth, rate, count, rng)
     # the noise, each replicate with a spectrum the run's may have (its own stream: the rest is drawn as before)
     noise = null.noise.simulate(t.size, rng, count, null.noise.spectra(count, np.random.default_rng([seed, 7])))
     shifts = step * fractions
@@ -698,19 +756,7 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
             speeds[b] = detect_events(t, depth[:, b], null.full_depth_m).contact_speed_m_s
         except DataError:
             pass
-    accel = np.empty_like(depth)
-    groups: dict[tuple, list[int]] = {}
-    for b, m in enumerate(motions):
-        groups.setdefault((tuple(motion_breaks(t, m)), tuple(motion_joins(t, m))), []).append(b)
-    for members in groups.values():
-        m = motions[members[0]]
-        breaks, joins = motion_breaks(t, m), motion_joins(t, m)
-        if null.method == "spline":  # not linear: one replicate at a time
-            for b in members:
-                accel[:, b] = derivatives(depth[:, b], rate, breaks, null.method, count_m=step)[1]
-        else:  # linear in the record: the replicates of one set of breaks in one call
-            accel[:, members] = derivatives(depth[:, members], rate, breaks, null.method, count_m=step,
-                                            joins=joins)[1]
+    accel = _measured_accelerations(null, depth, motions, rate)
     error = np.where(null.at_rest[:, None], 0.0, accel - reference)
     out = null.fitted_n[:, None] - null.load_cell_mass_kg * error[null.use] + noise[null.use]
     if null.anti_alias is not None:  # the channel's filter acts on the force, R + m·a, not on the noise added after
@@ -777,7 +823,7 @@ def gev_quantile(samples: np.ndarray, p: float) -> float:
     x = np.sort(np.asarray(samples, dtype=float))
     x = x[np.isfinite(x)]
     n = x.size
-    if n < 10:
+    if n < MIN_GEV_SAMPLES:
         return gumbel_quantile(x, p)
     i = np.arange(n, dtype=float)
     b0 = float(x.mean())
@@ -788,14 +834,15 @@ def gev_quantile(samples: np.ndarray, p: float) -> float:
     ratio = (3 * b2 - b0) / (2 * b1 - b0)  # (1 − 3^−k)/(1 − 2^−k); log 3/log 2 at k = 0
 
     def gap(k):
-        return (math.log(3.0) / math.log(2.0) if abs(k) < 1e-9 else (1 - 3.0 ** -k) / (1 - 2.0 ** -k)) - ratio
+        limit = math.log(3.0) / math.log(2.0)
+        return (limit if abs(k) < GEV_SHAPE_ROUND_OFF else (1 - 3.0 ** -k) / (1 - 2.0 ** -k)) - ratio
 
     lo, hi = -0.95, 5.0
     if gap(lo) * gap(hi) > 0:  # outside the bracket (the heaviest shape with a finite mean): its nearer end
         k = lo if abs(gap(lo)) < abs(gap(hi)) else hi
     else:
         k = float(brentq(gap, lo, hi, xtol=1e-8))
-    if abs(k) < 1e-6:
+    if abs(k) < GUMBEL_SHAPE:
         return gumbel_quantile(x, p)
     scale = (2 * b1 - b0) * k / (gamma(1 + k) * (1 - 2.0 ** -k))
     loc = b0 + scale * (gamma(1 + k) - 1) / k

@@ -21,13 +21,9 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from pencli.errors import DataError
+from pencli.filter.windows import PRE_TRIGGER_MARGIN_S, WINDOW_TRIM_S
 
 FORCE_CHANNELS = ("fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm")
-PRE_TRIGGER_MARGIN_S = 0.005
-"""Ignore the last 5 ms before the release when taking the tare. [s]"""
-WINDOW_TRIM_S = 0.5e-3
-"""The default analysis window starts this long after contact and ends this long before the stop
-(the paper's inner limits, Fig. 11): derivatives of the encoder are least reliable at those instants. [s]"""
 FULL_DEPTH_TOLERANCE_M = 0.5e-3
 """Within this of the full depth, a stop counts as reaching the hard stops. [m]"""
 STANDOFF_TOLERANCE_M = 5e-3

@@ -1,0 +1,95 @@
+"""The diagnosis's whole report on a fixed set of development and hold-out campaigns, as one fingerprint each.
+
+Run: python -m bench.bench_diagnose_identity [--dev N] [--holdout N] [--seed SEED] [--jobs J]
+
+Prints one line per campaign: its world and label, the truth, the verdict and its effects, and the SHA-256 of the
+whole report as JSON (the time it took left out, floats rounded to 9 significant digits so that a last-bit
+difference of a BLAS kernel does not count), then the median diagnosis time.  Run it before and after a change
+that must leave the diagnosis as it is (a refactoring) and compare the two outputs line by line: every verdict and
+every fingerprint must agree.  The development campaigns are ``bench_diagnose --varied N SEED``'s (random forms
+and nuisances, nulls among them); the hold-out campaigns are the hold-out world's (``tests/holdout_world.py``),
+every catalogue effect in turn and a null after every effect.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import statistics
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from bench.args import check_options
+
+
+def _rounded(value):
+    if isinstance(value, float):
+        return float(f"{value:.9g}")
+    if isinstance(value, dict):
+        return {k: _rounded(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_rounded(v) for v in value]
+    return value
+
+
+def fingerprint(result) -> str:
+    report = result.to_dict()
+    report.get("decision", {}).pop("seconds", None)
+    text = json.dumps(_rounded(report), sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def dev_one(args) -> tuple[str, str, str, str, str, float]:
+    from bench.bench_diagnose import run_one
+
+    seed, label, material, effects, truth, nuisances = args
+    result, seconds = run_one(label, material, effects, seed, nuisances)
+    return (f"dev {seed}", label, "+".join(sorted(truth)) or "none", result.verdict,
+            "+".join(result.verdict_effects) or "-", fingerprint(result), seconds)
+
+
+def holdout_one(args) -> tuple[str, str, str, str, str, float]:
+    from pencli import api
+    from tests import holdout_world
+
+    seed, effects = args
+    with tempfile.TemporaryDirectory() as tmp:
+        campaign = holdout_world.make_campaign(Path(tmp), seed, effects)
+        db = Path(tmp) / "runs.duckdb"
+        api.ingest(campaign.folders, db)
+        api.tare_runs(db, ["all"])
+        api.subtract_inertia_runs(db, ["all"])
+        started = time.perf_counter()
+        result = api.diagnose(db, ["all"])
+        seconds = time.perf_counter() - started
+    return (f"holdout {seed}", "+".join(effects) or "null", "+".join(effects) or "none", result.verdict,
+            "+".join(result.verdict_effects) or "-", fingerprint(result), seconds)
+
+
+def main() -> None:
+    check_options(__doc__, ("--dev", "--holdout", "--seed", "--jobs"))
+    value = lambda flag, default: int(sys.argv[sys.argv.index(flag) + 1]) if flag in sys.argv else default  # noqa: E731
+    n_dev, n_holdout, seed, jobs = value("--dev", 8), value("--holdout", 8), value("--seed", 700000), value("--jobs", 2)
+    from tests import holdout_world
+    from tests.campaigns import varied_campaigns
+
+    dev = [(seed + k, *campaign) for k, campaign in enumerate(varied_campaigns(n_dev, seed))]
+    names = list(holdout_world.CATALOGUE)
+    held = [(seed + 1000 + k, [names[k // 2 % len(names)]] if k % 2 == 0 else []) for k in range(n_holdout)]
+    rows = []
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        futures = [pool.submit(dev_one, a) for a in dev] + [pool.submit(holdout_one, a) for a in held]
+        for future in futures:
+            row = future.result()
+            rows.append(row)
+            print(f"{row[0]:14s} {row[1]:40s} truth={row[2]:32s} verdict={row[3]:26s} effects={row[4]:40s} "
+                  f"report={row[5]}", flush=True)
+    print(f"median diagnosis time {statistics.median(r[6] for r in rows):.1f} s over {len(rows)} campaigns, "
+          f"{jobs} at a time")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,121 @@
+"""The diagnosis as named stages: each stage on its own, and the engine's shape (short functions, named
+thresholds, no effect named in the engine)."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pencli import api
+from pencli.diagnose import engine
+from pencli.diagnose.effects import EFFECTS
+from pencli.errors import FitError
+from tests.conftest import REPO
+
+EXAMPLE = REPO / "examples" / "workspace" / "runs.duckdb"
+DIAGNOSE = REPO / "pencli" / "diagnose"
+ALLOWED_LITERALS = {0, 1, -1, 2}
+"""Numbers that are no threshold: zero, one, a sign, a square."""
+
+
+@pytest.fixture(scope="module")
+def runs():
+    return api.load_diagnosis_runs(EXAMPLE, ["gb-*"])
+
+
+def test_the_request_is_checked_before_any_work(runs):
+    with pytest.raises(FitError, match="at least 3 runs"):
+        engine.check_request(runs[:2], None, 0.01, 200, 0, 1)
+    with pytest.raises(FitError, match="between 0 and 0.5"):
+        engine.check_request(runs, None, 0.7, 200, 0, 1)
+    with pytest.raises(FitError, match="at least 20"):
+        engine.check_request(runs, None, 0.01, 10, 0, 1)
+    with pytest.raises(FitError, match="unknown effect 'gremlins'"):
+        engine.check_request(runs, ["gremlins"], 0.01, 200, 0, 1)
+    request = engine.check_request(runs, None, 0.03, 200, 0, 1)
+    assert request.alpha == pytest.approx(0.01)
+    assert EFFECTS[request.drive_effect].side == "drive" and EFFECTS[request.rest_effect].rest_evidence
+    only = engine.check_request(runs, ["strength_layer"], 0.03, 200, 0, 1)
+    assert only.drive_effect is None and only.rest_effect is None
+
+
+def test_the_baseline_stage_recovers_the_materials_coefficients(runs):
+    """Grill Brick's runs were made with Table 1's coefficients (Cs 0.6 … per block, P 31.6 kPa… as the preset
+    holds them); the baseline fit on the measured data must come back close, one strength factor per run."""
+    from pencli.params.load import load_preset
+
+    truth = load_preset("grill_brick", "material").values
+    baseline = engine.fit_baseline(runs)
+    assert len(baseline.strength_factors) == len(runs)
+    assert baseline.values["strength_factor"] == pytest.approx(truth["coefficients.strength_factor"], rel=0.03)
+    assert baseline.values["sidewall_pressure_kpa"] == pytest.approx(truth["coefficients.sidewall_pressure_kpa"],
+                                                                    rel=0.05)
+    assert baseline.values["inertia_coefficient"] == pytest.approx(truth["coefficients.inertia_coefficient"],
+                                                                  rel=0.05)
+    assert all(u.dtype == bool and u.any() for u in baseline.uses)
+    assert baseline.run_values(0)["strength_factor"] == float(baseline.strength_factors[0])
+
+
+def test_the_drive_stage_reads_no_gap_on_a_launcher_that_matches_its_file(runs):
+    request = engine.check_request(runs, None, 0.3, 20, 0, 1)  # a rate 20 replicates can see
+    baseline = engine.fit_baseline(runs)
+    calibration = engine.calibrate_nulls(baseline, request)
+    assert len(calibration.replicates) == len(runs)
+    drive = engine.read_drive(baseline, calibration, request)
+    assert not drive.gap and drive.t < drive.threshold
+    assert np.all(np.abs(drive.ratios) < 0.01)  # contact speeds within 1 % of the launcher's prediction
+
+
+# ---------------------------------------------------------------------------- the engine's shape
+def _functions(path: Path):
+    tree = ast.parse(path.read_text())
+    return [n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))]
+
+
+def test_diagnose_is_a_short_pipeline_and_no_function_of_the_diagnosis_is_long():
+    lines = inspect.getsource(engine.diagnose).count("\n")
+    assert lines <= 60, lines
+    long = [(p.name, f.name, f.end_lineno - f.lineno + 1) for p in sorted(DIAGNOSE.glob("*.py"))
+            for f in _functions(p) if f.end_lineno - f.lineno + 1 > 80]
+    assert not long, long
+
+
+def test_every_threshold_in_a_comparison_is_a_named_constant():
+    """A bare number in a comparison is a threshold without a reason; each has a module constant with one."""
+    bare = []
+    for path in sorted(DIAGNOSE.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Compare):
+                for side in (node.left, *node.comparators):
+                    for leaf in ast.walk(side):
+                        if (isinstance(leaf, ast.Constant) and isinstance(leaf.value, (int, float))
+                                and not isinstance(leaf.value, bool) and leaf.value not in ALLOWED_LITERALS):
+                            bare.append(f"{path.name}:{node.lineno}: {leaf.value!r}")
+    assert not bare, bare
+
+
+def test_module_constants_carry_a_reason():
+    """Every upper-case constant of the engine is followed by its docstring (a reason in physical terms)."""
+    tree = ast.parse((DIAGNOSE / "engine.py").read_text())
+    body = tree.body
+    missing = []
+    for k, node in enumerate(body):
+        if isinstance(node, ast.Assign) and all(isinstance(t, ast.Name) and t.id.isupper() for t in node.targets):
+            following = body[k + 1] if k + 1 < len(body) else None
+            documented = (isinstance(following, ast.Expr) and isinstance(following.value, ast.Constant)
+                          and isinstance(following.value.value, str))
+            name = node.targets[0].id
+            if not documented and name not in ("MS_PER_S", "MM_PER_M", "UM_PER_M", "PERCENT"):  # unit factors
+                missing.append(name)
+    assert not missing, missing
+
+
+def test_the_engine_names_no_catalogue_effect():
+    """What an effect needs (the drive view, the rest's evidence) it declares in its registry entry."""
+    strings = {n.value for n in ast.walk(ast.parse((DIAGNOSE / "engine.py").read_text()))
+               if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    assert not strings & set(EFFECTS), strings & set(EFFECTS)
