@@ -13,9 +13,12 @@ import numpy as np
 import pytest
 
 from pencli import api
+from pencli.diagnose.effects import EFFECTS
 from pencli.diagnose.engine import _rest_evidence
 from pencli.diagnose.null import fit_noise
 from pencli.diagnose.rest import REST_MAX_S, SETTLE_S, rest_span
+
+DRIFT = EFFECTS["force_drift"]
 
 RATE = 10_000.0
 
@@ -61,7 +64,7 @@ def test_the_rest_span_starts_after_the_settling_and_is_at_most_its_longest():
 def test_the_rest_test_holds_its_false_alarm_rate_on_coloured_noise():
     """60 campaigns of noise alone at a 10 % rate: the binomial's upper 0.2 % point is 13 calls."""
     rng = np.random.default_rng(20261128)
-    calls = sum(_rest_evidence(*_runs(rng), bootstrap=60, seed=k, alpha=0.1)["significant"] for k in range(60))
+    calls = sum(_rest_evidence(*_runs(rng), DRIFT, bootstrap=60, seed=k, alpha=0.1)["significant"] for k in range(60))
     assert calls <= 13
 
 
@@ -70,7 +73,7 @@ def test_a_drift_that_goes_on_after_the_stop_is_seen_at_rest(shape):
     """A drift of 1 N per 100 ms, or 6 N × (1 − e^(−t/0.15 s)), beside noise of 0.5–3 N (AR(1), lag-one 0.9)."""
     rng = np.random.default_rng(7 if shape == "linear" else 8)
     drift = (lambda t: 10.0 * t) if shape == "linear" else (lambda t: 6.0 * -np.expm1(-t / 0.15))
-    found = [_rest_evidence(*_runs(rng, drift), bootstrap=60, seed=k, alpha=0.01) for k in range(5)]
+    found = [_rest_evidence(*_runs(rng, drift), DRIFT, bootstrap=60, seed=k, alpha=0.01) for k in range(5)]
     assert all(f["significant"] for f in found), [(f["z"], f["threshold"]) for f in found]
 
 
@@ -120,7 +123,7 @@ def test_a_transient_that_starts_at_the_stop_is_not_read_as_a_drift(monkeypatch)
 
     def calls():
         rng = np.random.default_rng(12)
-        return sum(_rest_evidence(*_runs(rng, transient=transient), bootstrap=60, seed=k, alpha=0.01)["significant"]
+        return sum(_rest_evidence(*_runs(rng, transient=transient), DRIFT, bootstrap=60, seed=k, alpha=0.01)["significant"]
                    for k in range(10))
 
     assert calls() <= 1
