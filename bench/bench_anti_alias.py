@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from bench.args import check_options
+from pencli.testing.options import check_options
 
 
 def draw_rig(seed: int, i: int) -> dict:

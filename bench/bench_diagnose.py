@@ -81,28 +81,11 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.args import check_options
+from pencli.testing.options import check_options
 from pencli import api
 from pencli.errors import FitError
-from tests.campaigns import BLOCKS, SIX, diagnosis_campaigns, judge, make_campaign, random_effect, varied_campaigns
-
-
-def _redrawn(campaigns, seed, stream, change):
-    """The campaigns with ``change(effects, truth, rng)`` → (effects, truth) applied to each, drawing from a
-    stream of their own (``stream``), so that the campaigns' other draws stay what ``--varied`` made them."""
-    own = np.random.default_rng([seed, stream])
-    return [(label, material, *change(effects, truth, own), nuisances)
-            for label, material, effects, truth, nuisances in campaigns]
-
-
-def two_slopes(campaigns, seed):
-    """The campaigns with every strength gradient in the two-slope form (sim truth shape 3)."""
-    def change(effects, truth, own):
-        return [dict(e, shape=3.0, kink_mm=float(own.uniform(20, 80)),
-                     slope_ratio=float(own.choice([own.uniform(0, 0.5), own.uniform(2, 4)])))
-                if e["name"] == "strength_gradient" else e for e in effects], truth
-
-    return _redrawn(campaigns, seed, 3, change)
+from pencli.testing.campaigns import (BLOCKS, SIX, diagnosis_campaigns, judge, make_campaign, random_effect, redrawn,
+                                     two_slopes, varied_campaigns)
 
 
 def drift_friction(campaigns, seed):
@@ -113,7 +96,7 @@ def drift_friction(campaigns, seed):
         return ([random_effect("force_drift", own), random_effect("velocity_friction", own)],
                 {"force_drift", "velocity_friction"})
 
-    return _redrawn(campaigns, seed, 5, change)
+    return redrawn(campaigns, seed, 5, change)
 
 
 def _weakened(campaigns, seed, stream: int, name: str, key: str, low: float, high: float):
@@ -122,7 +105,7 @@ def _weakened(campaigns, seed, stream: int, name: str, key: str, low: float, hig
         return [dict(e, **{key: float(np.exp(own.uniform(np.log(low), np.log(high))))})
                 if e["name"] == name else e for e in effects], truth
 
-    return _redrawn(campaigns, seed, stream, change)
+    return redrawn(campaigns, seed, stream, change)
 
 
 def weak_drifts(campaigns, seed):
@@ -147,7 +130,7 @@ def slow_speeds(campaigns, seed):
         return [dict(e, speed_m_s=float(own.uniform(0.5, 2.0)))
                 if e["name"] in ("rate_strength", "velocity_friction") else e for e in effects], truth
 
-    return _redrawn(campaigns, seed, 7, change)
+    return redrawn(campaigns, seed, 7, change)
 
 
 def wide_friction(campaigns, seed):
@@ -163,7 +146,7 @@ def wide_friction(campaigns, seed):
 
         return [redraw(e) if e["name"] == "velocity_friction" else e for e in effects], truth
 
-    return _redrawn(campaigns, seed, 12, change)
+    return redrawn(campaigns, seed, 12, change)
 
 
 def onset_rates(campaigns, seed):
@@ -176,7 +159,7 @@ def onset_rates(campaigns, seed):
                      coefficient=float(own.uniform(0.05, 0.2)))
                 if e["name"] == "rate_strength" else e for e in effects], truth
 
-    return _redrawn(campaigns, seed, 19, change)
+    return redrawn(campaigns, seed, 19, change)
 
 
 def guide_losses(campaigns, seed):
@@ -186,7 +169,7 @@ def guide_losses(campaigns, seed):
         return [dict(e, loss=0.0, guide_friction_n=float(np.exp(own.uniform(np.log(30.0), np.log(120.0)))))
                 if e["name"] == "propulsion_loss" else e for e in effects], truth
 
-    return _redrawn(campaigns, seed, 20, change)
+    return redrawn(campaigns, seed, 20, change)
 
 
 def wide_plugs(campaigns, seed):
@@ -197,7 +180,7 @@ def wide_plugs(campaigns, seed):
         return [dict(e, shape=3.0, exponent=float(own.uniform(0.4, 2.5)), length_mm=float(own.uniform(10, 60)))
                 if e["name"] == "plug_growth" else e for e in effects], truth
 
-    return _redrawn(campaigns, seed, 13, change)
+    return redrawn(campaigns, seed, 13, change)
 
 
 def short_gradients(campaigns, seed):
@@ -206,7 +189,7 @@ def short_gradients(campaigns, seed):
         return [dict(e, shape=2.0, length_mm=float(own.uniform(4, 15))) if e["name"] == "strength_gradient" else e
                 for e in effects], truth
 
-    return _redrawn(campaigns, seed, 9, change)
+    return redrawn(campaigns, seed, 9, change)
 
 
 def s_gradients(campaigns, seed):
@@ -217,7 +200,7 @@ def s_gradients(campaigns, seed):
         return [dict(e, shape=4.0, length_mm=float(own.uniform(20, 80)), width_mm=float(own.uniform(15, 40)))
                 if e["name"] == "strength_gradient" else e for e in effects], truth
 
-    return _redrawn(campaigns, seed, 11, change)
+    return redrawn(campaigns, seed, 11, change)
 
 
 def bessel_lags(campaigns, seed):
@@ -227,7 +210,7 @@ def bessel_lags(campaigns, seed):
         return [dict(e, shape=3.0, tau_ms=float(own.uniform(0.2, 0.8))) if e["name"] == "sensor_lag" else e
                 for e in effects], truth
 
-    return _redrawn(campaigns, seed, 10, change)
+    return redrawn(campaigns, seed, 10, change)
 
 
 def ringing_pairs(campaigns, seed):
@@ -241,7 +224,7 @@ def ringing_pairs(campaigns, seed):
         second = str(own.choice(laws))
         return [random_effect("rig_ringing", own), random_effect(second, own)], {"rig_ringing", second}
 
-    return _redrawn(campaigns, seed, 8, change)
+    return redrawn(campaigns, seed, 8, change)
 
 
 def few_coloured(campaigns, seed):

@@ -1,9 +1,9 @@
-"""The diagnosis measured on the hold-out truth world (tests/holdout_world.py), which it was never tuned on.
+"""The diagnosis measured on the hold-out truth world (pencli/testing/holdout_world.py), which it was never tuned on.
 
 Run: python -m bench.bench_diagnose_holdout [--quick] [--base SEED] [--no-ladder] [--out FILE.jsonl] [--world three]
      [--ladder-only]
 
-``--world three`` measures on world three (tests/world_three.py) instead, written by a developer who had not worked
+``--world three`` measures on world three (pencli/testing/world_three.py) instead, written by a developer who had not worked
 on the method after it was frozen, and drawn once blind: its own pairs, three draws of every effect and three
 outside campaigns.  ``--ladder-only`` runs part 3 alone (with the two nulls it is twinned on), so that it can run
 beside parts 1-2 in a second process.
@@ -42,9 +42,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from bench.args import check_options
+from pencli.testing.options import check_options
 from pencli import api
-from tests import holdout_world, world_three
+from pencli.testing import holdout_world, world_three
 
 WORLDS = {"holdout": holdout_world, "three": world_three}
 """The truth worlds by ``--world`` name; each declares its CATALOGUE, OUTSIDE effect, PAIRS, DRAWS per effect,

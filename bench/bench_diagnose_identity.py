@@ -7,7 +7,7 @@ whole report as JSON (the time it took left out, floats rounded to 9 significant
 difference of a BLAS kernel does not count), then the median diagnosis time.  Run it before and after a change
 that must leave the diagnosis as it is (a refactoring) and compare the two outputs line by line: every verdict and
 every fingerprint must agree.  The development campaigns are ``bench_diagnose --varied N SEED``'s (random forms
-and nuisances, nulls among them); the hold-out campaigns are the hold-out world's (``tests/holdout_world.py``),
+and nuisances, nulls among them); the hold-out campaigns are the hold-out world's (``pencli/testing/holdout_world.py``),
 every catalogue effect in turn and a null after every effect.
 """
 
@@ -22,7 +22,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from bench.args import check_options
+from pencli.testing.options import check_options
 
 
 def _rounded(value):
@@ -53,7 +53,7 @@ def dev_one(args) -> tuple[str, str, str, str, str, float]:
 
 def holdout_one(args) -> tuple[str, str, str, str, str, float]:
     from pencli import api
-    from tests import holdout_world
+    from pencli.testing import holdout_world
 
     seed, effects = args
     with tempfile.TemporaryDirectory() as tmp:
@@ -73,8 +73,8 @@ def main() -> None:
     check_options(__doc__, ("--dev", "--holdout", "--seed", "--jobs"))
     value = lambda flag, default: int(sys.argv[sys.argv.index(flag) + 1]) if flag in sys.argv else default  # noqa: E731
     n_dev, n_holdout, seed, jobs = value("--dev", 8), value("--holdout", 8), value("--seed", 700000), value("--jobs", 2)
-    from tests import holdout_world
-    from tests.campaigns import varied_campaigns
+    from pencli.testing import holdout_world
+    from pencli.testing.campaigns import varied_campaigns
 
     dev = [(seed + k, *campaign) for k, campaign in enumerate(varied_campaigns(n_dev, seed))]
     names = list(holdout_world.CATALOGUE)

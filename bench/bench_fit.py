@@ -23,7 +23,7 @@ from scipy.optimize import least_squares
 from pencli import api
 from pencli.fit.dynamic import fit_dynamic
 from pencli.fit.resistance import fit_resistance
-from tests.campaigns import make_campaign
+from pencli.testing.campaigns import make_campaign
 
 
 def baseline_resistance(series, x0):

@@ -20,7 +20,7 @@ import pandas as pd
 from pencli import api
 from pencli.io.runfolder import read_xlsx_data
 from pencli.io.xlsx import write_xlsx
-from tests.helpers import COLUMNS, synthetic_columns, write_folder
+from pencli.testing.helpers import COLUMNS, synthetic_columns, write_folder
 
 N_RUNS = 40
 N_XLSX = 10

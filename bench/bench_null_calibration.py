@@ -23,28 +23,17 @@ import numpy as np
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM
 from pencli.diagnose.engine import _standardise, familywise_threshold
 from pencli.diagnose.null import gumbel_quantile
+from pencli.testing.nulls import largest_z, point_mass
 
 FAMILIES, REPLICATES, ALPHA = 11, 60, 0.01
-
-
-def _point_mass(rng, shape):
-    values = np.zeros(shape)
-    fits = rng.random(shape) < 0.05
-    values[fits] = rng.chisquare(1, int(fits.sum()))
-    return values
 
 
 LAWS = {
     "normal": lambda rng, shape: rng.normal(size=shape),
     "chi2(1)": lambda rng, shape: rng.chisquare(1, shape),
     "t(3)": lambda rng, shape: rng.standard_t(3, shape),
-    "point mass + 5 % chi2(1)": _point_mass,
+    "point mass + 5 % chi2(1)": point_mass,
 }
-
-
-def _largest_z(values: np.ndarray) -> float:
-    """The data's (row 0) largest standardised improvement over the families (columns)."""
-    return max(_standardise(values[:, k], 1e-9)[0] for k in range(values.shape[1]))
 
 
 def _in_sample_threshold(improvements: np.ndarray, floor: float, alpha: float) -> float:
@@ -63,7 +52,7 @@ def main(trials: int = 300, seed: int = 0) -> None:
         alarms = np.zeros(2)
         for _ in range(trials):
             values = draw(rng, (REPLICATES + 1, FAMILIES))
-            data = _largest_z(values)
+            data = largest_z(values)
             alarms += [data > familywise_threshold(values, 1e-9, ALPHA),
                        data > _in_sample_threshold(values, 1e-9, ALPHA)]
         rate = alarms / trials
@@ -83,7 +72,7 @@ def engine_rate(trials: int = 3000, seed: int = 0) -> None:
             alarms = 0
             for _ in range(trials):
                 values = draw(rng, (n + 1, FAMILIES))
-                alarms += _largest_z(values) > familywise_threshold(values, 1e-9, alpha)
+                alarms += largest_z(values) > familywise_threshold(values, 1e-9, alpha)
             rates.append(alarms / trials)
         print(f"{name:28s} " + " ".join(f"{r:>16.2%}" for r in rates), flush=True)
 

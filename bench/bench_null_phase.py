@@ -3,7 +3,7 @@ shared encoder phase scanned.
 
 Run: python -m bench.bench_null_phase N SEED INDEX [PHASES...]   (default phases 0, 0.1, ..., 0.9)
 
-Null ``INDEX`` of ``tests.campaigns.varied_campaigns(N, SEED, only="nulls")`` is fired again with every shot's
+Null ``INDEX`` of ``pencli.testing.campaigns.varied_campaigns(N, SEED, only="nulls")`` is fired again with every shot's
 encoder phase (where the blade rests within one count) set to each value in turn, all else as drawn; each
 time the diagnosis scores the families on the data and on its 200 replicates.  The replicates shift the
 phase of every run by one random amount, so if they are the data's null, the data's rank among them
@@ -19,10 +19,10 @@ import sys
 
 import numpy as np
 
-from bench.args import check_options
+from pencli.testing.options import check_options
 from bench.bench_diagnose import run_one
 from bench.bench_null_ranks import FAMILIES, data_ranks, record_ranks
-from tests.campaigns import varied_campaigns
+from pencli.testing.campaigns import varied_campaigns
 
 
 def main(count: int, seed: int, index: int, phases: list[float]) -> None:

@@ -3,7 +3,7 @@
 Run: python -m bench.bench_null_ranks N SEED [--out FILE.jsonl] [any of bench_diagnose's redraw flags, e.g.
      --few-coloured --unknown-material]
 
-For each of N null campaigns of the development world (``tests.campaigns.varied_campaigns``, nulls only,
+For each of N null campaigns of the development world (``pencli.testing.campaigns.varied_campaigns``, nulls only,
 every nuisance varied), the diagnosis scores every effect family on the data and on its 60 replicates.  If
 the replicates are the data's null, the data's standardised improvement of each family is one more draw of
 the replicates' (each replicate standardised by the others, as the family-wise threshold does), and its rank
@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.args import check_options
+from pencli.testing.options import check_options
 from bench.bench_diagnose import REDRAWS, run_one
 from pencli.diagnose import engine
-from tests.campaigns import varied_campaigns
+from pencli.testing.campaigns import varied_campaigns
 
 
 FAMILIES = [n for n, e in engine.EFFECTS.items() if e.side != "drive"]

@@ -2,7 +2,7 @@
 
 Run: python -m bench.bench_predict
 Prints the median of repeated timings for both and their ratio, plus the
-accuracy of each against a tight independent integration (tests/reference.py).
+accuracy of each against a tight independent integration (pencli/testing/reference.py).
 Target: pen under 20 ms per prediction.
 """
 
@@ -17,7 +17,7 @@ from scipy.integrate import solve_ivp
 from pencli.model.design import design_from_sets
 from pencli.model.dynamics import simulate
 from pencli.params.load import load_preset
-from tests.reference import reference_run
+from pencli.testing.reference import reference_run
 
 DESIGNS = [("appendix_c", "grill_brick", "appendix_c"), ("figure10", "figure10", "figure10"),
            ("al6061_1mm", "mpacs_c", "springs_4")]

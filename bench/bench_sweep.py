@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 
-from bench.args import check_options
+from pencli.testing.options import check_options
 from bench.bench_predict import baseline_rk45
 from pencli import api
 from pencli.model.design import Design, design_from_sets

@@ -17,7 +17,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from bench.args import check_options
+from pencli.testing.options import check_options
 
 _ROW = re.compile(r"^(?P<label>\S+)\s+truth=(?P<truth>\S+)\s+verdict=(?P<verdict>\S+)\s+(?P<mark>OK|MISS)\b")
 _SECONDS = re.compile(r"\s(?P<s>\d+(?:\.\d+)?)s\s*$")

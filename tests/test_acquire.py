@@ -13,7 +13,7 @@ from pencli import api
 from pencli.acquire.calibration import load_force_calibration, load_position_calibration
 from tests import fake_nidaqmx
 from tests.conftest import invoke
-from tests.helpers import snapshot
+from pencli.testing.helpers import snapshot
 
 
 def _raw(workspace, run_id):

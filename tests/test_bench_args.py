@@ -1,4 +1,4 @@
-"""The benches' command lines refuse what they do not know before a long run starts (bench/args.py)."""
+"""The benches' command lines refuse what they do not know before a long run starts (pencli/testing/options.py)."""
 
 import subprocess
 import sys
@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from bench.args import check_options
+from pencli.testing.options import check_options
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -36,10 +36,18 @@ def test_the_holdout_bench_refuses_a_typo_without_running():
     assert done.returncode == 2 and "unknown option --no-lader" in done.stderr and done.stdout == ""
 
 
-def test_compare_verdicts_counts_what_changed_between_two_runs_of_a_set(tmp_path, capsys):
+def test_compare_verdicts_counts_what_changed_between_two_runs_of_a_set(tmp_path):
     """bench/compare_verdicts.py reads two bench_diagnose outputs and counts campaign by campaign; the lines here
-    are in the bench's printed form, the counts worked out by hand."""
-    from bench.compare_verdicts import main
+    are in the bench's printed form, the counts worked out by hand.  Run as the bench is run, in its own process
+    (the tests import no bench)."""
+    import subprocess
+    import sys
+
+    from tests.conftest import REPO
+
+    def compare(*files):
+        return subprocess.run([sys.executable, "-m", "bench.compare_verdicts", *files], capture_output=True,
+                              text=True, cwd=REPO, timeout=120)
 
     def out(name, rows):
         path = tmp_path / name
@@ -53,10 +61,12 @@ def test_compare_verdicts_counts_what_changed_between_two_runs_of_a_set(tmp_path
     after = out("after.txt", [("a-0", "plug_growth", "strength_layer", "MISS", 12.0),
                               ("b-1", "velocity_friction", "velocity_friction", "OK ", 22.0),
                               ("null-2", "none", "none", "OK ", 33.0), ("c-3", "none", "none", "OK ", 1.0)])
-    assert main([before, after]) == 0
-    text = capsys.readouterr().out
+    done = compare(before, after)
+    assert done.returncode == 0, done.stderr
+    text = done.stdout
     assert "3 campaigns in both; right 2 before, 2 after (lost 1, gained 1)" in text
     assert "a-0" in text and "b-1" in text and "null-2" not in text and "c-3" not in text
     assert "20.0 s before, 22.0 s after (1.10 ×" in text
-    assert main([before]) == 2 and main([before, str(tmp_path / "missing.txt")]) == 2
-    assert "missing.txt: no such file" in capsys.readouterr().err
+    assert compare(before).returncode == 2
+    missing = compare(before, str(tmp_path / "missing.txt"))
+    assert missing.returncode == 2 and "missing.txt: no such file" in missing.stderr

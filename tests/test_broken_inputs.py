@@ -16,7 +16,7 @@ from typing import Callable
 import pytest
 
 from tests.conftest import REPO, invoke
-from tests.helpers import synthetic_columns, write_folder
+from pencli.testing.helpers import synthetic_columns, write_folder
 from tests.test_ingest import BROKEN, _broken
 from tests.test_params import BAD, GOOD
 

@@ -16,7 +16,7 @@ import pytest
 from pencli import api
 from pencli.diagnose.effects import EFFECTS
 from pencli.errors import PenNotice
-from tests.campaigns import make_campaign
+from pencli.testing.campaigns import make_campaign
 from tests.conftest import invoke
 
 SIX = [("1", 2), ("1", 6), ("1.5", 4), ("2", 2), ("2", 6), ("1.5", 6)]
@@ -32,7 +32,7 @@ def dev_campaign(tmp_path, seed, index, only, effects=None):
     """Campaign ``index`` of the development set ``--varied 12 seed --only only`` diagnosed: its nuisances, and
     its own effects or ``effects`` (a form a scratch flag drew, written out).  (material, effects, nuisances,
     result)."""
-    from tests.campaigns import varied_campaigns
+    from pencli.testing.campaigns import varied_campaigns
 
     _, material, drawn, _, nuisances = varied_campaigns(12, seed, only=only)[index]
     effects = drawn if effects is None else effects
@@ -42,9 +42,9 @@ def dev_campaign(tmp_path, seed, index, only, effects=None):
 
 
 def catalogue_campaign(tmp_path, index):
-    """Campaign ``index`` of the quick catalogue set (:func:`tests.campaigns.diagnosis_campaigns`), made from
+    """Campaign ``index`` of the quick catalogue set (:func:`pencli.testing.campaigns.diagnosis_campaigns`), made from
     seed 900 + ``index`` and conditioned."""
-    from tests.campaigns import diagnosis_campaigns
+    from pencli.testing.campaigns import diagnosis_campaigns
 
     _, material, effects, _ = diagnosis_campaigns(quick=True)[index]
     return conditioned(make_campaign(tmp_path, material, seed=900 + index, shots=SIX, effects=effects,
@@ -140,7 +140,7 @@ def test_a_speed_deficit_whose_loss_moves_the_motion_away_is_not_a_propulsion_lo
     a propulsion loss: its contact speeds fell 0.44 % short (t 4.08), but the loss fitted to them made the
     predicted motion worse (dynamic shrink −23.8 %).  A loss that does not bring the motion closer explains
     nothing.  The truth has no effect at all."""
-    from tests.campaigns import BLOCKS, varied_campaigns
+    from pencli.testing.campaigns import BLOCKS, varied_campaigns
 
     camps = varied_campaigns(20, 86000, only="nulls")
     own = np.random.default_rng([86000, 99])
@@ -256,7 +256,7 @@ def test_the_whole_catalogue_nulls_a_pair_and_an_outside_effect(tmp_path):
     effect."""
     import statistics
 
-    from tests.campaigns import diagnosis_campaigns, judge
+    from pencli.testing.campaigns import diagnosis_campaigns, judge
 
     outcomes = []
     for i, (label, _, _, truth) in enumerate(diagnosis_campaigns(quick=True)):
@@ -278,7 +278,7 @@ def test_a_family_no_other_test_shows_alone_is_named_and_closes_the_gap(tmp_path
     """The catalogue's campaigns (above, seeds 900 + their place) of the families that no other test of the
     default run shows alone: the verdict names the family and its fit removes most of the baseline's held-out
     error."""
-    from tests.campaigns import diagnosis_campaigns, judge
+    from pencli.testing.campaigns import diagnosis_campaigns, judge
 
     i, truth = next((i, c[3]) for i, c in enumerate(diagnosis_campaigns(quick=True)) if c[0] == label)
     result = api.diagnose(catalogue_campaign(tmp_path, i), ["all"])
@@ -321,7 +321,7 @@ def test_a_null_whose_runs_read_its_filter_corner_apart_is_none(tmp_path):
     and the filter rings at the contact step at the true corner.  With every replicate behind the corner as read,
     that ringing was called a rig ringing at z 7.78 against 4.11; the replicates' corners drawn within the spread
     the runs' reads show, it is ``none``.  Tuned on: where the flaw was found."""
-    from tests.campaigns import BLOCKS, SIX, varied_campaigns
+    from pencli.testing.campaigns import BLOCKS, SIX, varied_campaigns
 
     _, material, effects, _, nuisances = varied_campaigns(6, 254000, only="nulls")[5]
     db = make_campaign(tmp_path, material, seed=254005, effects=effects,
@@ -445,7 +445,7 @@ def test_a_friction_that_closes_more_than_a_plug_growth_the_familywise_test_pass
     named; the friction closed 19.4 % at z 5.3 (its null wide: a speed law on a coarse encoder's speeds).  The
     family-wise test now says there is an effect, the fit says which.  Campaign 22 of ``--varied 24 161000
     --only velocity_friction``."""
-    from tests.campaigns import varied_campaigns
+    from pencli.testing.campaigns import varied_campaigns
 
     _, material, effects, truth, nuisances = varied_campaigns(24, 161000, only="velocity_friction")[22]
     assert truth == {"velocity_friction"} and material == "grill_brick" and nuisances["encoder_mm"] == 0.32
@@ -461,8 +461,8 @@ def test_a_gradient_whose_slope_falls_to_a_sixth_at_a_depth_is_a_gradient(tmp_pa
     slope after it (sim truth shape 3), on eight grill-brick runs, was named a strength layer: a step at the kink
     was the nearest other shape.  The gradient family now holds two straight slopes meeting at a depth.
     Campaign 6 of ``--varied 12 181000 --only strength_gradient --two-slopes``."""
-    from bench.bench_diagnose import two_slopes
-    from tests.campaigns import varied_campaigns
+    from pencli.testing.campaigns import two_slopes
+    from pencli.testing.campaigns import varied_campaigns
 
     _, material, effects, truth, nuisances = two_slopes(varied_campaigns(12, 181000, only="strength_gradient"),
                                                         181000)[6]
@@ -480,7 +480,7 @@ def test_an_exponential_gradient_between_the_old_lengths_is_named_alone(tmp_path
     beside it took that mismatch and was reported as a second effect.  With lengths 2^¼ apart the gradient
     leaves 1.6 × the floor and stands alone.  Campaign 17 of ``--varied 28 106000`` (7 grill-brick runs, a
     0.32 mm encoder, white and AR(1) noise)."""
-    from tests.campaigns import varied_campaigns
+    from pencli.testing.campaigns import varied_campaigns
 
     _, material, effects, truth, nuisances = varied_campaigns(28, 106000)[17]
     assert truth == {"strength_gradient"} and effects[0]["shape"] == 0.0 and material == "grill_brick"
@@ -495,7 +495,7 @@ def test_a_delay_whose_late_rise_falls_outside_the_stand_off_tolerance_is_a_lag(
     force rise past where its contact was looked for, the window took the step in, and the campaign was named a
     force drift that closed 0.8 % of the gap (the lag: −5.6 %).  The drawn campaign 3 of the development lags of
     seed 62000 (7 grill-brick runs at 30 kHz, 0.65 N of noise, anti-alias filter)."""
-    from tests.campaigns import varied_campaigns
+    from pencli.testing.campaigns import varied_campaigns
 
     _, material, effects, truth, nuisances = varied_campaigns(14, 62000, only="sensor_lag")[3]
     assert effects[0]["shape"] == 2.0 and material == "grill_brick"
@@ -518,7 +518,7 @@ def test_a_delay_between_the_old_grid_delays_under_late_rises_is_a_lag(tmp_path,
     put 4.3 mm deep, where the right delay then scored 2,986 N²), and the delay members stood 0.45 and 0.7 ms
     apart, so the folds' picks jumped between them and the odd pick scored 45–67 N² on its run (the baseline
     21–28 N²).  The truth is the simulated rig's; the expected verdict is the truth's name."""
-    from tests.campaigns import varied_campaigns
+    from pencli.testing.campaigns import varied_campaigns
 
     _, material, effects, truth, nuisances = varied_campaigns(16, 190000, only="sensor_lag")[index]
     assert effects[0]["shape"] == 2.0 and 0.55 < effects[0]["tau_ms"] < 0.7 and material == "grill_brick"
@@ -560,7 +560,7 @@ def test_a_gradient_saturating_within_a_few_millimetres_is_a_gradient(tmp_path):
     margin is small (layer 86.8 % against gradient 81.2 % with the nuisances rounded to 3 digits).  A layer member
     "plateau" from 5 to 15 mm (4 mm edges) would score 91.2 % against the gradient's 87.3 % were a plateau not a
     band whose bottom edge goes back."""
-    from tests.campaigns import varied_campaigns
+    from pencli.testing.campaigns import varied_campaigns
 
     _, material, effects, _, nuisances = varied_campaigns(8, 68000, only="strength_gradient")[5]
     own = np.random.default_rng([68000, 9])
@@ -583,7 +583,7 @@ def test_a_gradient_rising_in_an_s_wider_than_a_layers_edge_is_a_gradient(tmp_pa
     lost a layer + ringing pair
     (``test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_on_some_replicates``).  An
     S-rise now enters only where every fold's training runs reach a width past its centre (``Member.reach_m``)."""
-    from tests.campaigns import BLOCKS, varied_campaigns
+    from pencli.testing.campaigns import BLOCKS, varied_campaigns
 
     _, material, effects, _, nuisances = varied_campaigns(8, 78000, only="strength_gradient")[1]
     own = np.random.default_rng([78000, 11])
@@ -602,7 +602,7 @@ def test_a_layer_under_ringing_is_a_pair_though_a_second_ringing_shape_explodes_
     """The layer beat a second ringing shape by 11,902 N² on the data, but two ringing shapes together
     extrapolate wildly on a few null replicates (−10¹⁵ N²), and the plain sd of the difference (4·10¹⁴) hid it.
     The drawn campaign 2 of the development pairs of seed 60000 (4 runs, coloured noise, anti-alias filter)."""
-    from tests.campaigns import BLOCKS, varied_campaigns
+    from pencli.testing.campaigns import BLOCKS, varied_campaigns
 
     _, material, effects, truth, nuisances = varied_campaigns(12, 60000, only="pairs")[2]
     assert truth == {"rig_ringing", "strength_layer"}

@@ -353,14 +353,14 @@ def test_familywise_threshold_holds_its_rate_on_point_mass_nulls():
     (at the effect test's rate, 1/300, with 200 replicates, on these draws: 12 false alarms of 600 with the
     Gumbel, 2 with the larger of the Gumbel and GEV quantiles).  Data and replicates of 11 families all drawn
     from the point mass at 0 with 5 % χ²₁, so every alarm is false."""
-    from bench.bench_null_calibration import _largest_z, _point_mass
+    from pencli.testing.nulls import largest_z, point_mass
     from pencli.diagnose.engine import familywise_threshold
 
     rng = np.random.default_rng(12)
     alarms, trials = 0, 600
     for _ in range(trials):
-        values = _point_mass(rng, (201, 11))
-        alarms += _largest_z(values) > familywise_threshold(values, 1e-9, 0.01 / 3)
+        values = point_mass(rng, (201, 11))
+        alarms += largest_z(values) > familywise_threshold(values, 1e-9, 0.01 / 3)
     assert alarms / trials <= 0.015, alarms
 
 
@@ -567,7 +567,7 @@ def test_replicates_carry_the_derivative_error_the_data_have_near_contact_and_st
     from pencli import api
     from pencli.diagnose import engine
     from pencli.diagnose.null import replicate_run
-    from tests.campaigns import make_campaign
+    from pencli.testing.campaigns import make_campaign
 
     truths = _keep_sim_truths(monkeypatch)
     db = make_campaign(tmp_path, "mpacs_c", seed=77, shots=[("1", 4), ("2", 2), ("1.5", 6), ("2", 4)],
@@ -894,7 +894,7 @@ def test_a_lag_members_known_force_is_what_the_lag_does_to_the_inertia_force_in_
     doubled (4.3 → 8.1 N on a development campaign) and a one-pole lag lost to a strength layer."""
     from pencli import api
     from pencli.diagnose.effects import EFFECTS, basis_of
-    from tests.campaigns import make_campaign
+    from pencli.testing.campaigns import make_campaign
 
     db = make_campaign(tmp_path, "mpacs_c", seed=3, shots=[("1.5", 6)], encoder_mm=0.08,
                        effects=[{"name": "sensor_lag", "tau_ms": 0.45, "shape": shape}],
@@ -985,7 +985,7 @@ def test_the_window_starts_after_a_force_rise_that_a_lag_moves_past_the_stand_of
     named a force drift that explained 0.2 % of the gap.  The rise is placed here from the record's depth (where
     it reaches the true surface) and the simulated delay, not by the code under test."""
     from pencli import api
-    from tests.campaigns import make_campaign
+    from pencli.testing.campaigns import make_campaign
 
     delay_s, surface_m = 0.6e-3, 3e-3
     db = make_campaign(tmp_path, "grill_brick", seed=4, shots=[("2", 4)], encoder_mm=0.08, standoff_mm=[3.0],
@@ -1010,7 +1010,7 @@ def test_the_window_ends_two_milliseconds_before_a_hard_stop_and_at_the_tares_en
     both read by the tare, not by the diagnosis."""
     from pencli import api
     from pencli.diagnose.effects import STOP_MARGIN_S
-    from tests.campaigns import make_campaign
+    from pencli.testing.campaigns import make_campaign
 
     db = make_campaign(tmp_path, "mpacs_c", seed=5, shots=[("1.5", 4), ("1", 6)], encoder_mm=0.08)
     api.tare_runs(db, ["all"])
@@ -1095,7 +1095,7 @@ def test_each_blocks_surface_is_read_from_its_force_less_the_campaigns_common_la
     10.5 m/s and 30 kHz; the file's stand-off is off by up to 1.3 mm from it)."""
     from pencli import api
     from pencli.diagnose.effects import surfaces
-    from tests.campaigns import make_campaign
+    from pencli.testing.campaigns import make_campaign
 
     errors = [1.5, -1.0, 0.0, 0.6]
     db = make_campaign(tmp_path, "mpacs_c", seed=11, shots=[("1.5", 4)] * 4, encoder_mm=0.08, standoff_mm=errors,
@@ -1117,7 +1117,7 @@ def test_under_a_lagging_force_chain_each_surface_is_read_from_the_late_rise(tmp
     (:func:`test_each_blocks_surface_is_read_from_its_force_less_the_campaigns_common_lag`)."""
     from pencli import api
     from pencli.diagnose.effects import surfaces
-    from tests.campaigns import make_campaign
+    from pencli.testing.campaigns import make_campaign
 
     errors = [1.5, -1.0, 0.0, 0.6]
     db = make_campaign(tmp_path, "mpacs_c", seed=11, shots=[("1.5", 4)] * 4, encoder_mm=0.08, standoff_mm=errors,

@@ -16,7 +16,7 @@ import yaml
 from pencli import api
 from pencli.filter.derivatives import METHODS
 from pencli.filter.inertia import effective_samples
-from tests.campaigns import make_campaign
+from pencli.testing.campaigns import make_campaign
 from tests.conftest import invoke
 
 TABLE1 = {

@@ -1,10 +1,10 @@
-"""The hold-out truth world's own checks (tests/holdout_world.py; pen never imports it)."""
+"""The hold-out truth world's own checks (pencli/testing/holdout_world.py; pen never imports it)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from tests import holdout_world
+from pencli.testing import holdout_world
 
 
 def test_a_bessel_lag_shorter_than_the_sampling_shows_leaves_the_record_as_without_it(tmp_path: Path):

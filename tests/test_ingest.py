@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from pencli import api
 from pencli.errors import StoreError
 from tests.conftest import REPO, SPEC, invoke
-from tests.helpers import COLUMNS, snapshot, synthetic_columns, write_folder, write_bam_workbook
+from pencli.testing.helpers import COLUMNS, snapshot, synthetic_columns, write_folder, write_bam_workbook
 
 EXAMPLE = SPEC / "examples" / "run_grill_brick_1.5mm"
 

@@ -39,8 +39,9 @@ def test_core_imports_no_io_or_ui_libraries(path):
 
 
 def test_only_store_imports_duckdb():
+    """The store, and the test tools that read a catalog to prove a command left it as it was."""
     for path in PKG.rglob("*.py"):
-        if "store" in path.relative_to(PKG).parts:
+        if {"store", "testing"} & set(path.relative_to(PKG).parts):
             continue
         assert not any(n.split(".")[0] == "duckdb" for n in imports_of(path)), path
 
@@ -69,3 +70,19 @@ def test_the_example_workspace_has_a_folder_of_its_own():
     example = REPO / "examples" / "workspace"
     assert (example / "runs.duckdb").is_file() and (example / "runs").is_dir()
     assert not (REPO / "runs").exists() and not (REPO / "fits").exists() and not (REPO / "sweeps").exists()
+
+
+REPO = PKG.parent
+
+
+def test_tests_and_benches_are_apart_and_pen_never_imports_its_test_tools():
+    """Truth worlds and campaign builders live in pencli.testing, which the tests and benches share; the tests
+    import no bench, the benches no test, and nothing of pen but pencli.testing imports pencli.testing."""
+    for path in sorted((REPO / "tests").rglob("*.py")):
+        assert not any(n.split(".")[0] == "bench" for n in imports_of(path)), path
+    for path in sorted((REPO / "bench").rglob("*.py")):
+        assert not any(n.split(".")[0] == "tests" for n in imports_of(path)), path
+    for path in PKG.rglob("*.py"):
+        if "testing" in path.relative_to(PKG).parts:
+            continue
+        assert not any(n == "pencli.testing" or n.startswith("pencli.testing.") for n in imports_of(path)), path

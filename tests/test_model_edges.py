@@ -10,7 +10,7 @@ import yaml
 
 from pencli.params.load import load_preset
 from tests.conftest import invoke
-from tests.reference import reference_run
+from pencli.testing.reference import reference_run
 
 
 def _mappings(p, m, e, **energizing):

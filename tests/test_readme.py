@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import REPO
-from tests.helpers import synthetic_columns, write_bam_workbook
+from pencli.testing.helpers import synthetic_columns, write_bam_workbook
 
 SETUP = ("python -m pip", "python -m pytest")
 

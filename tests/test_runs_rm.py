@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from tests.conftest import REPO, invoke
-from tests.helpers import synthetic_columns, write_folder
+from pencli.testing.helpers import synthetic_columns, write_folder
 
 EXAMPLE = REPO / "examples" / "workspace"
 

@@ -1,4 +1,4 @@
-"""World three (tests/world_three.py) checked against CONTRACT §2 where it has no effect, and its sensor chain
+"""World three (pencli/testing/world_three.py) checked against CONTRACT §2 where it has no effect, and its sensor chain
 against what it claims: a truth world that is wrong measures nothing."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from tests import world_three as w3
-from tests.reference import reference_run
+from pencli.testing import world_three as w3
+from pencli.testing.reference import reference_run
 
 
 def _shot(**over) -> w3.Shot:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from pencli import api
@@ -254,3 +255,21 @@ def judge(result, truth: set[str]) -> tuple[bool, float | None]:
         ok = truth <= set(result.verdict_effects)
     shrink = next((e.shrink_pct for e in result.effects if e.name == result.verdict), None)
     return bool(ok), shrink
+
+
+def redrawn(campaigns, seed, stream, change):
+    """The campaigns with ``change(effects, truth, rng)`` → (effects, truth) applied to each, drawing from a
+    stream of their own (``stream``), so that the campaigns' other draws stay what ``--varied`` made them."""
+    own = np.random.default_rng([seed, stream])
+    return [(label, material, *change(effects, truth, own), nuisances)
+            for label, material, effects, truth, nuisances in campaigns]
+
+
+def two_slopes(campaigns, seed):
+    """The campaigns with every strength gradient in the two-slope form (sim truth shape 3)."""
+    def change(effects, truth, own):
+        return [dict(e, shape=3.0, kink_mm=float(own.uniform(20, 80)),
+                     slope_ratio=float(own.choice([own.uniform(0, 0.5), own.uniform(2, 4)])))
+                if e["name"] == "strength_gradient" else e for e in effects], truth
+
+    return redrawn(campaigns, seed, 3, change)

@@ -1,7 +1,7 @@
 """World three: a third rig simulator, written after the diagnosis was frozen, to measure it once.
 
 The development world (pencli/acquire/truth.py, sim.py) and the hold-out
-world (tests/holdout_world.py) were both written by the sessions that
+world (pencli/testing/holdout_world.py) were both written by the sessions that
 developed the diagnosis, and the hold-out world has been drawn more than
 sixty times with its misses read after each draw.  This world was written
 by a developer who had not worked on the method, to stand in for the outside check's independent simulator: other code,
@@ -535,7 +535,7 @@ def write_run(folder: Path, shot: Shot, columns: dict, run_id: str, material_nam
                        "spring_compressed_length_mm": round(shot.compressed_m * 1e3, 4),
                        "surface_offset_mm": round(shot.standoff_file_m * 1e3, 3),
                        "propulsion_efficiency_pct": round(shot.efficiency * 100, 3)},
-        "run": {"id": run_id, "operator": "world three", "notes": "third truth world (tests/world_three.py)"},
+        "run": {"id": run_id, "operator": "world three", "notes": "third truth world (pencli/testing/world_three.py)"},
     }
     for kind, mapping in files.items():
         (folder / f"{kind}.yaml").write_text(yaml.safe_dump(mapping, sort_keys=False))
