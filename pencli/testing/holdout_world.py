@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
+
+from pencli.testing.labfolders import Campaign, write_lab_folder
 
 G = 9.81
 CATALOGUE = ("strength_layer", "strength_gradient", "plug_growth", "sidewall_pressure_growth", "velocity_friction",
@@ -330,10 +331,6 @@ def measure(shot: Shot, rng: np.random.Generator, pre_s: float = 0.15) -> dict[s
 
 def write_run(folder: Path, shot: Shot, columns: dict, run_id: str, material_name: str) -> Path:
     """A CONTRACT §3 run folder; the files carry nominal values (the truth differs by the nuisances)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    order = ("time_s", "position_mm", "fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm")
-    data = np.column_stack([columns[c] for c in order])
-    np.savetxt(folder / "data.csv", data, delimiter=",", header=",".join(order), comments="", fmt="%.6g")
     m = shot.material
     files = {
         "penetrator": {"kind": "penetrator", "name": f"blade_{shot.thickness_m * 1e3:g}mm",
@@ -351,18 +348,8 @@ def write_run(folder: Path, shot: Shot, columns: dict, run_id: str, material_nam
                        "propulsion_efficiency_pct": shot.efficiency * 100},
         "run": {"id": run_id, "operator": "holdout world", "notes": "hold-out truth world"},
     }
-    for kind, mapping in files.items():
-        (folder / f"{kind}.yaml").write_text(yaml.safe_dump(mapping, sort_keys=False))
-    return folder
+    return write_lab_folder(folder, columns, files)
 
-
-@dataclass
-class Campaign:
-    """What a hold-out campaign holds (the truth, for the bench; never shown to pen)."""
-
-    folders: list
-    effects: list
-    nuisances: dict
 
 
 def make_campaign(folder: Path, seed: int, effects=(), *, intensity: float = 1.0) -> Campaign:

@@ -52,7 +52,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
+
+from pencli.testing.labfolders import Campaign, write_lab_folder
 
 G = 9.81
 CATALOGUE = ("strength_layer", "strength_gradient", "plug_growth", "sidewall_pressure_growth", "velocity_friction",
@@ -513,11 +514,6 @@ def measure(shot: Shot, rng: np.random.Generator) -> dict[str, np.ndarray]:
 
 def write_run(folder: Path, shot: Shot, columns: dict, run_id: str, material_name: str) -> Path:
     """A CONTRACT §3 run folder with the values the lab would write (nominal stand-off, table strength)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    order = ("time_s", "position_mm", "fx_n", "fy_n", "fz_n", "tx_nm", "ty_nm", "tz_nm")
-    data = np.column_stack([columns[c] for c in order])
-    fmt = [f"%.{shot.time_digits}g"] + ["%.6g"] * (len(order) - 1)
-    np.savetxt(folder / "data.csv", data, delimiter=",", header=",".join(order), comments="", fmt=fmt)
     m = shot.material
     files = {
         "penetrator": {"kind": "penetrator", "name": f"al6061_{shot.thickness_m * 1e3:g}mm_{shot.width_m * 1e3:g}w",
@@ -537,18 +533,8 @@ def write_run(folder: Path, shot: Shot, columns: dict, run_id: str, material_nam
                        "propulsion_efficiency_pct": round(shot.efficiency * 100, 3)},
         "run": {"id": run_id, "operator": "world three", "notes": "third truth world (pencli/testing/world_three.py)"},
     }
-    for kind, mapping in files.items():
-        (folder / f"{kind}.yaml").write_text(yaml.safe_dump(mapping, sort_keys=False))
-    return folder
+    return write_lab_folder(folder, columns, files, shot.time_digits)
 
-
-@dataclass
-class Campaign:
-    """A campaign's folders and its truth (for the bench only; never shown to pen)."""
-
-    folders: list
-    effects: list
-    nuisances: dict
 
 
 def _sensor_chain(rng: np.random.Generator, rate_hz: float, noise_rms: float, colour: str, share: float) -> dict:
