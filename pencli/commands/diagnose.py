@@ -88,7 +88,9 @@ def diagnose(
                   f"of prediction (t {base['drive_t']:.1f}, threshold {decision['drive_threshold_t']:.1f})")
     console.print(f"false-alarm rate {decision['false_alarm']:g} per campaign, {decision['bootstrap']} null replicates; "
                   f"an effect needs z > {decision['effect_threshold_z']:.1f}")
-    for item in result.where[:3]:
+    if result.verdict == "none":
+        console.print("where: no gap beyond the noise")
+    for item in (result.where[:3] if result.verdict != "none" else ()):
         depth = f", depth {item['depth_mm'][0]:g}–{item['depth_mm'][1]:g} mm" if item.get("depth_mm") else ""
         share = f", {100 * item['share_of_gap']:.0f} % of the gap" if item.get("share_of_gap") is not None else ""
         console.print(f"where: {item['phase']}{depth}, t {item['time_ms'][0]:g}–{item['time_ms'][1]:g} ms{share}"

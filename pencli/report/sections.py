@@ -175,9 +175,12 @@ def diagnosis_section(result) -> Section:
                            [[e.name, e.heldout_rms_n, e.shrink_pct, e.z, e.significant, e.detectable_rms_n,
                              ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
                                        for k, v in e.params.items())] for e in result.effects]))
-    section.tables.append(("where the gap lies", ["phase", "depth [mm]", "time [ms]", "share of gap"],
-                           [[w["phase"], w.get("depth_mm"), w.get("time_ms"), w.get("share_of_gap")]
-                            for w in result.where]))
+    if result.verdict == "none":
+        section.tables.append(("where the gap lies: no gap beyond the noise", ["phase"], []))
+    else:
+        section.tables.append(("where the gap lies", ["phase", "depth [mm]", "time [ms]", "share of gap"],
+                               [[w["phase"], w.get("depth_mm"), w.get("time_ms"), w.get("share_of_gap")]
+                                for w in result.where if w.get("above_noise")]))
     section.tables.append(("what the misfit follows (share of the baseline's held-out misfit explained by its "
                            "mean along each axis, in the material)", list(result.axes), [list(result.axes.values())]))
     section.add_figure(diagnosis_figure(result))

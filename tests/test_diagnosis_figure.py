@@ -1,0 +1,59 @@
+"""The diagnosis figure draws what the verdict says and nothing it denies: a `none` draws one row, no shaded span
+and says there is no gap; an effect's verdict draws its row after the effect and shades where the gap lies."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from matplotlib.patches import Polygon, Rectangle
+
+from pencli.diagnose.engine import Diagnosis, EffectReport
+from pencli.report.diagnosis import diagnosis_figure
+
+
+def _diagnosis(verdict: str, effects: tuple[str, ...]) -> Diagnosis:
+    t = np.linspace(0.0, 0.04, 400)
+    depth = np.clip((t - 0.01) * 5.0, -0.02, None)
+    series = ({"run_id": "r1", "time_s": t, "depth_m": depth, "time_since_contact_s": t - 0.01,
+               "baseline_residual_n": np.sin(300 * t), "effect_residual_n": 0.2 * np.sin(300 * t)},)
+    where = ({"phase": "penetration", "depth_mm": [40.0, 60.0], "time_ms": [18.0, 22.0],
+              "time_since_contact_ms": [8.0, 12.0], "share_of_gap": 0.9, "above_noise": True},)
+    reports = tuple(EffectReport(name, "law", "resistance", {}, {}, 2.0, 75.0, True, 9.0) for name in effects)
+    return Diagnosis(("r1",), {"heldout_rms_n": 8.0, "null_rms_n": 2.0}, where, reports, verdict, effects, (), 2.0,
+                     series=series)
+
+
+def _extent(patch) -> tuple[float, float]:
+    """The horizontal extent of a shaded span (a Rectangle or, in older matplotlib, a Polygon)."""
+    if isinstance(patch, Rectangle):
+        return patch.get_x(), patch.get_x() + patch.get_width()
+    xs = [x for x, _ in patch.get_xy()]
+    return min(xs), max(xs)
+
+
+def _spans(fig) -> list:
+    return [p for ax in fig.axes for p in ax.patches if isinstance(p, (Polygon, Rectangle))]
+
+
+def test_a_none_verdict_draws_one_row_no_span_and_says_no_gap():
+    fig = diagnosis_figure(_diagnosis("none", ()))
+    assert len(fig.axes) == 2  # the baseline's residuals against depth and time, nothing after an effect
+    assert not _spans(fig)
+    assert "no gap beyond the noise" in fig._suptitle.get_text()
+
+
+def test_unexplained_shades_where_the_misfit_lies_and_says_so():
+    fig = diagnosis_figure(_diagnosis("unexplained", ()))
+    assert len(fig.axes) == 2 and len(_spans(fig)) == 2
+    assert "unexplained" in fig._suptitle.get_text() and "no catalogue effect" in fig._suptitle.get_text()
+
+
+@pytest.mark.parametrize("effects", [("strength_layer",), ("strength_layer", "force_drift")])
+def test_an_effect_verdict_draws_the_residual_after_it_and_states_its_shrink(effects):
+    fig = diagnosis_figure(_diagnosis(effects[0], effects))
+    assert len(fig.axes) == 4
+    depth_span = [p for p in fig.axes[0].patches]
+    assert depth_span and np.allclose(_extent(depth_span[0]), [40.0, 60.0])
+    title = fig._suptitle.get_text()
+    assert " + ".join(effects) in title and "75 %" in title
+    assert " + ".join(effects) in fig.axes[2].get_ylabel()
