@@ -39,12 +39,11 @@ import math
 import statistics
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 from pencli.testing.options import check_options
-from pencli import api
 from pencli.testing import holdout_world, world_three
+from pencli.testing.campaigns import diagnose_folders
 
 WORLDS = {"holdout": holdout_world, "three": world_three}
 """The truth worlds by ``--world`` name; each declares its CATALOGUE, OUTSIDE effect, PAIRS, DRAWS per effect,
@@ -62,15 +61,7 @@ SIZE_BINS = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, math.inf)
 def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         campaign = WORLD.make_campaign(Path(tmp), seed, effects, intensity=intensity)
-        db = Path(tmp) / "runs.duckdb"
-        started = time.perf_counter()
-        api.ingest(campaign.folders, db)
-        api.tare_runs(db, ["all"])
-        api.subtract_inertia_runs(db, ["all"])
-        t0 = time.perf_counter()
-        result = api.diagnose(db, ["all"])
-        seconds = time.perf_counter() - t0
-        pipeline = time.perf_counter() - started
+        result, seconds, pipeline = diagnose_folders(campaign.folders, Path(tmp) / "runs.duckdb")
     first = result.effects[0] if result.effects else None
     drive = next((e for e in result.effects if e.name == "propulsion_loss"), None)
     return {"drive": drive and {"t": drive.z, "threshold": result.decision["drive_threshold_t"],

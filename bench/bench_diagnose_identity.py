@@ -18,7 +18,6 @@ import json
 import statistics
 import sys
 import tempfile
-import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -52,19 +51,13 @@ def dev_one(args) -> tuple[str, str, str, str, str, float]:
 
 
 def holdout_one(args) -> tuple[str, str, str, str, str, float]:
-    from pencli import api
     from pencli.testing import holdout_world
+    from pencli.testing.campaigns import diagnose_folders
 
     seed, effects = args
     with tempfile.TemporaryDirectory() as tmp:
         campaign = holdout_world.make_campaign(Path(tmp), seed, effects)
-        db = Path(tmp) / "runs.duckdb"
-        api.ingest(campaign.folders, db)
-        api.tare_runs(db, ["all"])
-        api.subtract_inertia_runs(db, ["all"])
-        started = time.perf_counter()
-        result = api.diagnose(db, ["all"])
-        seconds = time.perf_counter() - started
+        result, seconds, _ = diagnose_folders(campaign.folders, Path(tmp) / "runs.duckdb")
     return (f"holdout {seed}", "+".join(effects) or "null", "+".join(effects) or "none", result.verdict,
             "+".join(result.verdict_effects) or "-", fingerprint(result), seconds)
 

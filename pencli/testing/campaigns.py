@@ -273,3 +273,18 @@ def two_slopes(campaigns, seed):
                 if e["name"] == "strength_gradient" else e for e in effects], truth
 
     return redrawn(campaigns, seed, 3, change)
+
+
+def diagnose_folders(folders, db: Path):
+    """A campaign's run folders through ``pen ingest``, ``tare``, ``subtract-inertia`` and ``diagnose``, as a lab
+    runs them; returns the diagnosis, its own time and the whole pipeline's. [s]"""
+    import time
+
+    started = time.perf_counter()
+    api.ingest(folders, db)
+    api.tare_runs(db, ["all"])
+    api.subtract_inertia_runs(db, ["all"])
+    t0 = time.perf_counter()
+    result = api.diagnose(db, ["all"])
+    done = time.perf_counter()
+    return result, done - t0, done - started
