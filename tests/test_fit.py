@@ -26,7 +26,7 @@ TABLE1 = {
 
 
 EDGE_BIAS = (
-        "known bias: the smoothing spline's free ends at contact and stop bias the resistance where the speed is "
+    "known bias: the smoothing spline's free ends at contact and stop bias the resistance where the speed is "
     "highest, so the fit finds C = +2.5 [1.8, 3.1] kPa·s/m on MPACS C (truth 0); on Grill Brick C = +1.4 "
     "[-0.05, 2.9] just contains 0; trimming 3 ms instead of 0.5 ms at each window edge gives C = 0.0 [-0.6, 0.6], "
     "K 34.37 (truth 34.4). Fix: edge-aware derivatives or a wider trim, then drop this marker")
