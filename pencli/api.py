@@ -999,6 +999,12 @@ def solve(penetrator: str, material: str, energizing: str, *, target: str, until
 
 
 # ---------------------------------------------------------------------------- reports
+def run_ids(db: str | Path, refs: Sequence[str]) -> list[str]:
+    """The run ids that run ids, run folders or id patterns name (``all``: every run)."""
+    ws = workspace(db)
+    return [ws.resolve(ref) for ref in expand_run_refs(ws, refs)]
+
+
 def report_runs(db: str | Path, refs: Sequence[str]) -> list:
     """Sections for runs: raw channels (Fig. 11), measurements (Fig. 12), model against data (Fig. 13),
     energy per term (Fig. 14), parameters and provenance."""
@@ -1044,9 +1050,10 @@ def report_diagnosis(db: str | Path, refs: Sequence[str], progress: Callable[[st
     return [diagnosis_section(result)], result
 
 
-def report_all(db: str | Path, out: str | Path, *, pdf: bool = True,
-               progress: Progress | None = None) -> list[Path]:
-    """``pen report --all``: one report per run, fitted material version and sweep under ``out``."""
+def report_all(db: str | Path, out: str | Path, *, pdf: bool = True, progress: Progress | None = None,
+               extra: Sequence[tuple[str, list]] = ()) -> list[Path]:
+    """``pen report --all``: one report per run, fitted material version and sweep under ``out``, and each
+    (name, sections) of ``extra`` (the gate's record) as ``out/<name>.html``."""
     import shutil
     import tempfile
 
@@ -1060,6 +1067,7 @@ def report_all(db: str | Path, out: str | Path, *, pdf: bool = True,
               lambda v=v: report_material(db, v["material"], v["version"])) for v in ws.material_versions()]
     jobs += [(f"sweep {i}", out / "sweeps" / f"sweep-{i}.html", lambda i=i: report_sweep(db, i))
              for i in ws.sweep_ids()]
+    jobs += [(name, out / f"{name}.html", lambda sections=sections: sections) for name, sections in extra]
     # every report is written into a hidden folder beside ``out`` and moved into place when all are done: a
     # failure part-way (a full disk) leaves ``out`` as it was
     made = make_parents(out.parent)
@@ -1085,13 +1093,32 @@ def report_all(db: str | Path, out: str | Path, *, pdf: bool = True,
 
 
 @dataclass(frozen=True)
-class CheckFailure:
-    """One thing that broke a --check threshold."""
+class CheckResult:
+    """One threshold of the gate on one subject: its value and whether it holds, or why it could not be read."""
 
     subject: str
     metric: str
-    value: float
+    value: float | None
     rule: str
+    passed: bool
+    reason: str = ""
+    """Why the check could not be evaluated (empty when it was)."""
+
+    @property
+    def evaluated(self) -> bool:
+        return self.value is not None
+
+
+@dataclass(frozen=True)
+class GateScope:
+    """What a report is of, so that its checks look at that and nothing else: run ids (checked in the newest
+    fit that holds them), material versions, or a diagnosis."""
+
+    runs: tuple[str, ...] = ()
+    materials: tuple[tuple[str, int | None], ...] = ()
+    """(material, version or None for the latest)."""
+    everything: bool = False
+    """``--all``: every material's latest fit and every run of the workspace."""
 
 
 def parse_checks(items: Sequence[str]) -> list[tuple[str, str, float]]:
@@ -1112,28 +1139,64 @@ def parse_checks(items: Sequence[str]) -> list[tuple[str, str, float]]:
     return out
 
 
-def run_checks(db: str | Path, checks: Sequence[tuple[str, str, float]], diagnosis=None) -> list[CheckFailure]:
-    """Evaluate thresholds on every material's latest fit (per run) and on a diagnosis."""
-    failures = []
+def run_checks(db: str | Path, checks: Sequence[tuple[str, str, float]], scope: GateScope,
+               diagnosis=None) -> list[CheckResult]:
+    """Evaluate each threshold on what the report is of: ``nrmse``, ``r2``, ``rms_n`` on each run in scope as the
+    newest fit that holds it measured it, ``shrink`` on the diagnosis.  A check with nothing to read (a run never
+    fitted, ``shrink`` without a diagnosis, a report of a sweep) is a result that did not pass, with its reason."""
     ws = workspace(db)
-    latest: dict[str, dict] = {}
-    for version in ws.material_versions():
-        latest[version["material"]] = version
-    for metric, op, threshold in checks:
-        rule = f"{metric}{op}{threshold:g}"
-        if metric == "shrink":
-            if diagnosis is None:
-                continue
-            top = diagnosis.effects[0].shrink_pct if diagnosis.effects and diagnosis.verdict not in ("none",) else 0.0
-            ok = top >= threshold if op == ">=" else top <= threshold
-            if not ok:
-                failures.append(CheckFailure(f"diagnosis ({diagnosis.verdict})", metric, top, rule))
-            continue
-        for material, version in latest.items():
-            for run in json.loads(version["fit"])["runs"]:
-                value = run[metric]
-                ok = value >= threshold if op == ">=" else value <= threshold
-                if not ok:
-                    failures.append(CheckFailure(f"{material} v{version['version']} run {run['run_id']}", metric,
-                                                 float(value), rule))
-    return failures
+    versions = ws.material_versions()
+    latest = {v["material"]: v for v in versions}
+    chosen = list(latest.values()) if scope.everything else [
+        latest[m] if ver is None else next(v for v in versions if v["material"] == m and v["version"] == ver)
+        for m, ver in scope.materials if m in latest]
+    by_run: dict[str, tuple[dict, dict]] = {}
+    for version in sorted(latest.values(), key=lambda v: v["created_at"]):
+        for run in json.loads(version["fit"])["runs"]:
+            by_run[run["run_id"]] = (version, run)  # the newest fit that holds the run
+    wanted = list(ws.run_ids()) if scope.everything else list(scope.runs)
+    return [result for check in checks for result in _check(check, chosen, wanted, by_run, diagnosis)]
+
+
+def _check(check: tuple[str, str, float], chosen: Sequence[dict], wanted: Sequence[str],
+           by_run: Mapping[str, tuple[dict, dict]], diagnosis) -> list[CheckResult]:
+    metric, op, threshold = check
+    rule = f"{metric}{op}{threshold:g}"
+
+    def holds(value: float) -> bool:
+        return value >= threshold if op == ">=" else value <= threshold
+
+    if metric == "shrink":
+        if diagnosis is None:
+            return [CheckResult("diagnosis", metric, None, rule, False, "the report has no diagnosis (add --diagnose)")]
+        named = diagnosis.verdict not in ("none", "unexplained") and diagnosis.effects
+        top = diagnosis.effects[0].shrink_pct if named else 0.0
+        return [CheckResult(f"diagnosis ({diagnosis.verdict})", metric, top, rule, holds(top))]
+    subjects = [(f"{v['material']} v{v['version']} run {r['run_id']}", r) for v in chosen
+                for r in json.loads(v["fit"])["runs"]]
+    covered = {r["run_id"] for _, r in subjects}
+    results = []
+    for run_id in (r for r in wanted if r not in covered):
+        if run_id in by_run:
+            version, run = by_run[run_id]
+            subjects.append((f"{version['material']} v{version['version']} run {run_id}", run))
+        else:
+            results.append(CheckResult(f"run {run_id}", metric, None, rule, False,
+                                       "no fit holds this run (pen fit it first)"))
+    if not subjects and not results:
+        results.append(CheckResult("report", metric, None, rule, False, "the report holds no fitted run"))
+    return results + [CheckResult(subject, metric, float(run[metric]), rule, holds(float(run[metric])))
+                      for subject, run in subjects]
+
+
+def gate_section(results: Sequence[CheckResult]) -> Any:
+    """The gate's record in a report: every check on every subject, its value and outcome."""
+    from pencli.report.build import Section
+
+    failed = [r for r in results if not r.passed]
+    text = (f"{len(results)} check(s): all hold." if not failed else
+            f"{len(results)} check(s): {len(failed)} did not hold or could not be evaluated.")
+    return Section("gate", text=text, tables=[(
+        "checks of this report", ["check", "subject", "value", "outcome"],
+        [[r.rule, r.subject, r.value, "holds" if r.passed else (f"not evaluated: {r.reason}" if not r.evaluated
+                                                               else "breaks")] for r in results])])

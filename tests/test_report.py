@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import base64
 import re
 import shutil
@@ -92,16 +94,35 @@ def test_check_gate_names_every_breach_and_exits_1(example, tmp_path, runner):
     ok = invoke(runner, "report", "gb-1.0-2", "--out", tmp_path / "a.html", "--db", example, "--no-pdf",
                 "--check", "nrmse<=0.5")
     assert ok.exit_code == 0, ok.output
-    strict = invoke(runner, "report", "gb-1.0-2", "--out", tmp_path / "b.html", "--db", example, "--no-pdf",
-                    "--check", "nrmse<=0.0001", "--check", "r2>=0.5")
+    strict = invoke(runner, "report", "gb-1.0-2", "mc-1.0-4", "--out", tmp_path / "b.html", "--db", example,
+                    "--no-pdf", "--check", "nrmse<=0.0001", "--check", "r2>=0.5")
     assert strict.exit_code == 1
     breaches = [line for line in strict.stderr.splitlines() if line.startswith("check failed")]
-    assert len(breaches) == 12  # every run of both materials' latest fits breaks nrmse<=0.0001
-    assert all("nrmse" in line for line in breaches)
-    assert (tmp_path / "b.html").is_file()  # the report is still published
+    # scoped to what the report is of: its two runs, each in the fit that holds it, not every fitted run
+    assert len(breaches) == 2 and all("nrmse" in line for line in breaches), strict.stderr
+    assert any("grill_brick v1 run gb-1.0-2" in b for b in breaches) and any("mc-1.0-4" in b for b in breaches)
+    page = (tmp_path / "b.html").read_text()  # the report is still published, and records its gate
+    assert "checks of this report" in page and page.count("breaks") == 2 and page.count("holds") == 2
     bad = invoke(runner, "report", "gb-1.0-2", "--out", tmp_path / "c.html", "--db", example, "--check", "nrmse<0.1")
     # a malformed gate is a usage error (exit 2), not a breach, and nothing is written
     assert bad.exit_code == 2 and "METRIC<=VALUE" in bad.stderr and not (tmp_path / "c.html").exists()
+
+
+def test_a_check_that_cannot_be_evaluated_fails_unless_allowed(example, tmp_path, runner):
+    """shrink without --diagnose, and fit metrics on a report of a sweep, have nothing to read: the gate says so
+    and fails, unless --allow-unchecked; the report records the check as not evaluated."""
+    vacuous = invoke(runner, "report", "gb-1.0-2", "--out", tmp_path / "v.html", "--db", example, "--no-pdf",
+                     "--check", "shrink>=50")
+    assert vacuous.exit_code == 1 and "check not evaluated" in vacuous.stderr and "--diagnose" in vacuous.stderr
+    assert "not evaluated" in (tmp_path / "v.html").read_text()
+    allowed = invoke(runner, "report", "gb-1.0-2", "--out", tmp_path / "w.html", "--db", example, "--no-pdf",
+                     "--check", "shrink>=50", "--allow-unchecked")
+    assert allowed.exit_code == 0, allowed.output
+    sweep = invoke(runner, "report", "--sweep", "1", "--out", tmp_path / "s.html", "--db", example, "--no-pdf",
+                   "--check", "nrmse<=0.5", "--json")
+    assert sweep.exit_code == 1
+    record = json.loads(sweep.stdout)
+    assert record["checks"][0]["evaluated"] is False and "no fitted run" in record["checks"][0]["reason"]
 
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

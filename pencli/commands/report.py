@@ -32,10 +32,14 @@ def report(
                                                 "folder with --all."),
     pdf: bool = typer.Option(True, "--pdf/--no-pdf", help="Also write the PDF."),
     check: Optional[List[str]] = typer.Option(None, "--check", metavar="METRIC<=VALUE",
-                                              help="Gate: nrmse<=0.15, r2>=0.9, rms_n<=50 (every run of every "
-                                                   "material's latest fit) or shrink>=50 (with --diagnose). "
-                                                   "Exit 1 naming everything that breaks one."),
-    json_out: bool = typer.Option(False, "--json", help="Print what was written and any check failures as JSON."),
+                                              help="Gate: nrmse<=0.15, r2>=0.9, rms_n<=50 (each run the report is "
+                                                   "of, in the newest fit that holds it) or shrink>=50 (with "
+                                                   "--diagnose). Exit 1 naming everything that breaks one; the "
+                                                   "report records the gate."),
+    allow_unchecked: bool = typer.Option(False, "--allow-unchecked",
+                                         help="Let a check that cannot be evaluated pass (a run no fit holds, "
+                                              "shrink without --diagnose) instead of failing the gate."),
+    json_out: bool = typer.Option(False, "--json", help="Print what was written and every check as JSON."),
     db: Optional[Path] = DbOption,
 ) -> None:
     """Write self-contained HTML (figures embedded) and PDF reports; optionally gate on thresholds.
@@ -51,44 +55,73 @@ def report(
     except PenError as exc:  # a malformed gate is a usage error (exit 2), not a breach
         raise typer.BadParameter(str(exc), param_hint="--check") from None
     written: list[Path] = []
-    diagnosis = None
     if all_:
+        results = api.run_checks(catalog, checks, api.GateScope(everything=True)) if checks else []
+        extra = [("gate", [api.gate_section(results)])] if checks else []
         with progress_bar("reports", disable=json_out) as progress:
-            written += api.report_all(catalog, out, pdf=pdf, progress=progress)
+            written += api.report_all(catalog, out, pdf=pdf, progress=progress, extra=extra)
     else:
         if out.suffix.lower() != ".html":
             raise typer.BadParameter(f"'{out}' must end in .html (or use --all with a folder)", param_hint="--out")
         if not (material or sweep is not None or runs):
             raise typer.BadParameter("name RUNs, --material, --sweep, RUNs with --diagnose, or --all")
-        parts = [p for p, wanted in (("material", material), ("sweep", sweep is not None),
-                                     ("diagnosis" if diagnose else "runs", runs)) if wanted]
-        sections = []
-        with progress_bar("report", disable=json_out) as progress:
-            total = len(parts) + 1
-            for k, part in enumerate(parts):
-                progress(part, k, total)
-                if part == "material":
-                    sections += api.report_material(catalog, material, version)
-                elif part == "sweep":
-                    sections += api.report_sweep(catalog, sweep)
-                elif part == "diagnosis":
-                    diag_sections, diagnosis = api.report_diagnosis(
-                        catalog, runs, progress=lambda stage, done, k=k: progress(f"diagnosis: {stage}", k + done,
-                                                                                  total))
-                    sections += diag_sections
-                else:
-                    sections += api.report_runs(catalog, runs)
-            progress("writing HTML" + (" and PDF" if pdf else ""), len(parts), total)
-            written += write_report("pen report", sections, out, pdf=pdf)
-    failures = api.run_checks(catalog, checks, diagnosis) if checks else []
+        sections, diagnosis = _sections(catalog, runs, material, version, sweep, diagnose, json_out)
+        scope = api.GateScope(runs=tuple(api.run_ids(catalog, runs)) if runs else (),
+                              materials=((material, version),) if material else ())
+        results = api.run_checks(catalog, checks, scope, diagnosis) if checks else []
+        if checks:
+            sections.append(api.gate_section(results))
+        written += write_report(_title(runs, material, version, sweep, diagnose), sections, out, pdf=pdf)
+    broken = [r for r in results if not r.passed and (r.evaluated or not allow_unchecked)]
     if json_out:
-        print_json({"written": [str(p) for p in written], "failures": [f.__dict__ for f in failures]})
+        print_json({"written": [str(p) for p in written],
+                    "checks": [{**r.__dict__, "evaluated": r.evaluated} for r in results],
+                    "failures": [r.__dict__ for r in broken]})
     else:
         for path in written:
             console.print(f"wrote {path}")
-        for f in failures:
-            err_console.print(f"[red]check failed:[/red] {escape(f.subject)}: {f.metric} = {f.value:.4g} breaks "
-                              f"{escape(f.rule)}", highlight=False)
-    if failures:
-        raise fail(f"{len(failures)} check(s) failed")
+        for r in broken:
+            if r.evaluated:
+                err_console.print(f"[red]check failed:[/red] {escape(r.subject)}: {r.metric} = {r.value:.4g} breaks "
+                                  f"{escape(r.rule)}", highlight=False)
+            else:
+                err_console.print(f"[red]check not evaluated:[/red] {escape(r.subject)}: {escape(r.rule)}: "
+                                  f"{escape(r.reason)} (--allow-unchecked lets it pass)", highlight=False)
+    if broken:
+        raise fail(f"{len(broken)} check(s) failed or could not be evaluated")
 
+
+def _title(runs, material, version, sweep, diagnose) -> str:
+    """A report's title says what it is of."""
+    parts = []
+    if material:
+        parts.append(f"material {material}" + (f" v{version}" if version else ""))
+    if sweep is not None:
+        parts.append(f"sweep {sweep}")
+    if runs:
+        parts.append(("diagnosis of " if diagnose else "runs ") + ", ".join(runs))
+    return "pen report: " + "; ".join(parts)
+
+
+def _sections(catalog, runs, material, version, sweep, diagnose, quiet: bool):
+    """The report's sections and, with --diagnose, the diagnosis (its checks need it)."""
+    parts = [p for p, wanted in (("material", material), ("sweep", sweep is not None),
+                                 ("diagnosis" if diagnose else "runs", runs)) if wanted]
+    sections, diagnosis = [], None
+    with progress_bar("report", disable=quiet) as progress:
+        total = len(parts) + 1
+        for k, part in enumerate(parts):
+            progress(part, k, total)
+            if part == "material":
+                sections += api.report_material(catalog, material, version)
+            elif part == "sweep":
+                sections += api.report_sweep(catalog, sweep)
+            elif part == "diagnosis":
+                diag_sections, diagnosis = api.report_diagnosis(
+                    catalog, runs, progress=lambda stage, done, k=k: progress(f"diagnosis: {stage}", k + done,
+                                                                              total))
+                sections += diag_sections
+            else:
+                sections += api.report_runs(catalog, runs)
+        progress("writing", len(parts), total)
+    return sections, diagnosis
