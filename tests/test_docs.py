@@ -51,7 +51,7 @@ def test_every_command_has_a_generated_page_with_its_help(site):
 
 def test_the_getting_started_page_is_the_readmes_tour(site):
     page = (site / "getting-started" / "index.html").read_text()
-    assert "pen ingest lab/2026-11-20/mc-*" in page and "pen diagnose all" in page
+    assert "pen ingest lab/tour/mc-*" in page and "pen diagnose all" in page
 
 
 def test_the_parameter_keys_page_lists_every_key_with_its_unit(site):

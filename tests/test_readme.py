@@ -25,7 +25,8 @@ SETUP = ("python -m pip", "python -m pytest")
 
 
 def readme_commands(text: str) -> list[str]:
-    """`pen …` lines of the README's indented code blocks (continuations joined, trailing comments cut)."""
+    """`pen …` lines (and shell loops over `pen`) of indented code blocks (continuations joined, trailing comments
+    cut)."""
     out, pending = [], ""
     for line in text.splitlines():
         if not line.startswith("    "):
@@ -37,7 +38,7 @@ def readme_commands(text: str) -> list[str]:
             pending = ""
         elif body.startswith("$ "):
             body = body[2:]
-        if not body.startswith("pen "):
+        if not (body.startswith("pen ") or (body.startswith("for ") and "; do pen " in body)):
             continue
         if body.rstrip().endswith("\\"):
             pending = body.rstrip()[:-1].rstrip()
