@@ -325,11 +325,6 @@ def check_name(name: str, option: str) -> str:
     return name
 
 
-def _nearest_folder(path: Path) -> Path:
-    """``path`` or its nearest existing parent (where a file written under ``path`` would land)."""
-    return next((p for p in (path, *path.parents) if p.is_dir()), Path("."))
-
-
 def _one_line(exc: BaseException) -> str:
     """An unexpected error as one line: its kind and first line (``OSError: [Errno 28] No space left``)."""
     text = str(exc).strip().splitlines()
@@ -837,6 +832,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     import contextlib
     import time as _time
 
+    from pencli.io.outputs import nearest_existing
     from pencli.model.dynamics import check_contact_speed
     from pencli.predict.batch import ENDS
     from pencli.predict.chunks import evaluate_columns
@@ -864,7 +860,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     written_to = out if out is not None else db
     folder = Path(written_to).expanduser().absolute().parent if written_to is not None else None
     needed = table_bytes(total, len(variables))
-    free = shutil.disk_usage(_nearest_folder(folder)).free if folder is not None else needed
+    free = shutil.disk_usage(nearest_existing(folder)).free if folder is not None else needed
     if needed > free:
         raise StoreError(f"{folder}: the sweep's table of {total:.3g} designs takes about {needed / 1e9:.3g} GB and "
                          f"{free / 1e9:.3g} GB are free there; free space, write elsewhere (--out), or sweep fewer "
@@ -1054,7 +1050,6 @@ def report_all(db: str | Path, out: str | Path, *, pdf: bool = True, progress: P
                extra: Sequence[tuple[str, list]] = ()) -> list[Path]:
     """``pen report --all``: one report per run, fitted material version and sweep under ``out``, and each
     (name, sections) of ``extra`` (the gate's record) as ``out/<name>.html``."""
-    import shutil
     import tempfile
 
     from pencli.io.atomic import make_parents, remove_made

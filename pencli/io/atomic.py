@@ -44,27 +44,8 @@ def remove_made(folders: list[Path]) -> None:
 @contextlib.contextmanager
 def atomic_path(target: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``target``; rename it over ``target`` on success."""
-    target = Path(target)
-    with contextlib.suppress(FileNotFoundError):
-        if not stat.S_ISREG(os.stat(target).st_mode):  # never rename over a device, pipe or folder
-            raise OutputError(f"{target}: is not a regular file; name a file")
-    made = make_parents(target.parent)
-    done = False
-    tmp_path = None
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-        os.close(fd)
-        tmp_path = Path(tmp)
-        yield tmp_path
-        if tmp_path.exists():
-            honour_umask(tmp_path)
-        os.replace(tmp_path, target)
-        done = True
-    finally:
-        if tmp_path is not None and tmp_path.exists():
-            tmp_path.unlink()
-        if not done:
-            remove_made(made)
+    with atomic_group([Path(target)]) as temps:
+        yield temps[0]
 
 
 def write_atomic(target: str | Path, write: Callable[[Path], None]) -> Path:

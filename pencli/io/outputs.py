@@ -34,7 +34,8 @@ _DUCKDB_MAGIC = b"DUCK"
 """DuckDB database files carry this at byte 8."""
 
 
-def _nearest_existing(path: Path) -> Path:
+def nearest_existing(path: Path) -> Path:
+    """``path`` or its nearest parent that exists (where a file written under ``path`` would land)."""
     for candidate in (path, *path.parents):
         if candidate.exists():
             return candidate
@@ -93,7 +94,7 @@ def check_output(target: str | Path, db: str | Path | None, option: str, *, fold
         elif _is_duckdb(given):
             raise OutputError(f"{option} {text}: is a DuckDB database (a workspace catalog?); pen does not write "
                               f"over one; name another file")
-    parent = _nearest_existing(given if folder and given.is_dir() else given.parent)
+    parent = nearest_existing(given if folder and given.is_dir() else given.parent)
     if not parent.is_dir():
         raise OutputError(f"{option} {text}: {parent} is a file, not a folder")
     try:
@@ -106,4 +107,4 @@ def check_output(target: str | Path, db: str | Path | None, option: str, *, fold
     return Path(target)
 
 
-__all__ = ["DATA_FOLDERS", "check_output"]
+__all__ = ["DATA_FOLDERS", "check_output", "nearest_existing"]
