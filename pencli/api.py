@@ -25,7 +25,7 @@ if TYPE_CHECKING:
 from pencli.params.definitions import Kind
 from pencli.params.load import all_presets, load_file, load_preset, preset_names, resolve
 from pencli.params.overrides import parse_overrides
-from pencli.params.validate import ParameterSet, sets_from_mappings
+from pencli.params.validate import ParameterSet
 
 
 def simulate(*args, **kwargs):
@@ -364,7 +364,7 @@ def rescue_run(run, folder: str | Path | None = None) -> Path:
 
 
 def add_run(run, db: str | Path, *, command: str):
-    """Add an in-memory :class:`~pencli.store.rundata.RunData` (e.g. from the rig) to the workspace."""
+    """Add an in-memory raw :class:`~pencli.run.Run` (e.g. from the rig) to the workspace."""
     from pencli.io.checks import check_run_columns, check_units
     from pencli.io.runfolder import unit_scales
 
@@ -417,16 +417,13 @@ def export_run(db: str | Path, ref: str, to: str | Path, *, data_format: str = "
                ) -> Path:
     """Write a run's raw stage as a CONTRACT §3 folder."""
     from pencli.io.runfolder import write_run_folder
-    from pencli.store.workspace import raw_columns_of
 
     check_output(to, db, "--to", folder=True)
     ws = workspace(db)
-    run_id = ws.resolve(ref)
-    table, _ = ws.read_stage(run_id, "raw")
-    row = ws.run_row(run_id)
-    info = dict(json.loads(row["info"]) if row.get("info") else {})
-    info.setdefault("id", run_id)
-    return write_run_folder(to, raw_columns_of(table), ws.run_parameters(run_id), info, data_format=data_format,
+    run = ws.load_run(ref, "raw")
+    info = {**run.info}
+    info.setdefault("id", run.run_id)
+    return write_run_folder(to, run.columns, ws.run_parameters(run.run_id), info, data_format=data_format,
                             overwrite=overwrite)
 
 
@@ -436,7 +433,7 @@ class Acquisition:
     """One shot of the rig, calibrated and trimmed, not yet saved."""
 
     run: Any
-    """The :class:`~pencli.store.rundata.RunData` to save."""
+    """The raw :class:`~pencli.run.Run` to save."""
     warnings: tuple[str, ...]
     truth: dict | None
     """The simulated rig's true figures (None on the real rig); never stored with the run."""
@@ -464,7 +461,7 @@ def acquire(*, springs: int | None, penetrator: str, material: str, energizing: 
     from pencli.acquire.drivers import ShotSetup, make_driver
     from pencli.acquire.rig import load_rig
     from pencli.acquire.session import run_shot
-    from pencli.store.rundata import RunData
+    from pencli.run import Run
 
     if energizing is None:
         if springs is None:
@@ -492,8 +489,8 @@ def acquire(*, springs: int | None, penetrator: str, material: str, energizing: 
     record.update({"driver": name, "rig": rig_config.name, "sampling_rate_hz": rate,
                    "tare_before_fire": shot.tare, "position_calibration": pcal.source,
                    "force_calibration": fcal.source})
-    run = RunData(shot.columns, p, measured_only(m), e, record, f"acquire:{name}", "acquire",
-                  {"driver": name, "rig": rig_config.source, "duration_s": duration_s})
+    run = Run(shot.columns, p, measured_only(m), e, record, f"acquire:{name}", "acquire",
+              {"driver": name, "rig": rig_config.source, "duration_s": duration_s})
     return Acquisition(run, shot.warnings, getattr(rig_driver, "truth", None))
 
 
@@ -551,19 +548,9 @@ def expand_run_refs(ws, refs: Sequence[str]) -> list[str]:
 def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, float] | None = None,
               progress: Progress | None = None) -> list[StageOutcome]:
     """``pen tare``: offsets from the pre-trigger span, depth from the stand-off, events; a new stage."""
-    from pencli.filter.tare import tare
-    from pencli.store.workspace import raw_columns_of
-
     def work(ws, run_id):
-        table, raw = ws.read_stage(run_id, "raw")
-        params = ws.run_parameters(run_id)
-        tared = tare(raw_columns_of(table), params["energizing"]["surface_offset_mm"],
-                     params["penetrator"]["penetration_depth_mm"], window_ms=window_ms, where=run_id)
-        out = {"time_s": tared.time_s, "depth_m": tared.depth_m,
-               **{name: np.asarray(values) for name, values in tared.forces.items()}}
-        record = ws.add_stage(run_id, "tare", out, parent_no=raw.stage_no, command="pen tare",
-                              parameters={"offsets": tared.offsets, "events": tared.events.to_dict(),
-                                          "window_ms": list(window_ms) if window_ms else None})
+        tared = ws.load_run(run_id, "raw").tared(window_ms)
+        record = ws.save_stage(tared)
         return StageOutcome(run_id, "done", run_id, record.stage_no, details=tared.events.to_dict())
 
     return _each_run(db, refs, work, progress)
@@ -573,60 +560,30 @@ def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | 
                           use_flight_mass: bool = False, progress: Progress | None = None) -> list[StageOutcome]:
     """``pen subtract-inertia``: v and a from the encoder, R = F − m_lc·a; a new stage."""
     from pencli.filter.derivatives import DEFAULT_METHOD
-    from pencli.filter.inertia import subtract_inertia
-    from pencli.filter.tare import Events
 
     chosen = method or DEFAULT_METHOD
 
     def work(ws, run_id):
-        records = ws.stages(run_id)
-        tares = [r for r in records if r.stage == "tare"]
-        if not tares:
+        if not any(r.stage == "tare" for r in ws.stages(run_id)):
             raise DataError(f"run '{run_id}' has no tare stage; run `pen tare {run_id}` first")
-        table, parent = ws.read_stage(run_id, tares[-1].stage_no)
-        events = Events(**parent.parameters["events"])
-        m_lc = float(ws.run_parameters(run_id)["penetrator"]["load_cell_mass_kg"])
-        columns = {name: table.column(name).to_numpy() for name in table.column_names}
-        kin = subtract_inertia(columns["time_s"], columns["depth_m"], columns["fz_n"], events, m_lc,
-                               method=chosen, use_flight_mass=use_flight_mass)
-        out = {"time_s": columns["time_s"], "depth_m": columns["depth_m"],
-               "velocity_m_s": kin.velocity_m_s, "acceleration_m_s2": kin.acceleration_m_s2,
-               "force_n": columns["fz_n"], "resistance_n": kin.resistance_n,
-               **{n: columns[n] for n in ("fx_n", "fy_n", "tx_nm", "ty_nm", "tz_nm")}}
-        estimate = kin.mass_estimate.to_dict() if kin.mass_estimate else None
+        run, est = ws.load_run(run_id, "tare").inertia_subtracted(chosen, use_flight_mass=use_flight_mass)
+        record = ws.save_stage(run)
         warnings = []
-        if kin.mass_estimate is not None and kin.mass_estimate.disagrees:
-            est = kin.mass_estimate
+        if est is not None and est.disagrees:
             warnings.append(f"{run_id}: the free flight says the load-cell mass is {est.value_kg:.4f} ± "
-                            f"{est.stderr_kg:.4f} kg, not the file's {m_lc:g} kg (use --mass-from flight, or fix "
-                            f"load_cell_mass_kg)")
-        record = ws.add_stage(run_id, "inertia", out, parent_no=parent.stage_no, command="pen subtract-inertia",
-                              parameters={"method": chosen, "load_cell_mass_kg": kin.mass_used_kg,
-                                          "encoder_step_m": kin.encoder_step_m,
-                                          "mass_from": "flight" if use_flight_mass else "file",
-                                          "mass_estimate": estimate, "events": events.to_dict()})
-        return StageOutcome(run_id, "done", run_id, record.stage_no, details={"mass_estimate": estimate},
+                            f"{est.stderr_kg:.4f} kg, not the file's {run.penetrator.get('load_cell_mass_kg'):g} kg "
+                            f"(use --mass-from flight, or fix load_cell_mass_kg)")
+        return StageOutcome(run_id, "done", run_id, record.stage_no,
+                            details={"mass_estimate": run.stage_parameters["mass_estimate"]},
                             warnings=tuple(warnings))
 
     return _each_run(db, refs, work, progress)
 
 
 # ---------------------------------------------------------------------------- fitting
-@dataclass(frozen=True)
-class _Conditioned:
-    """A run's latest (inertia) stage with what every analysis needs from the catalogue."""
-
-    run_id: str
-    columns: dict
-    stage: Any
-    events: Any
-    sets: tuple
-
-
-def _conditioned_runs(db: str | Path, refs: Sequence[str], names: Sequence[str],
-                      progress: Progress | None = None) -> list[_Conditioned]:
-    """Each run's latest stage, which must be an inertia stage, with its events and parameter sets."""
-    from pencli.filter.tare import Events
+def load_campaign(db: str | Path, refs: Sequence[str], progress: Progress | None = None):
+    """Each run's latest stage, which must be an inertia stage, as a :class:`~pencli.run.Campaign`."""
+    from pencli.run import Campaign
 
     ws = workspace(db)
     out = []
@@ -634,32 +591,12 @@ def _conditioned_runs(db: str | Path, refs: Sequence[str], names: Sequence[str],
     for k, ref in enumerate(refs):
         if progress is not None:
             progress(f"reading {ref}", k, len(refs))
-        run_id = ws.resolve(ref)
-        table, stage = ws.read_stage(run_id)
-        if "resistance_n" not in table.column_names:
-            raise DataError(f"run '{run_id}': its latest stage is '{stage.stage}', which has no resistance; run "
-                            f"`pen tare {run_id}` and `pen subtract-inertia {run_id}` first")
-        columns = {name: table.column(name).to_numpy() for name in names}
-        out.append(_Conditioned(run_id, columns, stage, Events(**stage.parameters["events"]),
-                                sets_from_mappings(ws.run_parameters(run_id), run_id)))
-    return out
-
-
-def load_series(db: str | Path, refs: Sequence[str], progress: Progress | None = None) -> list:
-    """Each run's latest stage as a :class:`~pencli.fit.resistance.RunSeries` (needs an inertia stage)."""
-    from pencli.fit.resistance import RunSeries
-
-    out = []
-    for c in _conditioned_runs(db, refs, ("time_s", "depth_m", "velocity_m_s", "resistance_n"), progress):
-        events, record = c.events, c.columns
-        t = record["time_s"]
-        window = (t >= events.window_start_s) & (t <= events.window_end_s)
-        if window.sum() < 10:
-            raise DataError(f"run '{c.run_id}': only {int(window.sum())} samples in the analysis window")
-        out.append(RunSeries(c.run_id, design_from_sets(*c.sets), t[window], record["depth_m"][window],
-                             record["velocity_m_s"][window], record["resistance_n"][window], events.contact_s,
-                             events.stop_s, events.end, events.contact_speed_m_s, record, c.sets[1].name))
-    return out
+        run = ws.load_run(ref)
+        if "resistance_n" not in run.columns:
+            raise DataError(f"run '{run.run_id}': its latest stage is '{run.stage}', which has no resistance; run "
+                            f"`pen tare {run.run_id}` and `pen subtract-inertia {run.run_id}` first")
+        out.append(run)
+    return Campaign(tuple(out))
 
 
 @dataclass(frozen=True)
@@ -697,23 +634,23 @@ def parse_fix(items: Sequence[str]) -> dict[str, float]:
     return out
 
 
-def material_file_from_fit(name: str, series: Sequence, result) -> dict:
+def material_file_from_fit(name: str, runs: Sequence, result) -> dict:
     """A CONTRACT §1 material mapping carrying the fitted coefficients and what the fit saw."""
     import statistics
 
     from pencli import __version__ as pen_version
 
     props = {
-        "density_kg_m3": statistics.median(s.design.density_kg_m3 for s in series),
-        "microstructure_strength_kpa": statistics.median(s.design.strength_pa / 1e3 for s in series),
-        "friction_coefficient": statistics.median(s.design.friction_coefficient for s in series),
-        "gravity_m_s2": statistics.median(s.design.gravity_m_s2 for s in series),
+        "density_kg_m3": statistics.median(r.design.density_kg_m3 for r in runs),
+        "microstructure_strength_kpa": statistics.median(r.design.strength_pa / 1e3 for r in runs),
+        "friction_coefficient": statistics.median(r.design.friction_coefficient for r in runs),
+        "gravity_m_s2": statistics.median(r.design.gravity_m_s2 for r in runs),
     }
     return {
         "kind": "material",
         "name": name,
         "notes": (f"Fitted by pen {pen_version} ({result.mode} mode, terms {', '.join(result.terms)}) over "
-                  f"{len(series)} run(s): {', '.join(s.run_id for s in series)}. Measured properties are the "
+                  f"{len(runs)} run(s): {', '.join(r.run_id for r in runs)}. Measured properties are the "
                   f"runs' medians."),
         **{k: float(v) for k, v in props.items()},
         "coefficients": {k: float(v) for k, v in result.values().items()},
@@ -738,31 +675,31 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
         raise ParameterError(f"--mode {mode!r}: expected resistance or dynamic")
     check_name(material, "--material")
     step = progress or (lambda description, done, total: None)
-    series = load_series(db, refs, progress)
+    runs = load_campaign(db, refs, progress)
     fixed = parse_fix(fix)
     notes = []
-    if len(series) == 1 and "damping_kpa_s_m" not in fixed:
+    if len(runs) == 1 and "damping_kpa_s_m" not in fixed:
         fixed["damping_kpa_s_m"] = 0.0  # paper §5: single-run fits hold damping at 0
         notes.append("single run: damping held at 0 (paper §5); --fix damping=VALUE to choose otherwise")
-    names = sorted({s.material for s in series})
+    names = runs.materials
     if len(names) > 1:
         notes.append(f"runs of several materials fitted together: {', '.join(names)}")
     step("fitting", 0, 1)
-    result = fit_resistance(series, material, terms=terms, fixed=fixed, bootstrap=bootstrap,
+    result = fit_resistance(runs, material, terms=terms, fixed=fixed, bootstrap=bootstrap,
                             progress=lambda done, total: step("fitting, bootstrap over runs", done, total))
     if mode == "dynamic":
         step("fitting the dynamics of each run", 0, 1)
-        result = fit_dynamic(series, material, result.values(), terms=terms, fixed=fixed)
+        result = fit_dynamic(runs, material, result.values(), terms=terms, fixed=fixed)
     if all_subsets:
         step("fitting every subset of the terms", 0, 1)
-    subsets = tuple(fit_all_subsets(series, material, terms=terms, fixed=fixed)) if all_subsets else ()
+    subsets = tuple(fit_all_subsets(runs, material, terms=terms, fixed=fixed)) if all_subsets else ()
     step("recording", 1, 1)
-    mapping = material_file_from_fit(material, series, result)
+    mapping = material_file_from_fit(material, runs, result)
     version = None
     if record:
-        table = model_vs_data(series, result.values(), result.terms)
+        table = model_vs_data(runs, result.values(), result.terms)
         version = workspace(db).add_material_version(material, result.to_dict(), mapping,
-                                                     [s.run_id for s in series], table, command=command)
+                                                     [r.run_id for r in runs], table, command=command)
         mapping["notes"] += f" Catalog: {material} version {version}."
     out_path = None
     if out is not None:
@@ -773,27 +710,6 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
 
 
 # ---------------------------------------------------------------------------- diagnosis
-def load_diagnosis_runs(db: str | Path, refs: Sequence[str]) -> list:
-    """Each run's inertia stage as a :class:`~pencli.diagnose.effects.DiagnosisRun`."""
-
-    from pencli.diagnose.effects import LAG_SPAN_S, DiagnosisRun
-    from pencli.filter.inertia import kinematic_events, late_force_rise
-
-    out = []
-    names = ("time_s", "depth_m", "velocity_m_s", "acceleration_m_s2", "force_n", "resistance_n")
-    for c in _conditioned_runs(db, refs, names):
-        col, events = c.columns, c.events
-        params = c.stage.parameters
-        out.append(DiagnosisRun(c.run_id, design_from_sets(*c.sets), col["time_s"], col["depth_m"], col["velocity_m_s"],
-                                col["acceleration_m_s2"], col["force_n"], col["resistance_n"], events.motion_start_s,
-                                events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
-                                events.end, events.contact_speed_m_s, float(params["load_cell_mass_kg"]),
-                                float(params.get("encoder_step_m", 0.16e-3)), str(params.get("method", "spline")),
-                                kinematic_events(col["time_s"], col["force_n"], events).contact_s,
-                                late_force_rise(col["time_s"], col["force_n"], events, LAG_SPAN_S)))
-    return out
-
-
 def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | None = None,
              false_alarm: float | None = None, bootstrap: int | None = None, seed: int = 0,
              progress: Callable[[str, float], None] | None = None):
@@ -803,7 +719,7 @@ def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | No
     """
     from pencli.diagnose import engine
 
-    return engine.diagnose(load_diagnosis_runs(db, refs), effects=effects,
+    return engine.diagnose(load_campaign(db, refs), effects=effects,
                            false_alarm=engine.FALSE_ALARM if false_alarm is None else false_alarm,
                            bootstrap=engine.BOOTSTRAP if bootstrap is None else bootstrap, seed=seed,
                            progress=progress)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from pencli import api
-from pencli.diagnose.effects import EFFECTS
+from pencli.diagnose.effects import EFFECTS, views
 from pencli.errors import PenNotice
 from pencli.testing.campaigns import make_campaign
 from tests.conftest import invoke
@@ -66,7 +66,7 @@ def measured_and_predicted(db, result, effect):
     from pencli.model.dynamics import simulate
 
     change = effect.trajectory_change
-    run = next(r for r in api.load_diagnosis_runs(db, ["all"]) if r.run_id == change["run"])
+    run = next(r for r in views(api.load_campaign(db, ["all"])) if r.run_id == change["run"])
     before = simulate(with_coefficients(run.design, result.baseline["coefficients"]), rtol=1e-8).summary
     if run.end == "full_depth":
         baseline = before.penetration_time_s

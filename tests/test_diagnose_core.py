@@ -18,6 +18,7 @@ import pytest
 from scipy.optimize import lsq_linear
 from scipy.signal import lfilter
 
+from pencli.diagnose.effects import views
 from pencli.diagnose.linear import Spec, Statistics, bounded_solve, heldout_residuals
 from pencli.diagnose.null import encoder_phase, fit_noise, gumbel_quantile
 from pencli.filter.derivatives import encoder_step_m
@@ -574,7 +575,7 @@ def test_replicates_carry_the_derivative_error_the_data_have_near_contact_and_st
                        rig_extra={"force_noise_n": 0.5}, encoder_mm=0.08, standoff_mm=[0.8, -0.6, 0.3, -1.0])
     api.tare_runs(db, ["all"])
     api.subtract_inertia_runs(db, ["all"])
-    runs = sorted(api.load_diagnosis_runs(db, ["all"]), key=lambda r: r.run_id)
+    runs = sorted(views(api.load_campaign(db, ["all"])), key=lambda r: r.run_id)
     data_sq, model_sq, spline_sq = [], [], []
     for run, truth in zip(runs, truths):
         use = (run.flight | run.window)[run.context]
@@ -605,7 +606,7 @@ def test_an_effect_the_dynamic_model_cannot_finish_is_a_note_not_a_crash(monkeyp
     from pencli.diagnose.effects import EFFECTS
     from tests.conftest import REPO
 
-    runs = api.load_diagnosis_runs(REPO / "examples" / "workspace" / "runs.duckdb", ["gb-*"])
+    runs = views(api.load_campaign(REPO / "examples" / "workspace" / "runs.duckdb", ["gb-*"]))
     values = {"strength_factor": 1.6, "sidewall_pressure_kpa": 7.1, "damping_kpa_s_m": 0.0,
               "inertia_coefficient": 45.0}
     effect = EFFECTS["sidewall_pressure_growth"]
@@ -901,7 +902,7 @@ def test_a_lag_members_known_force_is_what_the_lag_does_to_the_inertia_force_in_
                        rig_extra={"force_noise_n": 0.0, "torque_noise_nm": 0.0})
     api.tare_runs(db, ["all"])
     api.subtract_inertia_runs(db, ["all"])
-    run = api.load_diagnosis_runs(db, ["all"])[0]
+    run = views(api.load_campaign(db, ["all"]))[0]
     basis = basis_of(run)
     member = next(m for m in EFFECTS["sensor_lag"].members
                   if m.params.get("shape") == member_shape and m.params.get("tau_ms") == 0.45)
@@ -993,7 +994,7 @@ def test_the_window_starts_after_a_force_rise_that_a_lag_moves_past_the_stand_of
                        rig_extra={"force_noise_n": 0.5, "torque_noise_nm": 0.0})
     api.tare_runs(db, ["all"])
     api.subtract_inertia_runs(db, ["all"])
-    run = api.load_diagnosis_runs(db, ["all"])[0]
+    run = views(api.load_campaign(db, ["all"]))[0]
     rise = float(run.time_s[np.argmax(run.depth_m >= surface_m)]) + delay_s
     start = float(run.time_s[run.window][0])
     assert rise - run.contact_s > 0.48e-3 + 0.3e-3  # the case: past what the stand-off tolerance reaches
@@ -1015,7 +1016,7 @@ def test_the_window_ends_two_milliseconds_before_a_hard_stop_and_at_the_tares_en
     db = make_campaign(tmp_path, "mpacs_c", seed=5, shots=[("1.5", 4), ("1", 6)], encoder_mm=0.08)
     api.tare_runs(db, ["all"])
     api.subtract_inertia_runs(db, ["all"])
-    runs = api.load_diagnosis_runs(db, ["all"])
+    runs = views(api.load_campaign(db, ["all"]))
     assert sorted(run.end for run in runs) == ["arrest", "full_depth"]  # one of each, else the test sees one rule
     for run in runs:
         assert run.stop_s - run.contact_s > 4 * STOP_MARGIN_S  # long enough for the margin
@@ -1102,7 +1103,7 @@ def test_each_blocks_surface_is_read_from_its_force_less_the_campaigns_common_la
                        anti_alias=0.3, rig_extra={"force_noise_n": 2.0})
     api.tare_runs(db, ["all"])
     api.subtract_inertia_runs(db, ["all"])
-    read = np.array(surfaces(api.load_diagnosis_runs(db, ["all"]))) * 1e3
+    read = np.array(surfaces(views(api.load_campaign(db, ["all"])))) * 1e3
     truth = np.array(errors)
     assert np.abs((read - np.median(read)) - (truth - np.median(truth))).max() < 0.35, (read, truth)
 
@@ -1125,7 +1126,7 @@ def test_under_a_lagging_force_chain_each_surface_is_read_from_the_late_rise(tmp
                        rig_extra={"force_noise_n": 2.0})
     api.tare_runs(db, ["all"])
     api.subtract_inertia_runs(db, ["all"])
-    runs = api.load_diagnosis_runs(db, ["all"])
+    runs = views(api.load_campaign(db, ["all"]))
     assert sum(r.force_rise_s is not None for r in runs) >= 3  # the case: rises past the narrow search
     read = np.array(surfaces(runs)) * 1e3
     truth = np.array(errors)

@@ -12,7 +12,7 @@ import pytest
 
 from pencli import api
 from pencli.diagnose import engine
-from pencli.diagnose.effects import EFFECTS
+from pencli.diagnose.effects import EFFECTS, views
 from pencli.errors import FitError
 from tests.conftest import REPO
 
@@ -24,7 +24,7 @@ ALLOWED_LITERALS = {0, 1, -1, 2}
 
 @pytest.fixture(scope="module")
 def runs():
-    return api.load_diagnosis_runs(EXAMPLE, ["gb-*"])
+    return views(api.load_campaign(EXAMPLE, ["gb-*"]))
 
 
 def test_the_request_is_checked_before_any_work(runs):

@@ -76,7 +76,7 @@ def test_the_catalog_page_names_every_column_of_every_table(site):
 
 def test_the_run_folder_page_names_every_column_and_file(site):
     from pencli.io.runfolder import PARAMETER_FILES
-    from pencli.store.rundata import RAW_COLUMNS
+    from pencli.run import RAW_COLUMNS
 
     page = (site / "formats" / "run-folders" / "index.html").read_text()
     for name in (*RAW_COLUMNS, *PARAMETER_FILES.values(), "run.yaml", "data.csv", "data.xlsx"):

@@ -16,7 +16,7 @@ from pencli.acquire.calibration import ForceCalibration, PositionCalibration
 from pencli.acquire.drivers import RigDriver, ShotSetup
 from pencli.errors import RigError
 from pencli.filter.tare import moving_span
-from pencli.store.rundata import RAW_COLUMNS
+from pencli.run import RAW_COLUMNS
 
 TARE_S = 0.1
 

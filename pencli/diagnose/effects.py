@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property, partial
-from typing import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 from pencli.lazy import lazy
 
@@ -34,11 +34,16 @@ from pencli.filter.windows import PRE_TRIGGER_MARGIN_S, WINDOW_TRIM_S
 from pencli.model.design import Design
 from pencli.model.resistance import unit_terms
 
+if TYPE_CHECKING:  # the catalogue is read by `pen diagnose --help`, which loads no numpy
+    from pencli.run import Run
+
 np = lazy("numpy")  # imported on first use: `pen --help` does not load numpy
 
 # ----------------------------------------------------------------------------- run data
 
 
+DEFAULT_ENCODER_STEP_M = 0.16e-3
+"""Position quantum of a stage that does not record it: the rig's 0.16 mm encoder. [m]"""
 STRENGTH_FACTOR_FLOOR = 1e-6
 """A baseline strength factor below this is a fit with no strength term: a plug's growth is stated against the
 factor its column was built at instead. [–]"""
@@ -57,8 +62,9 @@ which tell the speed laws apart. [s]"""
 
 
 @dataclass(frozen=True)
-class DiagnosisRun:
-    """One conditioned run as the diagnosis sees it (SI, whole record)."""
+class _RunView:
+    """One conditioned run as the diagnosis reads it (SI, whole record): an adapter of a
+    :class:`~pencli.run.Run` made by :func:`views`, private to the diagnosis."""
 
     run_id: str
     design: Design
@@ -78,7 +84,7 @@ class DiagnosisRun:
     end: str
     contact_speed_m_s: float
     load_cell_mass_kg: float
-    encoder_step_m: float = 0.16e-3
+    encoder_step_m: float = DEFAULT_ENCODER_STEP_M
     """Position quantum the derivatives were smoothed for (from the record). [m]"""
     derivative_method: str = "spline"
     force_contact_s: float | None = None
@@ -145,6 +151,31 @@ class DiagnosisRun:
         return float(np.std(self.resistance_n[pre])) if pre.sum() > MIN_NOISE_SAMPLES else 1.0
 
 
+VIEW_COLUMNS = ("time_s", "depth_m", "velocity_m_s", "acceleration_m_s2", "force_n", "resistance_n")
+"""The inertia-stage columns the diagnosis reads."""
+
+
+def views(runs: Sequence[Run | _RunView]) -> list[_RunView]:
+    """Each conditioned run (inertia stage) as the diagnosis reads it, its contact as the force sees it and a late
+    force rise looked for (a view is passed on as it is)."""
+    from pencli.filter.inertia import kinematic_events, late_force_rise
+
+    out = []
+    for run in runs:
+        if isinstance(run, _RunView):
+            out.append(run)
+            continue
+        events, params = run.require_events(), run.stage_parameters
+        t, depth, v, a, force, resistance = (run.column(name) for name in VIEW_COLUMNS)
+        out.append(_RunView(run.run_id, run.design, t, depth, v, a, force, resistance, events.motion_start_s,
+                            events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
+                            events.end, events.contact_speed_m_s, float(params["load_cell_mass_kg"]),
+                            float(params.get("encoder_step_m", DEFAULT_ENCODER_STEP_M)),
+                            str(params.get("method", "spline")), kinematic_events(t, force, events).contact_s,
+                            late_force_rise(t, force, events, LAG_SPAN_S)))
+    return out
+
+
 @dataclass(frozen=True)
 class Basis:
     """Eq. 9 columns of one run over its context span (N per file unit of Cs, P, C, K)."""
@@ -171,14 +202,14 @@ class Basis:
         return np.column_stack([self.strength, self.friction, self.damping, self.inertia])
 
 
-def surfaces(runs: Sequence[DiagnosisRun]) -> list[float]:
+def surfaces(runs: Sequence[_RunView]) -> list[float]:
     """Where each run's block surface lies on its depth record, read from when its force rose. [m]
 
     A block whose surface is not at the file's stand-off (stand-off scatter) puts every depth law of that run
     off by the difference, and a strong law that changes within millimetres of the surface no longer fits: a
     2.5 mm plug on dev plug 2 of ``--varied 12 82000 --only plug_growth`` (surfaces −0.6 to +2.3 mm off) left
     a held-out RMS of 54 N under its own exact shape against 2.5 N of noise (7.5 N without the scatter), and
-    was named a layer.  The force's change point (:attr:`DiagnosisRun.force_contact_s`) sees the surface, but
+    was named a layer.  The force's change point (:attr:`_RunView.force_contact_s`) sees the surface, but
     late: the force chain's filter and the change-point fit lag the contact by a time the campaign's runs share
     (0.2–0.4 mm at 8–12 m/s on dev null 21 of ``--nulls 40 43000``, whose surfaces scattered by 0.1–0.4 mm:
     depth laws below surfaces moved by that lag left a shared misfit of their own, and the null was called
@@ -186,7 +217,7 @@ def surfaces(runs: Sequence[DiagnosisRun]) -> list[float]:
     median lag* behind the position's contact: on average the file's stand-off, for each run its own scatter
     about it.  A lag of the force chain itself, common to the runs, moves no surface.
 
-    Where the rise came later than the narrow search looks (:attr:`DiagnosisRun.force_rise_s`), the rise is
+    Where the rise came later than the narrow search looks (:attr:`_RunView.force_rise_s`), the rise is
     when the force rose: the narrow search's change point lies before it, in the noise.  Read from those points,
     dev sensor lag 1 of ``--varied 16 190000 --only sensor_lag`` (a 0.65 ms delay; five runs' points at −0.26 to
     −0.01 ms, the sixth's, whose slower contact widened its search, at +0.50 ms) had that sixth run's surface
@@ -199,9 +230,9 @@ def surfaces(runs: Sequence[DiagnosisRun]) -> list[float]:
             for r, lag in zip(runs, lags)]
 
 
-def basis_of(run: DiagnosisRun) -> Basis:
+def basis_of(run: _RunView) -> Basis:
     """The four Eq. 9 columns on the run's context span; zero above the block's surface
-    (:attr:`DiagnosisRun.surface_m`)."""
+    (:attr:`_RunView.surface_m`)."""
     c = run.context
     x, v = run.depth_m[c] - run.surface_m, np.maximum(run.velocity_m_s[c], 0.0)
     inside = (x > 0) & (run.time_s[c] >= run.contact_span_s[0])
@@ -240,7 +271,7 @@ class Member:
     term: str | None = None
     """``strength`` (per unit Cs) or ``friction`` (per kPa of P)."""
     profiles: tuple[Profile, ...] = ()
-    chain: Callable[[DiagnosisRun, Basis], Columns] | None = None
+    chain: Callable[[_RunView, Basis], Columns] | None = None
     dynamic: Callable[[Sequence[float], Design, Mapping[str, float]], Callable[[float, float], float]] | None = None
     """For members with their own columns that still act on the motion: their extra force (see :meth:`force`)."""
     strength_extra: tuple[int, ...] = ()
@@ -268,7 +299,7 @@ class Member:
             return tuple(range(n_extra)) if self.term == "strength" else ()
         return self.strength_extra
 
-    def columns(self, run: DiagnosisRun, basis: Basis) -> Columns:
+    def columns(self, run: _RunView, basis: Basis) -> Columns:
         if self.chain is not None:
             return self.chain(run, basis)
         carrier = _carrier(self.term, basis)
@@ -534,7 +565,7 @@ def _plug_members() -> tuple[Member, ...]:
     return tuple(out)
 
 
-def _plug_columns(run: DiagnosisRun, b: Basis, h: Callable[[np.ndarray], np.ndarray]) -> Columns:
+def _plug_columns(run: _RunView, b: Basis, h: Callable[[np.ndarray], np.ndarray]) -> Columns:
     x = np.where(b.inside, b.x, 0.0)
     profile = h(x) / b.blade_thickness_m
     # the strength column at the campaign's mean strength factor: the diagnosis scales it per run by the run's
@@ -633,18 +664,18 @@ def _describe_speed(reference: str) -> Callable[[Member, np.ndarray, Mapping[str
 
 
 # ---- chain members
-def _mass(run: DiagnosisRun, b: Basis) -> Columns:
+def _mass(run: _RunView, b: Basis) -> Columns:
     return Columns(b.a[:, None])  # (n, 1), or (n, 1, T) for per-target accelerations
 
 
-def _filtered(run: DiagnosisRun, b: Basis, filt: Callable[[np.ndarray], np.ndarray]) -> Columns:
+def _filtered(run: _RunView, b: Basis, filt: Callable[[np.ndarray], np.ndarray]) -> Columns:
     """F_meas = H(R + m a); R_meas = F_meas − m a = H(R) + (H(m a) − m a)."""
     inertia_force = run.load_cell_mass_kg * b.a
     return Columns(np.zeros((b.t.size, 0)), base=filt(b.matrix()), offset=filt(inertia_force) - inertia_force)
 
 
-def _poles(tau_ms: float, order: int) -> Callable[[DiagnosisRun, Basis], Columns]:
-    def build(run: DiagnosisRun, b: Basis) -> Columns:
+def _poles(tau_ms: float, order: int) -> Callable[[_RunView, Basis], Columns]:
+    def build(run: _RunView, b: Basis) -> Columns:
         from scipy.signal import lfilter
 
         alpha = math.exp(-1.0 / (tau_ms * 1e-3 * run.rate_hz))
@@ -659,8 +690,8 @@ def _poles(tau_ms: float, order: int) -> Callable[[DiagnosisRun, Basis], Columns
     return build
 
 
-def _delay(delay_ms: float) -> Callable[[DiagnosisRun, Basis], Columns]:
-    def build(run: DiagnosisRun, b: Basis) -> Columns:
+def _delay(delay_ms: float) -> Callable[[_RunView, Basis], Columns]:
+    def build(run: _RunView, b: Basis) -> Columns:
         shift = delay_ms * 1e-3 * run.rate_hz
         whole, frac = int(shift), shift - int(shift)
 
@@ -706,7 +737,7 @@ def _lag_members() -> tuple[Member, ...]:
     return tuple(out)
 
 
-def _mode_columns(run: DiagnosisRun, b: Basis, frequency_hz: float, damping_ratio: float, scale: float,
+def _mode_columns(run: _RunView, b: Basis, frequency_hz: float, damping_ratio: float, scale: float,
                   first_order: bool = True) -> np.ndarray:
     # struck when the tip meets the material: the force's contact, not the file's stand-off
     struck = run.seen_contact_s
@@ -727,8 +758,8 @@ def _mode_columns(run: DiagnosisRun, b: Basis, frequency_hz: float, damping_rati
     return np.column_stack([sin, cos, decays * sin, decays * cos])
 
 
-def _modes(modes: Sequence[tuple[float, float]], by: str) -> Callable[[DiagnosisRun, Basis], Columns]:
-    def build(run: DiagnosisRun, b: Basis) -> Columns:
+def _modes(modes: Sequence[tuple[float, float]], by: str) -> Callable[[_RunView, Basis], Columns]:
+    def build(run: _RunView, b: Basis) -> Columns:
         if by == "speed":  # struck by the impact: amplitude ∝ contact speed [N per m/s]
             scale = run.contact_speed_m_s
         else:  # struck by the force step at contact: amplitude ∝ the frontal force there [N per N]
@@ -767,7 +798,7 @@ def _describe_ringing(m: Member, c, ctx) -> dict:
     return {**dict(m.params), f"amplitude_{unit}": float(math.hypot(c[0], c[1]))}
 
 
-def _drift_cols(profile: Callable[[np.ndarray], np.ndarray]) -> Callable[[DiagnosisRun, Basis], Columns]:
+def _drift_cols(profile: Callable[[np.ndarray], np.ndarray]) -> Callable[[_RunView, Basis], Columns]:
     return lambda run, b: Columns(profile(np.maximum(b.t, 0.0)))
 
 
@@ -866,12 +897,12 @@ def _hats(values: np.ndarray, knots: np.ndarray) -> np.ndarray:
     return out
 
 
-def _depth_profile(run: DiagnosisRun, b: Basis) -> Columns:
+def _depth_profile(run: _RunView, b: Basis) -> Columns:
     x = np.where(b.inside, b.x, -1.0)
     return Columns(_hats(x, np.arange(0.0, 0.1401, 0.004)) * run.design.blade_width_m * (b.inside[:, None]))
 
 
-def _time_profile(run: DiagnosisRun, b: Basis) -> Columns:
+def _time_profile(run: _RunView, b: Basis) -> Columns:
     struck = run.seen_contact_s
     tc = np.where(b.t >= struck, b.t - struck, -1.0)
     return Columns(_hats(tc, np.arange(0.0, 0.0401, 0.001)))

@@ -61,8 +61,8 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
-from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, DiagnosisRun, Effect, Member, basis_of,
-                                     column_strength_factor, surfaces)
+from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, Effect, Member, _RunView, basis_of,
+                                     column_strength_factor, surfaces, views)
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
 from pencli.diagnose.rest import rest_drift
 from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, corner_spreads, fit_noise, gev_quantile,
@@ -72,6 +72,7 @@ from pencli.errors import FitError, ModelError, PenNotice
 from pencli.filter.tare import Events
 from pencli.fit.resistance import with_coefficients
 from pencli.model.dynamics import flight_of, simulate
+from pencli.run import Run
 
 EXPLAIN_SHARE = 0.5
 """An effect explains a gap when it removes at least this share of the gap's excess over the null floor."""
@@ -148,7 +149,7 @@ class _Candidate:
     spec: Spec
 
 
-def _register(columns: _Columns, bases: Sequence[Basis], runs: Sequence[DiagnosisRun], uses, member: Member,
+def _register(columns: _Columns, bases: Sequence[Basis], runs: Sequence[_RunView], uses, member: Member,
               base_spec: Spec, measured: Sequence[np.ndarray], varying: dict) -> _Candidate:
     """Register a member's columns.  A member that reads the acceleration is built from ``measured`` (per run,
     (context samples, targets): the data's acceleration, then each replicate's), its columns are the data's
@@ -385,7 +386,7 @@ def replicate_z(improvements: np.ndarray, floor: float) -> np.ndarray:
     return (null - centre) / np.maximum(scale, HELD_OUT_SCALE_GUARD * full[:, None])
 
 
-def _rest_evidence(runs: Sequence[DiagnosisRun], nulls: Sequence[RunNull], effect: Effect, bootstrap: int, seed: int,
+def _rest_evidence(runs: Sequence[_RunView], nulls: Sequence[RunNull], effect: Effect, bootstrap: int, seed: int,
                    alpha: float) -> dict | None:
     """``effect`` (a force drift) as the rest after each run's stop shows it
     (:func:`pencli.diagnose.rest.rest_drift`): its z against the campaign's own noise, the family-wise threshold
@@ -403,18 +404,18 @@ def _rest_evidence(runs: Sequence[DiagnosisRun], nulls: Sequence[RunNull], effec
 
 
 # ----------------------------------------------------------------------------- drive side
-def _predicted_contact_speed(run: DiagnosisRun, loss: float = 0.0) -> float:
+def _predicted_contact_speed(run: _RunView, loss: float = 0.0) -> float:
     design = replace(run.design, efficiency=run.design.efficiency * (1.0 - loss))
     return flight_of(design).reach(design.surface_offset_m)[1]
 
 
-def _fit_loss(runs: Sequence[DiagnosisRun], measured: Sequence[float]) -> float:
+def _fit_loss(runs: Sequence[_RunView], measured: Sequence[float]) -> float:
     """Launcher loss that best matches the measured contact speeds (energy ∝ v², so loss ≈ 1 − (v/v̂)²)."""
     ratios = [m / max(_predicted_contact_speed(r), 1e-9) for r, m in zip(runs, measured)]
     return float(1.0 - np.mean(np.square(ratios)))
 
 
-def _dynamic_rms(run: DiagnosisRun, values: Mapping[str, float], loss: float = 0.0) -> tuple[float, float]:
+def _dynamic_rms(run: _RunView, values: Mapping[str, float], loss: float = 0.0) -> tuple[float, float]:
     """RMS of measured − fully predicted resistance over the run's window, launched with efficiency × (1 − loss):
     in the material (the prediction's clock shifted so that its contact falls on the run's measured contact), and
     on the clock from release. [N]
@@ -618,7 +619,7 @@ def _dense_band(values: np.ndarray, weight: np.ndarray, share: float = 0.8) -> t
     return best
 
 
-def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs: Sequence[DiagnosisRun],
+def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs: Sequence[_RunView],
                        values: Mapping[str, float], loss: float = 0.0,
                        own_values: Mapping[str, float] | None = None) -> dict:
     """Change of the CONTRACT §5 figures of the median-speed run from the baseline's dynamic model to the
@@ -676,7 +677,7 @@ def _own_context(context: Mapping[str, float], fit: Mapping[str, np.ndarray]) ->
     return own
 
 
-def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted_ctx: np.ndarray, values: Mapping[str, float]
+def _null_of(run: _RunView, use_ctx: np.ndarray, fitted_ctx: np.ndarray, values: Mapping[str, float]
              ) -> RunNull:
     """A run's null-replicate recipe on the span from its context start to just past its stop.
 
@@ -711,7 +712,7 @@ def _null_of(run: DiagnosisRun, use_ctx: np.ndarray, fitted_ctx: np.ndarray, val
                    anti_alias=anti_alias, noise_line=line, baseline_n=baseline)
 
 
-def _model_motion(run: DiagnosisRun, contact_s: float, values: Mapping[str, float]) -> ModelMotion | None:
+def _model_motion(run: _RunView, contact_s: float, values: Mapping[str, float]) -> ModelMotion | None:
     """The baseline's own motion in the material from ``contact_s`` on, or None when the model does not move
     the blade.
 
@@ -802,7 +803,7 @@ class Request:
 class Baseline:
     """Eq. 9 with a strength factor per run and shared P, C, K, fitted on the measured data of every run."""
 
-    runs: tuple[DiagnosisRun, ...]
+    runs: tuple[_RunView, ...]
     """The runs, depth counted from each block's surface."""
     bases: tuple[Basis, ...]
     uses: tuple[np.ndarray, ...]
@@ -880,7 +881,7 @@ class Decision:
     rest: dict | None
 
 
-def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = None,
+def diagnose(runs: Sequence[Run], *, effects: Sequence[str] | None = None,
              false_alarm: float = FALSE_ALARM, bootstrap: int = BOOTSTRAP, seed: int = 0, workers: int = 2,
              progress: Progress | None = None) -> Diagnosis:
     """Locate, explain and size the gap between the reference model and ``runs``.
@@ -893,7 +894,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
 
     Parameters
     ----------
-    runs : conditioned runs (at least 3).
+    runs : conditioned runs (inertia stage; at least 3), e.g. a :class:`~pencli.run.Campaign`.
     effects : catalogue effects to consider (default all).
     false_alarm : probability that a campaign without effect gets a verdict other than ``none``.
     bootstrap : null replicates of the campaign (≥ :data:`MIN_BOOTSTRAP`).
@@ -903,6 +904,7 @@ def diagnose(runs: Sequence[DiagnosisRun], *, effects: Sequence[str] | None = No
     """
     started = time.perf_counter()
     say = progress or (lambda stage, fraction: None)
+    runs = views(runs)
     request = check_request(runs, effects, false_alarm, bootstrap, seed, workers)
     say("baseline", PROGRESS["baseline"])
     baseline = fit_baseline(runs)
@@ -930,7 +932,7 @@ MIN_BOOTSTRAP = 20
 """Fewer null replicates cannot place a family-wise tail quantile at all. [–]"""
 
 
-def check_request(runs: Sequence[DiagnosisRun], effects: Sequence[str] | None, false_alarm: float, bootstrap: int,
+def check_request(runs: Sequence[_RunView], effects: Sequence[str] | None, false_alarm: float, bootstrap: int,
                   seed: int, workers: int) -> Request:
     """The request as a :class:`Request`, or one line saying what is wrong (and a notice when the replicates
     are too few to see the threshold the false-alarm rate asks for)."""
@@ -961,9 +963,10 @@ SHARED_TERMS = len(TERMS) - 1
 effect's."""
 
 
-def fit_baseline(runs: Sequence[DiagnosisRun]) -> Baseline:
+def fit_baseline(runs: Sequence[Run]) -> Baseline:
     """The baseline on the measured data: depth from each block's surface, Eq. 9's columns, one strength factor
     per run and shared P, C, K ≥ 0; the frontal column and the context every effect is stated against."""
+    runs = views(runs)
     runs = tuple(replace(r, surface_m=s) for r, s in zip(runs, surfaces(runs)))  # depth below each block's surface
     bases = [basis_of(r) for r in runs]
     uses = tuple((r.flight | r.window)[r.context] for r in runs)
@@ -1200,7 +1203,7 @@ MM_PER_M = 1e3
 UM_PER_M = 1e6
 
 
-def _context_notes(runs: Sequence[DiagnosisRun], verdict: str, reports: Mapping[str, EffectReport],
+def _context_notes(runs: Sequence[_RunView], verdict: str, reports: Mapping[str, EffectReport],
                    rest: dict | None, false_alarm: float) -> list[str]:
     """Notes that help read the verdict: runs whose force rises late, and what a ``none`` could have seen."""
     notes = []
@@ -1222,7 +1225,7 @@ def _context_notes(runs: Sequence[DiagnosisRun], verdict: str, reports: Mapping[
     return notes
 
 
-def _late_rises(runs: Sequence[DiagnosisRun]) -> dict[str, float]:
+def _late_rises(runs: Sequence[_RunView]) -> dict[str, float]:
     """Per run whose force rises after the stand-off tolerance, how long after the position's contact. [ms]"""
     return {r.run_id: round((r.force_rise_s - r.contact_s) * MS_PER_S, 3) for r in runs if r.force_rise_s is not None}
 
@@ -1306,7 +1309,7 @@ def _baseline_record(baseline: Baseline, scan: FamilyScan, drive: DriveView, dec
 
 
 def _decision_record(calibration: NullCalibration, scan: FamilyScan, drive: DriveView, request: Request,
-                     runs: Sequence[DiagnosisRun], started: float) -> dict:
+                     runs: Sequence[_RunView], started: float) -> dict:
     """The JSON's ``decision``: the rates asked for, the thresholds the replicates gave, each run's noise model."""
     return {
         "false_alarm": request.false_alarm, "bootstrap": request.bootstrap, "seed": request.seed,

@@ -43,7 +43,7 @@ from typing import Sequence
 
 import numpy as np
 
-from pencli.diagnose.effects import DiagnosisRun, Member
+from pencli.diagnose.effects import _RunView, Member
 from pencli.diagnose.null import NoiseModel
 
 SETTLE_S = 0.05
@@ -60,7 +60,7 @@ rest span (mean over the runs): a shape all but finished before the rest is, the
 start, which a struck mode still ringing or a force chain settling after the stop's step makes as well. [–]"""
 
 
-def rest_span(run: DiagnosisRun) -> np.ndarray:
+def rest_span(run: _RunView) -> np.ndarray:
     """Boolean mask of the run's rest span after its stop (all False when shorter than :data:`REST_MIN_S`)."""
     t = run.time_s
     start = run.stop_s + SETTLE_S
@@ -98,7 +98,7 @@ def _rest_change(columns: np.ndarray) -> float:
     return float(np.max(np.abs(columns[-1] - columns[0]) / np.maximum(end, 1e-300)))
 
 
-def rest_drift(runs: Sequence[DiagnosisRun], members: Sequence[Member], noises: Sequence[NoiseModel],
+def rest_drift(runs: Sequence[_RunView], members: Sequence[Member], noises: Sequence[NoiseModel],
                count: int, seed: int) -> RestTest | None:
     """The drift statistic of :class:`RestTest` over the runs' rest spans, with ``count`` noise replicates drawn
     from ``noises`` (one model per run, read from its pre-trigger span) by a generator seeded with ``seed``.

@@ -13,25 +13,26 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from pencli.fit.dynamic import predicted_on
-from pencli.fit.resistance import RunSeries, basis
+from pencli.fit.resistance import _Window, basis, windows
 from pencli.fit.result import COEFFICIENTS, TERM_OF
+from pencli.run import Run
 
 COLUMNS = ("time_s", "depth_m", "resistance_n", "resistance_model_n", "depth_dynamic_m", "resistance_dynamic_n",
            "in_window")
 
 
-def model_vs_data(series: Sequence[RunSeries], values: Mapping[str, float], terms: Sequence[str],
+def model_vs_data(runs: Sequence[Run], values: Mapping[str, float], terms: Sequence[str],
                   *, before_s: float = 2e-3, after_s: float = 5e-3) -> dict[str, np.ndarray]:
     """Columns (``run_id`` plus :data:`COLUMNS`) over every run, concatenated."""
     parts: dict[str, list] = {name: [] for name in ("run_id", *COLUMNS)}
     coeffs = np.array([values[name] if TERM_OF[name] in terms else 0.0 for name in COEFFICIENTS])
-    for s in series:
+    for s in windows(runs):
         rec = s.record or {"time_s": s.time_s, "depth_m": s.depth_m, "velocity_m_s": s.velocity_m_s,
                            "resistance_n": s.resistance_n}
         t = rec["time_s"]
         keep = (t >= s.contact_s - before_s) & (t <= s.stop_s + after_s)
-        view = RunSeries(s.run_id, s.design, t[keep], rec["depth_m"][keep], rec["velocity_m_s"][keep],
-                         rec["resistance_n"][keep], s.contact_s, s.stop_s, s.end, s.contact_speed_m_s)
+        view = _Window(s.run_id, s.design, t[keep], rec["depth_m"][keep], rec["velocity_m_s"][keep],
+                       rec["resistance_n"][keep], s.contact_s, s.stop_s, s.end, s.contact_speed_m_s)
         in_material = (view.depth_m >= 0) & (view.time_s >= s.contact_s) & (view.time_s <= s.stop_s)
         eq9 = np.where(in_material, basis(view) @ coeffs, 0.0)
         x_dyn, r_dyn, _ = predicted_on(view, values, terms, view.time_s)

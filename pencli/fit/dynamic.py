@@ -17,10 +17,11 @@ from scipy.optimize import least_squares
 
 from pencli.errors import FitError, ModelError
 from pencli.filter.inertia import effective_samples
-from pencli.fit.resistance import TYPICAL, RunSeries, determinacy_warnings, ranges_of, with_coefficients
+from pencli.fit.resistance import TYPICAL, _Window, determinacy_warnings, ranges_of, windows, with_coefficients
 from pencli.fit.result import COEFFICIENTS, TERM_OF, Coefficient, FitResult, RunFit
 from pencli.model.dynamics import simulate
 from pencli.model.resistance import parse_terms
+from pencli.run import Run
 
 FIT_RTOL = 1e-8
 """Integration tolerance inside the fit: 100× below the smallest misfit it resolves, 100× cheaper than 1e-10."""
@@ -29,7 +30,7 @@ POSITION_SCALE_M = 1e-3
 """Depth misfit that weighs as much as a force misfit of the run's resistance scale. [m]"""
 
 
-def predicted_on(series: RunSeries, values: Mapping[str, float], terms: Sequence[str],
+def predicted_on(series: _Window, values: Mapping[str, float], terms: Sequence[str],
                  times: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """Predicted depth [m] and resistance [N] at ``times`` (default: the window), and penetration time [s].
 
@@ -56,7 +57,7 @@ def predicted_on(series: RunSeries, values: Mapping[str, float], terms: Sequence
     return x, r, result.summary.penetration_time_s
 
 
-def fit_dynamic(series: Sequence[RunSeries], material: str, start: Mapping[str, float], *,
+def fit_dynamic(runs: Sequence[Run], material: str, start: Mapping[str, float], *,
                 terms: Iterable[str] | str | None = None, fixed: Mapping[str, float] | None = None,
                 force_scale_n: Mapping[str, float] | None = None) -> FitResult:
     """Fit the varying coefficients so the predicted runs match force and position (dynamic mode).
@@ -67,6 +68,7 @@ def fit_dynamic(series: Sequence[RunSeries], material: str, start: Mapping[str, 
     fixed : coefficients held (file units); switched-off terms are held at 0.
     force_scale_n : per run, the force misfit that counts as one unit (default: 2 % of its peak). [N]
     """
+    series = windows(runs)
     chosen = parse_terms(terms)
     held = {name: 0.0 for name in COEFFICIENTS if TERM_OF[name] not in chosen}
     held.update({k: v for k, v in (fixed or {}).items() if k not in held})

@@ -23,11 +23,12 @@ from typing import Callable, Iterable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from pencli.errors import FitError
+from pencli.errors import DataError, FitError
 from pencli.filter.inertia import effective_samples
 from pencli.fit.result import COEFFICIENT_OF, COEFFICIENTS, TERM_OF, Coefficient, FitResult, RunFit
 from pencli.model.design import Design
 from pencli.model.resistance import TERMS, coefficient_of, parse_terms, unit_terms
+from pencli.run import MIN_WINDOW_SAMPLES, Run
 
 TYPICAL = {"strength_factor": 1.0, "sidewall_pressure_kpa": 10.0, "damping_kpa_s_m": 10.0, "inertia_coefficient": 30.0}
 """Typical magnitudes (file units): scales for the optimiser and for judging an uncertainty near zero."""
@@ -51,8 +52,9 @@ SEPARATE = {
 
 
 @dataclass(frozen=True)
-class RunSeries:
-    """One run's measured analysis window, ready to fit (SI)."""
+class _Window:
+    """One run's measured analysis window as the fit reads it (SI): an adapter of a
+    :class:`~pencli.run.Run` made by :func:`windows`, private to the fit."""
 
     run_id: str
     design: Design
@@ -75,7 +77,30 @@ class RunSeries:
         return self.stop_s - self.contact_s
 
 
-def basis(series: RunSeries) -> np.ndarray:
+RECORD_COLUMNS = ("time_s", "depth_m", "velocity_m_s", "resistance_n")
+"""The inertia-stage columns a fit reads."""
+
+
+def windows(runs: Sequence[Run | _Window]) -> list[_Window]:
+    """Each run's analysis window (a window is passed on as it is); a run with fewer than
+    :data:`~pencli.run.MIN_WINDOW_SAMPLES` samples in it is refused with its id."""
+    out = []
+    for run in runs:
+        if isinstance(run, _Window):
+            out.append(run)
+            continue
+        events = run.require_events()
+        record = {name: run.column(name) for name in RECORD_COLUMNS}
+        keep = run.window
+        if keep.sum() < MIN_WINDOW_SAMPLES:
+            raise DataError(f"run '{run.name}': only {int(keep.sum())} samples in the analysis window")
+        out.append(_Window(run.run_id, run.design, *(record[name][keep] for name in RECORD_COLUMNS),
+                           events.contact_s, events.stop_s, events.end, events.contact_speed_m_s, record,
+                           run.material.name))
+    return out
+
+
+def basis(series: _Window) -> np.ndarray:
     """Columns of Eq. 9 per file unit of each coefficient, shape (n, 4). [N per unit]"""
     d = series.design
     x, v = np.maximum(series.depth_m, 1e-12), series.velocity_m_s  # in the window the tip is in the material
@@ -99,7 +124,7 @@ class _Problem:
     fixed_part: np.ndarray
 
 
-def _problem(series: Sequence[RunSeries], varying: Sequence[str], fixed: Mapping[str, float]) -> _Problem:
+def _problem(series: Sequence[_Window], varying: Sequence[str], fixed: Mapping[str, float]) -> _Problem:
     blocks, ys, ws, idx, fixed_parts = [], [], [], [], []
     cols = [COEFFICIENTS.index(name) for name in varying]
     for i, s in enumerate(series):
@@ -120,7 +145,7 @@ def _fit_values(p: _Problem, mask: np.ndarray | None = None) -> np.ndarray:
     return _solve(p.X[rows] * w, (p.y[rows] - p.fixed_part[rows]) * w[:, 0])
 
 
-def ranges_of(series: Sequence[RunSeries]) -> dict:
+def ranges_of(series: Sequence[_Window]) -> dict:
     """The conditions a fit saw, for ``predict`` to warn outside them."""
     def span(values):
         return [float(np.min(values)), float(np.max(values))]
@@ -134,7 +159,7 @@ def ranges_of(series: Sequence[RunSeries]) -> dict:
     }
 
 
-def fit_resistance(series: Sequence[RunSeries], material: str, *, terms: Iterable[str] | str | None = None,
+def fit_resistance(runs: Sequence[Run], material: str, *, terms: Iterable[str] | str | None = None,
                    fixed: Mapping[str, float] | None = None, bootstrap: int = 200, seed: int = 0,
                    leave_one_out: bool = True, n_effective: float | None = None,
                    progress: Callable[[int, int], None] | None = None) -> FitResult:
@@ -142,7 +167,7 @@ def fit_resistance(series: Sequence[RunSeries], material: str, *, terms: Iterabl
 
     Parameters
     ----------
-    series : the runs' analysis windows.
+    runs : conditioned runs (inertia stage); each is fitted over its analysis window.
     material : name recorded in the result.
     terms : Eq. 9 terms switched on (others are 0).
     fixed : coefficients held at a value (file units), e.g. ``{"damping_kpa_s_m": 0}``.
@@ -150,8 +175,9 @@ def fit_resistance(series: Sequence[RunSeries], material: str, *, terms: Iterabl
     n_effective : sample count for AIC/BIC; models compared must share one (default: from these residuals).
     progress : called with (bootstrap refits done, bootstrap) as they finish.
     """
-    if not series:
+    if not runs:
         raise FitError("no runs to fit")
+    series = windows(runs)
     chosen = parse_terms(terms)
     fixed = dict(fixed or {})
     for name in fixed:
@@ -262,7 +288,7 @@ def determinacy_warnings(coefficients: Mapping[str, Coefficient], varying: Seque
     return warnings
 
 
-def all_subsets(series: Sequence[RunSeries], material: str, *, terms: Iterable[str] | str | None = None,
+def all_subsets(runs: Sequence[Run], material: str, *, terms: Iterable[str] | str | None = None,
                 fixed: Mapping[str, float] | None = None) -> list[FitResult]:
     """BAM's table: the fit for every non-empty combination of the enabled terms (resistance mode).
 
@@ -270,6 +296,7 @@ def all_subsets(series: Sequence[RunSeries], material: str, *, terms: Iterable[s
     term, so they compare models on the same data.
     """
     chosen = parse_terms(terms)
+    series = windows(runs)
     full = fit_resistance(series, material, terms=chosen, fixed=fixed, bootstrap=0, leave_one_out=False)
     out = []
     for k in range(1, len(chosen) + 1):

@@ -27,7 +27,7 @@ from pencli.io.checks import SensorRange, UnitScales, check_run_columns, check_u
 from pencli.io.atomic import honour_umask
 from pencli.params.load import read_yaml, resolve
 from pencli.params.validate import ParameterSet
-from pencli.store.rundata import RAW_COLUMNS, RunData
+from pencli.run import RAW_COLUMNS, Run
 
 DATA_NAMES = ("data.csv", "data.xlsx")
 PARAMETER_FILES = {"penetrator": "penetrator.yaml", "material": "material.yaml", "energizing": "energizing.yaml"}
@@ -259,7 +259,7 @@ def map_columns(header: list[str], columns: dict[str, np.ndarray], path: Path, o
 
 
 def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
-                    parameter_refs: Mapping[str, str] | None = None) -> RunData:
+                    parameter_refs: Mapping[str, str] | None = None) -> Run:
     """Read and check one run folder (CONTRACT §3).
 
     ``parameter_refs`` gives presets or files for parameter files the folder
@@ -300,8 +300,8 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
     record = options.as_record()
     if ignored:
         record["ignored_columns"] = ignored  # kept in the raw stage's provenance; the data are not stored
-    return RunData(columns, sets["penetrator"], sets["material"], sets["energizing"], info,
-                   str(folder.resolve()), data_path.suffix.lower().lstrip("."), record)
+    return Run(columns, sets["penetrator"], sets["material"], sets["energizing"], info,
+               str(folder.resolve()), data_path.suffix.lower().lstrip("."), record)
 
 
 def unit_scales(penetrator: ParameterSet, material: ParameterSet, energizing: ParameterSet) -> UnitScales:
@@ -328,7 +328,7 @@ def _check_run_info(info: dict, path: Path) -> None:
         raise ParameterError(f"{path}: tags {tags!r}: expected a word or a list of words")
 
 
-def ignored_columns_warning(run: RunData) -> str | None:
+def ignored_columns_warning(run: Run) -> str | None:
     """One line saying which columns of the data file pen did not store (None: none)."""
     ignored = run.reader_options.get("ignored_columns")
     if not ignored:

@@ -46,31 +46,24 @@ def latest_fit_with(versions: Sequence[dict], run_id: str) -> dict | None:
     return used[-1] if used else None
 
 
-def _design_with_fit(params: Mapping[str, dict], run_id: str, coefficients: Mapping[str, float]):
+def _design_with_fit(run, coefficients: Mapping[str, float]):
+    """A run's design with the fit's coefficients, and its material set."""
     from pencli.fit.resistance import with_coefficients
-    from pencli.model.design import design_from_sets
-    from pencli.params.validate import sets_from_mappings
 
-    p, m, e = sets_from_mappings(params, run_id)
-    return with_coefficients(design_from_sets(p, m, e), coefficients), m
+    return with_coefficients(run.design, coefficients), run.material
 
 
 def run_section(ws, run_id: str, versions: Sequence[dict]) -> Section:
     """A run: parameters, stages, events, raw channels (Fig. 11), measurements (Fig. 12), model against data
     (Fig. 13) and energy per term with the newest fit that used it."""
-    from pencli.filter.tare import tare as tare_run
     from pencli.model.dynamics import simulate
     from pencli.report import figures
-    from pencli.store.workspace import raw_columns_of
 
     params = ws.run_parameters(run_id)
     stages = ws.stages(run_id)
-    raw_table, _ = ws.read_stage(run_id, "raw")
-    raw = raw_columns_of(raw_table)
+    raw = ws.load_run(run_id, "raw")
     tares = [s for s in stages if s.stage == "tare"]
-    events = tares[-1].parameters["events"] if tares else tare_run(
-        raw, params["energizing"]["surface_offset_mm"], params["penetrator"]["penetration_depth_mm"],
-        where=run_id).events.to_dict()
+    events = tares[-1].parameters["events"] if tares else raw.tared().events.to_dict()
     section = Section(f"run {run_id}", provenance={"run": {k: str(v) for k, v in ws.run_row(run_id).items()}})
     rows = [r for kind in ("penetrator", "material", "energizing") for r in parameter_rows(params[kind])]
     section.tables.append(("parameters", ["key", "value", "unit"], rows))
@@ -79,18 +72,17 @@ def run_section(ws, run_id: str, versions: Sequence[dict]) -> Section:
     section.tables.append(("events (time since release)", ["event", "value", "unit"],
                            [[k, v * 1e3 if k.endswith("_s") else v, "ms" if k.endswith("_s") else ""]
                             for k, v in events.items() if isinstance(v, (int, float))]))
-    section.add_figure(figures.raw_channels(run_id, raw, events))
+    section.add_figure(figures.raw_channels(run_id, raw.columns, events))
     inertia = [s for s in stages if s.stage == "inertia"]
     if inertia:
-        table, _ = ws.read_stage(run_id, inertia[-1].stage_no)
-        section.add_figure(figures.kinematics_panels(
-            run_id, {c: table.column(c).to_numpy() for c in table.column_names}, events))
+        section.add_figure(figures.kinematics_panels(run_id, ws.load_run(run_id, inertia[-1].stage_no).columns,
+                                                     events))
     fit = latest_fit_with(versions, run_id)
     if fit is not None and fit["model_data_path"]:
         data = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
                              filters=[("run_id", "=", run_id)]).to_pydict()
         section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v) for k, v in data.items()}))
-        design, _ = _design_with_fit(params, run_id, json.loads(fit["coefficients"]))
+        design, _ = _design_with_fit(raw, json.loads(fit["coefficients"]))
         s = simulate(design, output_rate_hz=2000.0).summary
         section.add_figure(figures.energy_per_term(
             f"{run_id}: energy per term, {fit['material']} v{fit['version']} coefficients (predicted run)",
@@ -127,7 +119,7 @@ def material_section(ws, row: Mapping[str, Any]) -> Section:
             section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v)[sel] for k, v in table.items()}))
     runs = row["source_runs"]
     median_run = runs[len(runs) // 2]
-    design, m = _design_with_fit(ws.run_parameters(median_run), median_run, fit["coefficients"])
+    design, m = _design_with_fit(ws.load_run(median_run, "raw"), fit["coefficients"])
     tr = simulate(design, output_rate_hz=20_000.0).trajectory
     inside = tr.phase == 1
     cone, ucs = REFERENCE_ESTIMATES.get(m.name, (None, None))

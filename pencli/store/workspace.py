@@ -43,13 +43,13 @@ from pencli import __version__
 from pencli.errors import PenError, PenNotice, StoreError
 from pencli.io.atomic import make_parents, remove_made
 from pencli.params.validate import validate_mapping
+from pencli.run import RAW_COLUMNS, RAW_STAGE, Run, Stage
 from pencli.store.migrations import LATEST, MIGRATIONS
-from pencli.store.rundata import RAW_COLUMNS, RunData, content_hash, table_hash
+from pencli.store.rundata import content_hash, raw_table, table_hash
 
 DEFAULT_LOCK_TIMEOUT_S = 30.0
 MAX_LOCK_TIMEOUT_S = 86_400.0
 """A day: longer than any pen command holds the catalog; a larger wait is a typo. [s]"""
-RAW_STAGE = "raw"
 _ID_SAFE = re.compile(r"[^A-Za-z0-9._-]+")
 _TEMPORARY = re.compile(r"^\.(?:.+\.(?P<pid>\d+)\.tmp"                       # a stage or fit being written
                         r"|pending-(?P<pid2>\d+)-\d+\.parquet"                # a sweep being written
@@ -547,11 +547,11 @@ class Workspace:
                     con.execute("ROLLBACK")
                     return None
                 sets = json.loads(meta["pen:run_parameters"])
-                run = RunData(raw_columns_of(table), *(validate_mapping(sets[kind], f"{path} ({kind})",
-                                                                        expected_kind=kind, allow_out_of_range=True)
-                                                       for kind in ("penetrator", "material", "energizing")),
-                              info=json.loads(meta["pen:run_info"]), source=str(parameters.get("source", path)),
-                              source_format=str(parameters.get("format", "")))
+                run = Run(raw_columns_of(table), *(validate_mapping(sets[kind], f"{path} ({kind})",
+                                                                    expected_kind=kind, allow_out_of_range=True)
+                                                   for kind in ("penetrator", "material", "energizing")),
+                          info=json.loads(meta["pen:run_info"]), source=str(parameters.get("source", path)),
+                          source_format=str(parameters.get("format", "")))
                 self._insert_run(con, run_id, run, digest, created)
             elif parent is None or con.execute("SELECT 1 FROM stages WHERE run_id = ? AND stage_no = ?",
                                                [run_id, parent]).fetchone() is None:
@@ -580,7 +580,7 @@ class Workspace:
         return f"version {version} of fitted material '{material}'"
 
     # ------------------------------------------------------------------ runs
-    def add_run(self, run: RunData, *, command: str) -> AddedRun:
+    def add_run(self, run: Run, *, command: str) -> AddedRun:
         """Add a raw run (immutable).  The same data added again returns the existing run."""
         digest = content_hash(run.columns)
         wanted = self._wanted_id(run)
@@ -593,7 +593,7 @@ class Workspace:
             if con.execute("SELECT 1 FROM runs WHERE run_id = ?", [run_id]).fetchone() is not None:
                 run_id = f"{wanted}-{digest[:8]}"
             asked = str(run.info.get("id") or Path(run.source).name or "run")
-            table = run.to_table()
+            table = raw_table(run)
             record = {
                 "stage": RAW_STAGE, "run_id": run_id, "parent": None, "command": command,
                 "parameters": {"source": run.source, "format": run.source_format, **run.reader_options},
@@ -606,10 +606,10 @@ class Workspace:
             renamed = f"{run.source}: run id {asked!r} stored as {run_id!r} ({why})"
         return AddedRun(stage.run_id, True, run.source, renamed)
 
-    def _wanted_id(self, run: RunData) -> str:
+    def _wanted_id(self, run: Run) -> str:
         return safe_id(str(run.info.get("id") or Path(run.source).name or "run"))
 
-    def _check_same_parameters(self, con, run_id: str, run: RunData) -> None:
+    def _check_same_parameters(self, con, run_id: str, run: Run) -> None:
         stored = {k: json.loads(p) for k, p in con.execute(
             "SELECT kind, parameters FROM run_parameters WHERE run_id = ?", [run_id]).fetchall()}
         for ps in run.parameter_sets():
@@ -625,7 +625,7 @@ class Workspace:
                         f"parameter file, or keep the stored one)")
 
     def _write_stage(self, con, run_id: str, stage_no: int, table: pa.Table, record: dict, digest: str,
-                     run_rows: tuple[RunData, str] | None = None) -> StageRecord:
+                     run_rows: tuple[Run, str] | None = None) -> StageRecord:
         """Write one stage file and its catalog rows atomically."""
         folder = self.runs_dir / run_id
         created_folder = not folder.exists()
@@ -657,7 +657,7 @@ class Workspace:
         return StageRecord(run_id, stage_no, record["stage"], record.get("parent"), final, digest,
                            record["command"], record["parameters"], __version__, now)
 
-    def _insert_run(self, con, run_id: str, run: RunData, digest: str, now: dt.datetime) -> None:
+    def _insert_run(self, con, run_id: str, run: Run, digest: str, now: dt.datetime) -> None:
         p, m, e = run.penetrator, run.material, run.energizing
         info = run.info
         tags = info.get("tags") or []
@@ -702,6 +702,38 @@ class Workspace:
                 return same[-1]
             record = {"stage": stage, "parent": parent_no, "command": command, "parameters": dict(parameters)}
             return self._write_stage(con, run_id, last + 1, table, record, digest)
+
+    def load_run(self, ref: str, stage: str | int | None = None) -> Run:
+        """A stored run at ``stage`` (name or number; default: the latest): its columns, parameter sets, events
+        and the lineage from the raw stage to it."""
+        from pencli.filter.tare import Events
+        from pencli.params.validate import sets_from_mappings
+
+        run_id = self.resolve(ref)
+        table, chosen = self.read_stage(run_id, stage)
+        by_number = {r.stage_no: r for r in self.stages(run_id)}
+        lineage, record = [], chosen
+        while record is not None:
+            lineage.append(Stage(record.stage, record.command, record.parameters, record.stage_no, record.parent_no))
+            record = by_number.get(record.parent_no) if record.parent_no is not None else None
+        row = self.run_row(run_id)
+        raw = by_number[min(by_number)].parameters
+        events = chosen.parameters.get("events")
+        columns = (raw_columns_of(table) if chosen.stage == RAW_STAGE else
+                   {name: table.column(name).to_numpy() for name in table.column_names})
+        return Run(columns, *sets_from_mappings(self.run_parameters(run_id), run_id),
+                   info=json.loads(row["info"]) if row.get("info") else {}, source=str(row["source"]),
+                   source_format=str(row["source_format"]),
+                   reader_options={k: v for k, v in raw.items() if k not in ("source", "format")},
+                   run_id=run_id, lineage=tuple(reversed(lineage)), events=Events(**events) if events else None)
+
+    def save_stage(self, run: Run) -> StageRecord:
+        """Store the latest stage of ``run`` (made by :meth:`Run.with_stage` from a stored run)."""
+        step = run.lineage[-1] if run.lineage else None
+        if step is None or step.parent is None or not run.run_id:
+            raise StoreError(f"run '{run.name}': only a new stage of a stored run can be saved as a stage")
+        return self.add_stage(run.run_id, step.name, run.columns, parent_no=step.parent, command=step.command,
+                              parameters=step.parameters)
 
     def stages(self, run_id: str) -> list[StageRecord]:
         """All stages of a run, oldest first."""
