@@ -515,14 +515,15 @@ def _each_run(db: str | Path, refs: Sequence[str], work: Callable[[Any, str], St
     ws = workspace(db)
     outcomes = []
     refs = expand_run_refs(ws, refs)
-    for k, ref in enumerate(refs):
-        if progress is not None:
-            progress(str(ref), k, len(refs))
-        try:
-            run_id = ws.resolve(ref)
-            outcomes.append(work(ws, run_id))
-        except PenError as exc:
-            outcomes.append(StageOutcome(ref, "rejected", message=str(exc)))
+    with ws.batch():
+        for k, ref in enumerate(refs):
+            if progress is not None:
+                progress(str(ref), k, len(refs))
+            try:
+                run_id = ws.resolve(ref)
+                outcomes.append(work(ws, run_id))
+            except PenError as exc:
+                outcomes.append(StageOutcome(ref, "rejected", message=str(exc)))
     return outcomes
 
 
@@ -587,15 +588,16 @@ def load_campaign(db: str | Path, refs: Sequence[str], progress: Progress | None
 
     ws = workspace(db)
     out = []
-    refs = expand_run_refs(ws, refs)
-    for k, ref in enumerate(refs):
-        if progress is not None:
-            progress(f"reading {ref}", k, len(refs))
-        run = ws.load_run(ref)
-        if "resistance_n" not in run.columns:
-            raise DataError(f"run '{run.run_id}': its latest stage is '{run.stage}', which has no resistance; run "
-                            f"`pen tare {run.run_id}` and `pen subtract-inertia {run.run_id}` first")
-        out.append(run)
+    with ws.batch(write=False):  # one catalogue connection for every run
+        refs = expand_run_refs(ws, refs)
+        for k, ref in enumerate(refs):
+            if progress is not None:
+                progress(f"reading {ref}", k, len(refs))
+            run = ws.load_run(ref)
+            if "resistance_n" not in run.columns:
+                raise DataError(f"run '{run.run_id}': its latest stage is '{run.stage}', which has no resistance; "
+                                f"run `pen tare {run.run_id}` and `pen subtract-inertia {run.run_id}` first")
+            out.append(run)
     return Campaign(tuple(out))
 
 
@@ -923,15 +925,21 @@ def report_runs(db: str | Path, refs: Sequence[str]) -> list:
     from pencli.report.sections import run_section
 
     ws = workspace(db)
-    versions = ws.material_versions()
-    return [run_section(ws, ws.resolve(ref), versions) for ref in expand_run_refs(ws, refs)]
+    with ws.batch(write=False):  # one catalogue connection for every section
+        versions = ws.material_versions()
+        return [run_section(ws, ws.resolve(ref), versions) for ref in expand_run_refs(ws, refs)]
 
 
 def report_material(db: str | Path, material: str, version: int | None = None) -> list:
     """Sections for a fitted material version: coefficients, intervals, correlation, runs, Fig. 13, Fig. 16."""
+    ws = workspace(db)
+    with ws.batch(write=False):
+        return _material_sections(ws, db, material, version)
+
+
+def _material_sections(ws, db, material: str, version: int | None) -> list:
     from pencli.report.sections import material_section
 
-    ws = workspace(db)
     versions = ws.material_versions(material)
     if not versions:
         raise StoreError(f"no fitted material '{material}' in {db} (pen fit --material {material} RUN...)")

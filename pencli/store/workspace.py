@@ -194,13 +194,17 @@ class Workspace:
         return self.db_path.is_file()
 
     @contextlib.contextmanager
-    def batch(self, hold_s: float = 0.5, pause_s: float = 0.06) -> Iterator["Workspace"]:
-        """Reuse one writing connection for many writes (opening one costs ~14 ms).
+    def batch(self, hold_s: float = 0.5, pause_s: float = 0.06, *, write: bool = True) -> Iterator["Workspace"]:
+        """Reuse one connection for many reads and writes (opening one costs ~15 ms); ``write=False``: for reads
+        alone (a read-only workspace can be read so).
 
         The lock is handed back every ``hold_s`` seconds for ``pause_s``, so a
         concurrent pen process (which polls every ≤ 50 ms) gets its turn.
         """
-        self._batch = {"con": None, "since": 0.0, "hold": hold_s, "pause": pause_s}
+        if self._batch is not None:  # already in one: it serves
+            yield self
+            return
+        self._batch = {"con": None, "since": 0.0, "hold": hold_s, "pause": pause_s, "write": write}
         try:
             yield self
         finally:
@@ -212,18 +216,21 @@ class Workspace:
     @contextlib.contextmanager
     def connect(self, *, write: bool = False) -> Iterator[duckdb.DuckDBPyConnection]:
         """Open the catalog (creating and migrating it when writing), with a bounded wait on a lock."""
-        if write and self._batch is not None:
-            shared = self._batch
+        shared = self._batch
+        if shared is not None and (shared["write"] or not write):
             if shared["con"] is not None and time.monotonic() - shared["since"] > shared["hold"]:
                 shared["con"].close()
                 shared["con"] = None
                 time.sleep(shared["pause"])  # let a waiting process in
             if shared["con"] is None:
-                shared["con"] = self._open(write=True)
+                shared["con"] = self._open(write=shared["write"])
                 shared["since"] = time.monotonic()
             with self._catalog_faults():
                 yield shared["con"]
             return
+        if shared is not None and shared["con"] is not None:  # a write inside a reading batch: hand its lock back
+            shared["con"].close()
+            shared["con"] = None
         con = self._open(write=write)
         try:
             with self._catalog_faults():
@@ -709,19 +716,21 @@ class Workspace:
         from pencli.filter.tare import Events
         from pencli.params.validate import sets_from_mappings
 
-        run_id = self.resolve(ref)
-        table, chosen = self.read_stage(run_id, stage)
-        by_number = {r.stage_no: r for r in self.stages(run_id)}
+        with self.batch(write=False):  # one connection for the catalogue rows
+            run_id = self.resolve(ref)
+            table, chosen = self.read_stage(run_id, stage)
+            by_number = {r.stage_no: r for r in self.stages(run_id)}
+            row = self.run_row(run_id)
+            params = self.run_parameters(run_id)
         lineage, record = [], chosen
         while record is not None:
             lineage.append(Stage(record.stage, record.command, record.parameters, record.stage_no, record.parent_no))
             record = by_number.get(record.parent_no) if record.parent_no is not None else None
-        row = self.run_row(run_id)
         raw = by_number[min(by_number)].parameters
         events = chosen.parameters.get("events")
         columns = (raw_columns_of(table) if chosen.stage == RAW_STAGE else
                    {name: table.column(name).to_numpy() for name in table.column_names})
-        return Run(columns, *sets_from_mappings(self.run_parameters(run_id), run_id),
+        return Run(columns, *sets_from_mappings(params, run_id),
                    info=json.loads(row["info"]) if row.get("info") else {}, source=str(row["source"]),
                    source_format=str(row["source_format"]),
                    reader_options={k: v for k, v in raw.items() if k not in ("source", "format")},
