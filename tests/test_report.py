@@ -42,7 +42,7 @@ def test_every_figure_kind_renders_from_the_example_workspace(example, tmp_path,
     kinds = {
         "runs": (["gb-1.0-2", "mc-2.0-4"], 8),  # raw, measurements, model vs data, energy per term, per run
         "material": (["--material", "mpacs_c"], 2 + 6),  # intervals + Fig. 16 + model vs data per run
-        "sweep": (["--sweep", "1"], 4),  # two heat maps with the boundary, the 4-D scatter, partial dependence
+        "sweep": (["--sweep", "1"], 3),  # two heat maps with the boundary, partial dependence (2 variables: no 3-D)
         "diagnosis": (["mc-*", "--diagnose"], 1),
     }
     for name, (args, count) in kinds.items():
@@ -124,10 +124,10 @@ def test_a_check_that_cannot_be_evaluated_fails_unless_allowed(example, tmp_path
     assert record["checks"][0]["evaluated"] is False and "no fitted run" in record["checks"][0]["reason"]
 
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMIUM = shutil.which("chromium-headless-shell") or shutil.which("chromium") or shutil.which("chromium-browser")
 
 
-@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium-headless-shell is not installed (.ci/run installs it)")
 def test_html_renders_headless_with_every_image_loaded(example, tmp_path, runner):
     out = tmp_path / "r.html"
     assert invoke(runner, "report", "gb-1.0-2", "--out", out, "--db", example, "--no-pdf").exit_code == 0
@@ -137,6 +137,9 @@ window.addEventListener('load', () => {
   const imgs = Array.from(document.images);
   const ok = imgs.filter(i => i.complete && i.naturalWidth > 0).length;
   document.body.setAttribute('data-images', imgs.length + '/' + ok);
+  const caps = Array.from(document.querySelectorAll('figure figcaption')).filter(c => c.textContent.length > 40);
+  document.body.setAttribute('data-captions', String(caps.length));
+  document.body.setAttribute('data-width', String(document.body.scrollWidth <= window.innerWidth));
 });</script></body>"""))
     dom = subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
                           "--disable-component-update", "--disable-sync", "--no-first-run",
@@ -146,6 +149,9 @@ window.addEventListener('load', () => {
     assert match, dom[:500]
     total, loaded = int(match.group(1)), int(match.group(2))
     assert total >= 4 and loaded == total
+    # every figure captioned, and nothing wider than the window (images scale down, text wraps)
+    assert re.search(r'data-captions="(\d+)"', dom).group(1) == str(total)
+    assert 'data-width="true"' in dom
 
 
 def test_a_workspace_copied_without_its_fits_folder_is_one_line(example, tmp_path, runner):

@@ -13,29 +13,21 @@ from rich.table import Table
 from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, print_json, usage_check
 from pencli.model.resistance import TERMS, parse_terms
+from pencli.labels import FIGURES
 from pencli.params.overrides import parse_overrides
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
 
-SUMMARY_ROWS = (
-    ("contact_speed_m_s", "speed at contact", "m/s", "{:.4f}"),
-    ("contact_time_s", "time to contact", "ms", "{:.3f}"),
-    ("penetration_time_s", "penetration time", "ms", "{:.3f}"),
-    ("final_depth_mm", "final depth", "mm", "{:.2f}"),
-    ("full_penetration", "full penetration", "", "{}"),
-    ("peak_resistance_n", "peak resistance", "N", "{:.1f}"),
-    ("peak_resistance_depth_mm", "  at depth", "mm", "{:.2f}"),
-    ("residual_ke_j", "residual kinetic energy", "J", "{:.2f}"),
-    ("spring_energy_j", "spring energy delivered", "J", "{:.2f}"),
-    ("gravity_work_j", "work of gravity", "J", "{:.2f}"),
-    ("energy_strength_j", "energy: strength", "J", "{:.2f}"),
-    ("energy_friction_j", "energy: friction", "J", "{:.2f}"),
-    ("energy_damping_j", "energy: damping", "J", "{:.2f}"),
-    ("energy_inertia_j", "energy: inertia", "J", "{:.2f}"),
+SUMMARY_FORMATS = (
+    ("contact_speed_m_s", "{:.4f}"), ("contact_time_s", "{:.3f}"), ("penetration_time_s", "{:.3f}"),
+    ("final_depth_mm", "{:.2f}"), ("full_penetration", "{}"), ("peak_resistance_n", "{:.1f}"),
+    ("peak_resistance_depth_mm", "{:.2f}"), ("residual_ke_j", "{:.2f}"), ("spring_energy_j", "{:.2f}"),
+    ("gravity_work_j", "{:.2f}"), ("energy_strength_j", "{:.2f}"), ("energy_friction_j", "{:.2f}"),
+    ("energy_damping_j", "{:.2f}"), ("energy_inertia_j", "{:.2f}"),
 )
-_MS = {"contact_time_s", "penetration_time_s"}
+"""The rows of the summary table and their number formats (names and units: :data:`pencli.labels.FIGURES`)."""
 
 
 @app.command("predict")
@@ -90,12 +82,11 @@ def render(prediction: api.Prediction, out: Path | None) -> None:
     table.add_column("figure")
     table.add_column("value", justify="right")
     table.add_column("unit")
-    for key, label, unit, fmt in SUMMARY_ROWS:
-        value = record[key]
-        if key in _MS:
-            value = value * 1e3
+    for key, fmt in SUMMARY_FORMATS:
+        shown = FIGURES[key]
+        value = record[key] * shown.scale if shown.scale != 1.0 else record[key]
         finite = not isinstance(value, float) or math.isfinite(value)
-        table.add_row(label, fmt.format(value) if finite else "not defined", unit)
+        table.add_row(shown.name, fmt.format(value) if finite else "not defined", shown.unit)
     console.print(table)
     end = record["end"]
     console.print(f"ended by: [bold]{end.replace('_', ' ')}[/bold]; energy balance error "

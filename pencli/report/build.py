@@ -1,4 +1,4 @@
-"""Self-contained HTML reports (figures embedded) and a PDF of the same content."""
+"""Self-contained HTML reports (figures embedded, numbered and captioned) and a PDF of the same content."""
 
 from __future__ import annotations
 
@@ -7,12 +7,33 @@ import datetime as dt
 import html
 import io
 import json
+import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
 from pencli import __version__
 from pencli.io.atomic import atomic_group
+
+FIGURE_DPI = 200
+"""Raster resolution of a figure: 2× the 100 dpi the figures are laid out for, sharp on a high-density screen and
+on paper. [dpi]"""
+PDF_TEXT_COLUMNS = 110
+"""Characters per line of a PDF text page in its monospaced 6.5 pt type on A4: longer lines wrap. [–]"""
+PDF_TEXT_LINES = 120
+"""Lines on one PDF text page; a longer section continues on the next page. [–]"""
+A4_IN = (8.27, 11.69)
+"""A4 portrait, width and height. [in]"""
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A rendered figure and the sentence that states its answer."""
+
+    png: bytes
+    caption: str
+    paper: str = ""
+    """The paper's figure it reproduces (``Fig. 13``), else empty."""
 
 
 @dataclass
@@ -23,28 +44,40 @@ class Section:
     text: str = ""
     tables: list[tuple[str, list[str], list[list[Any]]]] = field(default_factory=list)
     """(caption, header with units, rows)."""
-    images: list[bytes] = field(default_factory=list)
-    """Figures as PNG bytes (drawn and closed as they are added, so a long report holds no open figures)."""
+    figures: list[Figure] = field(default_factory=list)
+    """Figures as PNG bytes with their captions (drawn and closed as they are added, so a long report holds no
+    open figures)."""
     provenance: dict = field(default_factory=dict)
 
-    def add_figure(self, fig) -> None:
-        """Render a matplotlib Figure to PNG and close it."""
+    def add_figure(self, fig, caption: str, paper: str = "") -> None:
+        """Render a matplotlib Figure to PNG, keep it with its caption, and close it."""
         import matplotlib.pyplot as plt
 
         buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=100)
+        fig.savefig(buf, format="png", dpi=FIGURE_DPI)
         plt.close(fig)
-        self.images.append(buf.getvalue())
+        self.figures.append(Figure(buf.getvalue(), caption, paper))
+
+    @property
+    def images(self) -> list[bytes]:
+        """The figures' PNG bytes."""
+        return [f.png for f in self.figures]
 
 
 CSS = """
-body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px; color: #222; }
+html { -webkit-text-size-adjust: 100%; }
+body { font-family: system-ui, sans-serif; margin: 2em auto; padding: 0 1em; max-width: 1100px; color: #222;
+       line-height: 1.45; text-align: left; }
 h1 { border-bottom: 2px solid #444; } h2 { margin-top: 2em; border-bottom: 1px solid #aaa; }
 table { border-collapse: collapse; margin: 1em 0; font-size: 0.9em; }
+caption { text-align: left; font-weight: 600; padding: 0.3em 0; }
 th, td { border: 1px solid #ccc; padding: 3px 8px; text-align: right; } th { background: #eee; }
 td:first-child, th:first-child { text-align: left; }
-img { max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }
-pre { background: #f6f6f6; padding: 0.6em; font-size: 0.8em; overflow-x: auto; }
+figure { margin: 1.5em 0; }
+figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figcaption { font-size: 0.92em; margin-top: 0.3em; }
+nav ol { columns: 2; }
+pre { background: #f6f6f6; padding: 0.6em; font-size: 0.8em; overflow-x: auto; white-space: pre-wrap; }
 """
 
 
@@ -54,12 +87,30 @@ def _cell(value: Any) -> str:
     return html.escape("" if value is None else str(value))
 
 
-def render_html(title: str, sections: Sequence[Section]) -> str:
-    """The report as one HTML document with every figure inlined."""
-    parts = [f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
-             f"<style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
-             f"<p>pen {__version__}, {dt.datetime.now(dt.timezone.utc):%Y-%m-%d %H:%M} UTC</p>"]
+def numbered(sections: Sequence[Section]) -> list[tuple[Section, list[tuple[int, Figure]]]]:
+    """Each section with its figures numbered through the report (1, 2, …)."""
+    out, n = [], 0
     for s in sections:
+        items = []
+        for f in s.figures:
+            n += 1
+            items.append((n, f))
+        out.append((s, items))
+    return out
+
+
+def figure_label(number: int, figure: Figure) -> str:
+    """``Figure 3 (paper Fig. 13).`` or ``Figure 3.``"""
+    return f"Figure {number}" + (f" (paper {figure.paper})" if figure.paper else "") + "."
+
+
+def render_html(title: str, sections: Sequence[Section]) -> str:
+    """The report as one HTML document with every figure inlined, numbered and captioned."""
+    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+             f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
+             f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
+             f"<p>pen {__version__}, {dt.datetime.now(dt.timezone.utc):%Y-%m-%d %H:%M} UTC</p>"]
+    for s, items in numbered(sections):
         parts.append(f"<h2>{html.escape(s.title)}</h2>")
         if s.text:
             parts.append(f"<p>{html.escape(s.text)}</p>")
@@ -68,9 +119,11 @@ def render_html(title: str, sections: Sequence[Section]) -> str:
                          + "".join(f"<th>{html.escape(h)}</th>" for h in header) + "</tr>")
             parts.extend("<tr>" + "".join(f"<td>{_cell(v)}</td>" for v in row) + "</tr>" for row in rows)
             parts.append("</table>")
-        for image in s.images:
-            parts.append(f"<img alt='{html.escape(s.title)}' src='data:image/png;base64,"
-                         f"{base64.b64encode(image).decode()}'>")
+        for number, f in items:
+            label = figure_label(number, f)
+            parts.append(f"<figure id='figure-{number}'><img alt='{html.escape(label + ' ' + f.caption)}' "
+                         f"src='data:image/png;base64,{base64.b64encode(f.png).decode()}'>"
+                         f"<figcaption><b>{html.escape(label)}</b> {html.escape(f.caption)}</figcaption></figure>")
         if s.provenance:
             parts.append("<details><summary>provenance</summary><pre>"
                          + html.escape(json.dumps(s.provenance, indent=2, default=str)) + "</pre></details>")
@@ -78,8 +131,28 @@ def render_html(title: str, sections: Sequence[Section]) -> str:
     return "\n".join(parts)
 
 
+def _text_lines(s: Section) -> list[str]:
+    """A section's text, tables and provenance as lines of at most :data:`PDF_TEXT_COLUMNS` characters."""
+    lines = [s.title, "", *([*textwrap.wrap(s.text, PDF_TEXT_COLUMNS), ""] if s.text else [])]
+    for caption, header, rows in s.tables:
+        widths = [max(len(str(h)), *(len(_cell(r[i])) for r in rows)) if rows else len(str(h))
+                  for i, h in enumerate(header)]
+        lines.append(caption)
+        lines.append("  ".join(str(h).ljust(w) for h, w in zip(header, widths)))
+        lines.extend("  ".join(html.unescape(_cell(v)).ljust(w) for v, w in zip(r, widths)) for r in rows)
+        lines.append("")
+    if s.provenance:
+        lines.extend(["provenance:", *json.dumps(s.provenance, indent=1, default=str).splitlines()])
+    out = []
+    for line in lines:
+        out.extend(textwrap.wrap(line, PDF_TEXT_COLUMNS, subsequent_indent="    ", drop_whitespace=False,
+                                 replace_whitespace=False) or [""])
+    return out
+
+
 def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
-    """The same content as a PDF: a text page per section (tables, provenance), then its figures."""
+    """The same content as a PDF of A4 pages: a text page per section (tables, provenance; long lines wrap, long
+    sections continue), then each figure on a page of its own with its number and caption."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -87,26 +160,25 @@ def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
     from matplotlib.backends.backend_pdf import PdfPages
 
     with PdfPages(path) as pdf:
-        for s in sections:
-            lines = [s.title, "", *([s.text, ""] if s.text else [])]
-            for caption, header, rows in s.tables:
-                widths = [max(len(str(h)), *(len(_cell(r[i])) for r in rows)) if rows else len(str(h))
-                          for i, h in enumerate(header)]
-                lines.append(caption)
-                lines.append("  ".join(str(h).ljust(w) for h, w in zip(header, widths)))
-                lines.extend("  ".join(_cell(v).ljust(w) for v, w in zip(r, widths)) for r in rows)
-                lines.append("")
-            if s.provenance:
-                lines.extend(["provenance:", *json.dumps(s.provenance, indent=1, default=str).splitlines()[:40]])
-            page = plt.figure(figsize=(8.27, 11.69))
-            page.text(0.05, 0.97, "\n".join(lines[:90]), va="top", ha="left", family="monospace", fontsize=6.5)
-            page.suptitle(f"{title}", fontsize=9, y=0.995)
-            pdf.savefig(page)
-            plt.close(page)
-            for image in s.images:
-                picture = plt.imread(io.BytesIO(image), format="png")
-                page = plt.figure(figsize=(picture.shape[1] / 100, picture.shape[0] / 100))
-                page.figimage(picture, 0, 0)
+        for s, items in numbered(sections):
+            lines = _text_lines(s)
+            for start in range(0, len(lines), PDF_TEXT_LINES):
+                page = plt.figure(figsize=A4_IN)
+                page.text(0.05, 0.97, "\n".join(lines[start:start + PDF_TEXT_LINES]), va="top", ha="left",
+                          family="monospace", fontsize=6.5)
+                page.suptitle(title, fontsize=9, y=0.995)
+                pdf.savefig(page)
+                plt.close(page)
+            for number, f in items:
+                picture = plt.imread(io.BytesIO(f.png), format="png")
+                page = plt.figure(figsize=A4_IN)
+                height = min(0.8, 0.9 * picture.shape[0] / picture.shape[1] * A4_IN[0] / A4_IN[1])
+                ax = page.add_axes((0.05, 0.95 - height, 0.9, height))
+                ax.imshow(picture, interpolation="lanczos")
+                ax.set_axis_off()
+                caption = textwrap.fill(f"{figure_label(number, f)} {f.caption}", 95)
+                page.text(0.05, 0.93 - height, caption, va="top", ha="left", fontsize=8)
+                page.suptitle(title, fontsize=9, y=0.995)
                 pdf.savefig(page)
                 plt.close(page)
 

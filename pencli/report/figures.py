@@ -10,6 +10,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from pencli.labels import label, quantity
+
 TERM_COLOURS = {"strength": "#4C72B0", "friction": "#DD8452", "damping": "#55A868", "inertia": "#C44E52"}
 
 
@@ -22,91 +24,141 @@ def _plt():
     return plt
 
 
+MEASURED, EQ9, DYNAMIC = "k", "tab:blue", "tab:orange"
+"""One colour per source in every figure: the measurement, Eq. 9 on the measured motion, the fully predicted run."""
+WINDOW_SHADE = {"color": "tab:green", "alpha": 0.12, "lw": 0}
+"""How the analysis window is shaded wherever it is drawn."""
+
+
 def raw_channels(run_id: str, raw: Mapping[str, np.ndarray], events: Mapping[str, float]):
-    """Fig. 11: raw position and forces, the stored span and the analysed window marked."""
+    """Fig. 11: raw position and forces over the stored span, the analysed window shaded.
+
+    Returns the figure and its caption (the window and the peak axial force, with numbers)."""
     plt = _plt()
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, constrained_layout=True)
     t = raw["time_s"] * 1e3
-    ax1.plot(t, raw["position_mm"], lw=0.8, color="k")
-    ax1.set_ylabel("position [mm]")
+    ax1.plot(t, raw["position_mm"], lw=0.8, color=MEASURED)
+    ax1.set_ylabel(label("position_mm"))
     for name in ("fx_n", "fy_n", "fz_n"):
-        ax2.plot(t, raw[name], lw=0.6, label=name)
+        ax2.plot(t, raw[name], lw=0.6, label=quantity(name).name)
     ax2.set_ylabel("force [N]")
-    ax2.set_xlabel("time since release [ms]")
+    ax2.set_xlabel(label("time_s"))
     ax2.legend(fontsize=7)
+    start, end = events["window_start_s"] * 1e3, events["window_end_s"] * 1e3
     for ax in (ax1, ax2):
-        ax.axvline(t[0], color="tab:green", lw=1.5)
-        ax.axvline(t[-1], color="tab:green", lw=1.5)
-        ax.axvspan(events["window_start_s"] * 1e3, events["window_end_s"] * 1e3, color="tab:orange", alpha=0.2)
-    fig.suptitle(f"{run_id}: raw channels (green: stored span; shaded: analysed window)")
-    return fig
+        ax.axvspan(start, end, **WINDOW_SHADE)
+    inside = int(np.count_nonzero((t >= start) & (t <= end)))
+    caption = (f"{run_id}: raw channels over the stored {t[-1] - t[0]:.0f} ms; the analysis window (shaded) runs "
+               f"{start:.1f}–{end:.1f} ms after the release, {inside} of {t.size} samples; peak axial force "
+               f"{float(np.max(raw['fz_n'])):.0f} N.")
+    return fig, caption
 
 
 def kinematics_panels(run_id: str, stage: Mapping[str, np.ndarray], events: Mapping[str, float]):
-    """Fig. 12: depth, force/resistance, speed and acceleration against time around the penetration."""
+    """Fig. 12: depth, force and resistance, speed and acceleration against time around the penetration.
+
+    Returns the figure and its caption (contact, speed at contact, how and where the motion stopped)."""
     plt = _plt()
     fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True, constrained_layout=True)
     t = stage["time_s"]
     near = (t > events["motion_start_s"] - 0.01) & (t < events["stop_s"] + 0.02)
     tm = t[near] * 1e3
-    axes[0, 0].plot(tm, stage["depth_m"][near] * 1e3, color="k", lw=0.8)
-    axes[0, 0].set_ylabel("depth [mm]")
-    axes[0, 1].plot(tm, stage["force_n"][near], lw=0.6, label="load cell F")
-    axes[0, 1].plot(tm, stage["resistance_n"][near], lw=0.8, label="resistance R = F − m·a")
+    axes[0, 0].plot(tm, stage["depth_m"][near] * 1e3, color=MEASURED, lw=0.8)
+    axes[0, 0].set_ylabel(label("depth_m"))
+    axes[0, 1].plot(tm, stage["force_n"][near], lw=0.6, color="0.55", label=quantity("force_n").name)
+    axes[0, 1].plot(tm, stage["resistance_n"][near], lw=0.8, color=MEASURED, label="resistance R = F − m·a")
     axes[0, 1].set_ylabel("force [N]")
     axes[0, 1].legend(fontsize=7)
-    axes[1, 0].plot(tm, stage["velocity_m_s"][near], color="tab:blue", lw=0.8)
-    axes[1, 0].set_ylabel("speed [m/s]")
-    axes[1, 1].plot(tm, stage["acceleration_m_s2"][near], color="tab:red", lw=0.8)
-    axes[1, 1].set_ylabel("acceleration [m/s²]")
+    axes[1, 0].plot(tm, stage["velocity_m_s"][near], color=MEASURED, lw=0.8)
+    axes[1, 0].set_ylabel(label("velocity_m_s"))
+    axes[1, 1].plot(tm, stage["acceleration_m_s2"][near], color=MEASURED, lw=0.8)
+    axes[1, 1].set_ylabel(label("acceleration_m_s2"))
     for ax in axes.ravel():
+        ax.axvspan(events["window_start_s"] * 1e3, events["window_end_s"] * 1e3, **WINDOW_SHADE)
         ax.axvline(events["contact_s"] * 1e3, color="grey", ls="--", lw=0.8)
         ax.axvline(events["stop_s"] * 1e3, color="grey", ls=":", lw=0.8)
     for ax in axes[1]:
-        ax.set_xlabel("time since release [ms]")
-    fig.suptitle(f"{run_id}: measurements (dashed: contact, dotted: stop)")
-    return fig
+        ax.set_xlabel(label("time_s"))
+    how = "was arrested" if events.get("end") == "arrest" else "reached the hard stops"
+    caption = (f"{run_id}: contact (dashed) at {events['contact_s'] * 1e3:.1f} ms at "
+               f"{events['contact_speed_m_s']:.2f} m/s; the blade {how} (dotted) at {events['stop_s'] * 1e3:.1f} ms, "
+               f"{events['final_depth_m'] * 1e3:.1f} mm deep; shaded: the analysis window.")
+    return fig, caption
+
+
+def _fit_figures(measured: np.ndarray, model: np.ndarray) -> tuple[float, float]:
+    """(RMS [N], R²) of ``model`` against ``measured``."""
+    residual = measured - model
+    rms = float(np.sqrt(np.mean(residual ** 2))) if residual.size else float("nan")
+    spread = float(np.sum((measured - measured.mean()) ** 2)) if measured.size else 0.0
+    return rms, (1.0 - float(np.sum(residual ** 2)) / spread) if spread > 0 else float("nan")
 
 
 def model_vs_data(run_id: str, data: Mapping[str, np.ndarray]):
-    """Fig. 13: measured and modelled resistance against time and depth, and depth against time, both modes."""
+    """Fig. 13: measured resistance against depth with Eq. 9 on the measured motion and the fully predicted run,
+    the residual beneath, and depth against time; over the analysis window, RMS and R² in the legends.
+
+    Returns the figure and its caption (what each model leaves, and where the predicted run ends)."""
     plt = _plt()
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
-    t = data["time_s"] * 1e3
-    axes[0].plot(t, data["resistance_n"], color="k", lw=0.7, label="measured")
-    axes[0].plot(t, data["resistance_model_n"], lw=1.0, label="Eq. 9 with measured x, v")
-    axes[0].plot(t, data["resistance_dynamic_n"], lw=1.0, ls="--", label="fully predicted")
-    axes[0].set_xlabel("time since release [ms]")
-    axes[0].set_ylabel("resistance [N]")
-    axes[0].legend(fontsize=7)
-    inside = data["depth_m"] > 0
-    axes[1].plot(data["depth_m"][inside] * 1e3, data["resistance_n"][inside], color="k", lw=0.7)
-    axes[1].plot(data["depth_m"][inside] * 1e3, data["resistance_model_n"][inside], lw=1.0)
-    axes[1].set_xlabel("depth [mm]")
-    axes[1].set_ylabel("resistance [N]")
-    axes[2].plot(t, data["depth_m"] * 1e3, color="k", lw=0.8, label="measured")
-    axes[2].plot(t, data["depth_dynamic_m"] * 1e3, ls="--", lw=1.0, label="fully predicted")
-    axes[2].set_xlabel("time since release [ms]")
-    axes[2].set_ylabel("depth [mm]")
-    axes[2].legend(fontsize=7)
-    fig.suptitle(f"{run_id}: model against data")
-    return fig
+    fig = plt.figure(figsize=(12, 6), constrained_layout=True)
+    grid = fig.add_gridspec(2, 2, height_ratios=[2.2, 1])
+    force, residual, motion = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[:, 1])
+    residual.sharex(force)
+    window = np.asarray(data["in_window"], dtype=bool)
+    depth = np.asarray(data["depth_m"])[window] * 1e3
+    measured = np.asarray(data["resistance_n"])[window]
+    eq9, dyn = np.asarray(data["resistance_model_n"])[window], np.asarray(data["resistance_dynamic_n"])[window]
+    rms, r2 = _fit_figures(measured, eq9)
+    rms_d, r2_d = _fit_figures(measured, dyn)
+    force.plot(depth, measured, color=MEASURED, lw=0.7, label="measured")
+    force.plot(depth, eq9, color=EQ9, lw=1.2, label=f"Eq. 9 on the measured x, v: RMS {rms:.1f} N, R² {r2:.4f}")
+    force.plot(depth, dyn, color=DYNAMIC, lw=1.2, ls="--",
+               label=f"fully predicted from the launch: RMS {rms_d:.1f} N, R² {r2_d:.4f}")
+    force.set_ylabel(label("resistance_n"))
+    force.legend(fontsize=7)
+    force.tick_params(labelbottom=False)
+    residual.axhline(0.0, color="0.4", lw=0.6)
+    residual.plot(depth, measured - eq9, color=EQ9, lw=0.7)
+    residual.plot(depth, measured - dyn, color=DYNAMIC, lw=0.7, ls="--")
+    residual.set_ylabel("measured − model [N]")
+    residual.set_xlabel(label("depth_m"))
+    t = np.asarray(data["time_s"]) * 1e3
+    x_measured, x_predicted = np.asarray(data["depth_m"]) * 1e3, np.asarray(data["depth_dynamic_m"]) * 1e3
+    motion.plot(t, x_measured, color=MEASURED, lw=0.8, label="measured")
+    motion.plot(t, x_predicted, color=DYNAMIC, lw=1.2, ls="--", label="fully predicted")
+    if window.any():
+        motion.axvspan(t[window][0], t[window][-1], **WINDOW_SHADE)
+    motion.set_xlabel(label("time_s"))
+    motion.set_ylabel(label("depth_m"))
+    motion.legend(fontsize=7)
+    caption = (f"{run_id}: over the analysis window (shaded on the right) Eq. 9 with the measured depth and speed "
+               f"leaves {rms:.1f} N RMS (R² {r2:.4f}) and the fully predicted run {rms_d:.1f} N; the predicted "
+               f"run ends {float(x_predicted[-1]):.1f} mm deep against {float(x_measured[-1]):.1f} mm measured.")
+    return fig, caption
 
 
-def energy_per_term(title: str, energies: Mapping[str, float], supplied: Mapping[str, float] | None = None):
-    """Figs. 14/17: energy dissipated by each Eq. 9 term (and, optionally, what was supplied)."""
+def energy_per_term(run_id: str, energies: Mapping[str, float], supplied: Mapping[str, float]):
+    """Figs. 14/17: where the energy of a predicted run goes: what the springs and gravity supply against what each
+    Eq. 9 term dissipates and what is left as kinetic energy.
+
+    Returns the figure and its caption (each term's share of the energy supplied)."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(8, 4), constrained_layout=True)
     names = list(energies)
-    ax.bar(names, [energies[n] for n in names], color=[TERM_COLOURS.get(n, "grey") for n in names])
-    for i, n in enumerate(names):
-        ax.text(i, energies[n], f"{energies[n]:.1f}", ha="center", va="bottom", fontsize=8)
-    if supplied:
-        text = ", ".join(f"{k} {v:.1f} J" for k, v in supplied.items())
-        ax.set_title(text, fontsize=8)
+    bars = [*supplied.items(), *energies.items()]
+    colours = ["0.55"] * len(supplied) + [TERM_COLOURS.get(n, "0.3") for n in names]
+    ax.bar([k for k, _ in bars], [v for _, v in bars], color=colours)
+    for i, (_, v) in enumerate(bars):
+        ax.text(i, v, f"{v:.1f}", ha="center", va="bottom", fontsize=8)
+    ax.axvline(len(supplied) - 0.5, color="0.3", lw=0.8)
     ax.set_ylabel("energy [J]")
-    fig.suptitle(title)
-    return fig
+    ax.text(len(supplied) - 0.6, ax.get_ylim()[1] * 0.97, "supplied", ha="right", va="top", fontsize=8)
+    ax.text(len(supplied) - 0.4, ax.get_ylim()[1] * 0.97, "dissipated by each term, and left over", ha="left",
+            va="top", fontsize=8)
+    total = sum(supplied.values())
+    shares = ", ".join(f"{n} {100 * energies[n] / total:.0f} %" for n in names) if total > 0 else ""
+    caption = f"{run_id}: of {total:.1f} J supplied by the springs and gravity, {shares}."
+    return fig, caption
 
 
 MAP_CELLS = 60
@@ -146,27 +198,39 @@ def sweep_map(table: Mapping[str, np.ndarray], x: str, y: str, value: str = "pen
     ys, iy = _cells(table[y])
     grid = _cell_means(ix, iy, (ys.size, xs.size), table[value])
     full = _cell_means(ix, iy, (ys.size, xs.size), np.asarray(table["full_penetration"], dtype=float))
+    shown = quantity(value)
+    binned = ix.size > xs.size * ys.size
     fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
-    mesh = ax.pcolormesh(xs, ys, grid, shading="nearest", cmap="viridis")
-    fig.colorbar(mesh, ax=ax, label=value + (" (cell mean)" if ix.size > xs.size * ys.size else ""))
+    mesh = ax.pcolormesh(xs, ys, grid * shown.scale, shading="nearest", cmap="viridis")
+    fig.colorbar(mesh, ax=ax, label=shown.label + (" (cell mean)" if binned else ""))
     filled = np.nan_to_num(full, nan=0.0)
-    if 0 < np.nanmean(full) < 1 and xs.size > 1 and ys.size > 1:
+    boundary = 0 < np.nanmean(full) < 1 and xs.size > 1 and ys.size > 1
+    if boundary:
         ax.contour(xs, ys, filled, levels=[0.5], colors="w", linewidths=2)
-    ax.set_xlabel(x)
-    ax.set_ylabel(y)
-    fig.suptitle(f"{value} over {x} × {y}\n(white line: full-penetration boundary)", fontsize=10)
-    return fig
+    ax.set_xlabel(label(x))
+    ax.set_ylabel(label(y))
+    v = np.asarray(table[value], dtype=float) * shown.scale
+    share = 100.0 * float(np.mean(np.asarray(table["full_penetration"], dtype=float)))
+    caption = (f"{shown.name} over {quantity(x).name} and {quantity(y).name}: {np.nanmin(v):.4g}–{np.nanmax(v):.4g} "
+               f"{shown.unit} over {v.size} designs" + (f" ({xs.size} × {ys.size} cells, cell means)" if binned else "")
+               + f"; {share:.0f} % reach full depth" + (" (white line: the full-penetration boundary)." if boundary
+                                                        else "."))
+    return fig, caption
 
 
 def sweep_partial(table: Mapping[str, np.ndarray], keys: Sequence[str], value: str = "penetration_time_s"):
-    """Partial dependence: each varied parameter against ``value`` (cell mean and 10–90 % band over the
-    other parameters) and the share of designs reaching full depth."""
+    """Partial dependence: each varied parameter against ``value`` (median and 10–90 % band over the other
+    parameters) and the share of designs reaching full depth.
+
+    Returns the figure and its caption (which parameter moves the median most, and by how much)."""
     plt = _plt()
     keys = list(keys)
+    shown = quantity(value)
     fig, axes = plt.subplots(1, len(keys), figsize=(3.2 * len(keys) + 1, 3.6), constrained_layout=True,
                              squeeze=False)
-    v = np.asarray(table[value], dtype=float)
+    v = np.asarray(table[value], dtype=float) * shown.scale
     full = np.asarray(table["full_penetration"], dtype=float)
+    spread = {}
     for ax, key in zip(axes[0], keys):
         centres, idx = _cells(table[key])
         order = np.argsort(idx, kind="stable")
@@ -176,82 +240,148 @@ def sweep_partial(table: Mapping[str, np.ndarray], keys: Sequence[str], value: s
             part = v[order[bounds[c]:bounds[c + 1]]]
             if part.size:
                 stats[c] = np.quantile(part, [0.1, 0.5, 0.9])
+        spread[key] = float(np.nanmax(stats[:, 1]) - np.nanmin(stats[:, 1]))
         ax.fill_between(centres, stats[:, 0], stats[:, 2], color="tab:blue", alpha=0.25, label="10–90 %")
-        ax.plot(centres, stats[:, 1], color="tab:blue", label=f"median {value}")
-        ax.set_xlabel(key)
+        ax.plot(centres, stats[:, 1], color="tab:blue", label="median")
+        ax.set_xlabel(label(key))
         twin = ax.twinx()
         share = np.bincount(idx, weights=full, minlength=centres.size) / np.maximum(
             np.bincount(idx, minlength=centres.size), 1)
         twin.plot(centres, share, color="k", ls="--", lw=1, label="share at full depth")
         twin.set_ylim(-0.02, 1.02)
-    axes[0][0].set_ylabel(value)
+    axes[0][0].set_ylabel(shown.label)
     axes[0][0].legend(fontsize=7, loc="upper left")
-    fig.suptitle(f"{value} against each varied parameter (dashed: share of designs at full depth)", fontsize=10)
-    return fig
+    first = max(spread, key=spread.get)
+    caption = (f"{shown.name} against each varied parameter (median and 10–90 % band over the others; dashed, right "
+               f"axis: share of designs at full depth, 0–1): {quantity(first).name} moves the median most, by "
+               f"{spread[first]:.3g} {shown.unit}.")
+    return fig, caption
 
 
 def sweep_scatter(table: Mapping[str, np.ndarray], keys: Sequence[str]):
-    """Fig. 15: three varied parameters on axes, residual kinetic energy as colour."""
+    """Fig. 15: three varied parameters on axes, residual kinetic energy as colour (a sweep of three or more
+    variables; the first three are drawn).
+
+    Returns the figure and its caption (how many designs are drawn and the residual energy's range)."""
     plt = _plt()
+    keys = list(keys)[:3]
+    if len(keys) < 3:
+        raise ValueError("a 3-D scatter needs three varied parameters")
     fig = plt.figure(figsize=(7, 5.5), constrained_layout=True)
     ax = fig.add_subplot(projection="3d")
-    k = list(keys)[:3] + [None] * (3 - len(list(keys)[:3]))
     n = len(table["residual_ke_j"])
     pick = np.random.default_rng(0).choice(n, min(n, 5000), replace=False)
-    cols = [np.asarray(table[c])[pick] if c else np.zeros(pick.size) for c in k]
-    points = ax.scatter(*cols, c=np.asarray(table["residual_ke_j"])[pick], cmap="plasma", s=6)
-    fig.colorbar(points, ax=ax, label="residual kinetic energy [J]", shrink=0.7)
-    ax.set_xlabel(k[0] or "")
-    ax.set_ylabel(k[1] or "")
-    ax.set_zlabel(k[2] or "")
-    fig.suptitle("designs coloured by residual energy at full depth")
-    return fig
+    energy = np.asarray(table["residual_ke_j"], dtype=float)[pick]
+    points = ax.scatter(*(np.asarray(table[c])[pick] for c in keys), c=energy, cmap="plasma", s=6)
+    fig.colorbar(points, ax=ax, label=label("residual_ke_j"), shrink=0.7)
+    ax.set_xlabel(label(keys[0]), fontsize=8)
+    ax.set_ylabel(label(keys[1]), fontsize=8)
+    ax.set_zlabel(label(keys[2]), fontsize=8)
+    caption = (f"{pick.size} of {n} designs over {', '.join(quantity(k).name for k in keys)}, coloured by the "
+               f"kinetic energy left at full depth ({np.nanmin(energy):.3g}–{np.nanmax(energy):.3g} J; 0 where the "
+               f"blade stops in the material).")
+    return fig, caption
 
 
-def estimates_comparison(title: str, depth_mm: np.ndarray, resistance_n: np.ndarray, frontal_area_m2: float,
+def estimates_comparison(run_id: str, depth_mm: np.ndarray, resistance_n: np.ndarray, frontal_area_m2: float,
                          cone_mpa: tuple[float, float] | None, ucs_kpa: tuple[float, float] | None):
-    """Fig. 16: the model's resistance against cone-penetration and compressive-strength × area estimates."""
+    """Fig. 16: the model's resistance against cone-penetration and compressive-strength × area estimates.
+
+    Returns the figure and its caption (the model's mean resistance against each estimate's band)."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
-    ax.plot(depth_mm, resistance_n, color="k", lw=1.2, label="pen model (Eq. 9, dynamic)")
-    if cone_mpa:
-        ax.axhspan(cone_mpa[0] * 1e6 * frontal_area_m2, cone_mpa[1] * 1e6 * frontal_area_m2, color="tab:blue",
-                   alpha=0.25, label="cone penetration resistance × area")
-    if ucs_kpa:
-        ax.axhspan(ucs_kpa[0] * 1e3 * frontal_area_m2, ucs_kpa[1] * 1e3 * frontal_area_m2, color="tab:green",
-                   alpha=0.35, label="unconfined compressive strength × area")
-    ax.set_xlabel("depth [mm]")
-    ax.set_ylabel("resistance [N]")
+    ax.plot(depth_mm, resistance_n, color=DYNAMIC, lw=1.2, label="pen model (Eq. 9, fully predicted)")
+    bands = []
+    for name, span, scale, colour in (("cone penetration resistance × area", cone_mpa, 1e6, "tab:blue"),
+                                      ("unconfined compressive strength × area", ucs_kpa, 1e3, "tab:green")):
+        if span:
+            lo, hi = span[0] * scale * frontal_area_m2, span[1] * scale * frontal_area_m2
+            ax.axhspan(lo, hi, color=colour, alpha=0.3, label=name)
+            bands.append(f"{name} {lo:.0f}–{hi:.0f} N")
+    ax.set_xlabel(label("depth_m"))
+    ax.set_ylabel(label("resistance_n"))
     ax.legend(fontsize=7)
-    fig.suptitle(title)
-    return fig
+    mean = float(np.mean(resistance_n)) if len(resistance_n) else float("nan")
+    caption = (f"{run_id}: the model's resistance averages {mean:.0f} N over the penetration"
+               + (f", against {'; '.join(bands)}." if bands else " (no published estimate for this material)."))
+    return fig, caption
 
 
 def fit_intervals(material: str, fit: Mapping):
-    """Fitted coefficients with 95 % and bootstrap intervals (relative to the value), and their correlation."""
+    """Each fitted coefficient on its own axis in its unit: the value, its 95 % interval held to the coefficient's
+    bound (every coefficient is ≥ 0) and, where run, the bootstrap's; and the correlation matrix with its numbers.
+
+    Returns the figure and its caption (the coefficients with intervals, and the strongest correlation)."""
     plt = _plt()
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4), constrained_layout=True)
     names = [n for n, ci in fit["ci95"].items() if ci]
+    fig = plt.figure(figsize=(11, 1.1 * max(len(names), 3) + 1.2), constrained_layout=True)
+    grid = fig.add_gridspec(max(len(names), 1), 2, width_ratios=[1.25, 1])
+    parts = []
     for i, n in enumerate(names):
+        ax = fig.add_subplot(grid[i, 0])
+        shown = quantity(n)
         value = fit["coefficients"][n]
-        scale = abs(value) if value else 1.0
         lo, hi = fit["ci95"][n]
-        ax1.plot([lo / scale, hi / scale], [i, i], color="tab:blue", lw=4, alpha=0.6)
-        boot = fit.get("bootstrap_ci95", {}).get(n)
+        held = lo < 0
+        lo = max(lo, 0.0)
+        ax.plot([lo, hi], [0, 0], color="tab:blue", lw=5, alpha=0.6, solid_capstyle="butt",
+                label="95 % (normal, held at ≥ 0)" if held else "95 % (normal)")
+        boot = (fit.get("bootstrap_ci95") or {}).get(n)
         if boot:
-            ax1.plot([boot[0] / scale, boot[1] / scale], [i + 0.15, i + 0.15], color="tab:orange", lw=2)
-        ax1.plot([value / scale], [i], "ko")
-    ax1.set_yticks(range(len(names)), names)
-    ax1.set_xlabel("value / fitted value (blue: 95 %, orange: bootstrap)")
+            ax.plot(boot, [0.35, 0.35], color="tab:orange", lw=2, label="95 % (bootstrap over runs)")
+        ax.plot([value], [0], "ko", ms=4)
+        ax.set_yticks([])
+        ax.set_ylim(-0.8, 0.8)
+        ax.set_xlabel(shown.label, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.ticklabel_format(axis="x", useOffset=False)
+        if held:
+            ax.annotate("held at its bound 0", (lo, 0), (4, 8), textcoords="offset points", fontsize=7)
+        if i == 0:
+            ax.legend(fontsize=6, loc="upper right")
+        parts.append(f"{_symbol(n)} = {_with_interval(value, lo, hi)}{(' ' + shown.unit) if shown.unit else ''}")
     corr = fit["correlation"]
     keys = list(corr)
     matrix = np.array([[corr[a][b] if corr[a][b] is not None else np.nan for b in keys] for a in keys])
+    ax2 = fig.add_subplot(grid[:, 1])
     im = ax2.imshow(matrix, vmin=-1, vmax=1, cmap="coolwarm")
-    ax2.set_xticks(range(len(keys)), keys, rotation=30, ha="right", fontsize=7)
-    ax2.set_yticks(range(len(keys)), keys, fontsize=7)
-    fig.colorbar(im, ax=ax2, label="correlation")
-    fig.suptitle(f"{material}: coefficients and their correlation")
-    return fig
+    for (r, c), v in np.ndenumerate(matrix):
+        if np.isfinite(v):
+            ax2.text(c, r, f"{v:+.2f}", ha="center", va="center", fontsize=8,
+                     color="white" if abs(v) > 0.6 else "black")
+    symbols = [_symbol(k) for k in keys]
+    ax2.set_xticks(range(len(keys)), symbols)
+    ax2.set_yticks(range(len(keys)), symbols)
+    fig.colorbar(im, ax=ax2, label="correlation [–]", shrink=0.8)
+    off = [(abs(matrix[r, c]), r, c) for r in range(len(keys)) for c in range(r + 1, len(keys))
+           if np.isfinite(matrix[r, c])]
+    strongest = max(off) if off else None
+    caption = (f"{material} ({fit.get('mode', 'resistance')} fit, {len(fit.get('runs', []))} runs): "
+               + "; ".join(parts) + " (95 %)"
+               + (f"; strongest correlation {symbols[strongest[1]]}–{symbols[strongest[2]]} "
+                  f"{matrix[strongest[1], strongest[2]]:+.2f}." if strongest else "."))
+    return fig, caption
+
+
+def _with_interval(value: float, lo: float, hi: float) -> str:
+    """``0.6001 [0.5999, 0.6003]``: as many digits as the interval's width needs to show it."""
+    import math
+
+    width = hi - lo
+    if not (math.isfinite(width) and width > 0):
+        return f"{value:.4g} [{lo:.4g}, {hi:.4g}]"
+    if max(abs(value), abs(hi)) < 1e-3:
+        return f"{value:.2g} [{lo:.2g}, {hi:.2g}]"
+    decimals = max(0, 1 - math.floor(math.log10(width)))
+    return f"{value:.{decimals}f} [{lo:.{decimals}f}, {hi:.{decimals}f}]"
+
+
+def _symbol(key: str) -> str:
+    """A coefficient's symbol (Cs, P, C, K) from its one definition, else the key."""
+    from pencli.params.definitions import BY_KEY
+
+    param = BY_KEY.get(f"coefficients.{key}") or BY_KEY.get(key)
+    return param.symbol if param is not None and param.symbol else key
 
 
 def campaign_fit(material: str, data: Mapping[str, np.ndarray]):

@@ -72,23 +72,25 @@ def run_section(ws, run_id: str, versions: Sequence[dict]) -> Section:
     section.tables.append(("events (time since release)", ["event", "value", "unit"],
                            [[k, v * 1e3 if k.endswith("_s") else v, "ms" if k.endswith("_s") else ""]
                             for k, v in events.items() if isinstance(v, (int, float))]))
-    section.add_figure(figures.raw_channels(run_id, raw.columns, events))
+    section.add_figure(*figures.raw_channels(run_id, raw.columns, events), paper="Fig. 11")
     inertia = [s for s in stages if s.stage == "inertia"]
     if inertia:
-        section.add_figure(figures.kinematics_panels(run_id, ws.load_run(run_id, inertia[-1].stage_no).columns,
-                                                     events))
+        section.add_figure(*figures.kinematics_panels(run_id, ws.load_run(run_id, inertia[-1].stage_no).columns,
+                                                      events), paper="Fig. 12")
     fit = latest_fit_with(versions, run_id)
     if fit is not None and fit["model_data_path"]:
         data = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
                              filters=[("run_id", "=", run_id)]).to_pydict()
-        section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v) for k, v in data.items()}))
+        section.add_figure(*figures.model_vs_data(run_id, {k: np.asarray(v) for k, v in data.items()}),
+                           paper="Fig. 13")
         design, _ = _design_with_fit(raw, json.loads(fit["coefficients"]))
         s = simulate(design, output_rate_hz=2000.0).summary
-        section.add_figure(figures.energy_per_term(
-            f"{run_id}: energy per term, {fit['material']} v{fit['version']} coefficients (predicted run)",
+        fig, caption = figures.energy_per_term(
+            f"{run_id}, predicted with {fit['material']} v{fit['version']}",
             {"strength": s.energy_strength_j, "friction": s.energy_friction_j, "damping": s.energy_damping_j,
-             "inertia": s.energy_inertia_j}, {"spring": s.spring_energy_j, "gravity": s.gravity_work_j,
-                                              "residual KE": s.residual_ke_j}))
+             "inertia": s.energy_inertia_j, "left as kinetic": s.residual_ke_j},
+            {"springs": s.spring_energy_j, "gravity": s.gravity_work_j})
+        section.add_figure(fig, caption, paper="Fig. 14")
     return section
 
 
@@ -110,22 +112,23 @@ def material_section(ws, row: Mapping[str, Any]) -> Section:
                             for n, v in fit["coefficients"].items()]))
     section.tables.append(("runs", ["run", "samples", "RMS [N]", "NRMSE", "R²"],
                            [[r["run_id"], r["n_samples"], r["rms_n"], r["nrmse"], r["r2"]] for r in fit["runs"]]))
-    section.add_figure(figures.fit_intervals(material, fit))
+    section.add_figure(*figures.fit_intervals(material, fit))
     if row["model_data_path"]:
         table = ws.read_table(row["model_data_path"], "fit's model-vs-data table").to_pydict()
         ids = np.asarray(table["run_id"])
         for run_id in list(dict.fromkeys(table["run_id"]))[:12]:
             sel = ids == run_id
-            section.add_figure(figures.model_vs_data(run_id, {k: np.asarray(v)[sel] for k, v in table.items()}))
+            section.add_figure(*figures.model_vs_data(run_id, {k: np.asarray(v)[sel] for k, v in table.items()}),
+                               paper="Fig. 13")
     runs = row["source_runs"]
     median_run = runs[len(runs) // 2]
     design, m = _design_with_fit(ws.load_run(median_run, "raw"), fit["coefficients"])
     tr = simulate(design, output_rate_hz=20_000.0).trajectory
     inside = tr.phase == 1
     cone, ucs = REFERENCE_ESTIMATES.get(m.name, (None, None))
-    section.add_figure(figures.estimates_comparison(
-        f"{median_run}: model against simpler estimates (Fig. 16)", tr.depth_m[inside] * 1e3,
-        tr.resistance_n[inside], design.frontal_area_m2, cone, ucs))
+    section.add_figure(*figures.estimates_comparison(
+        f"{median_run} (the fit's median run)", tr.depth_m[inside] * 1e3, tr.resistance_n[inside],
+        design.frontal_area_m2, cone, ucs), paper="Fig. 16")
     return section
 
 
@@ -149,15 +152,16 @@ def sweep_section(ws, record: Mapping[str, Any]) -> Section:
                            [[f, float(np.min(table[f])), float(np.max(table[f]))] for f in SWEEP_FIGURES]))
     if len(keys) >= 2:
         for value in ("penetration_time_s", "peak_resistance_n"):
-            section.add_figure(figures.sweep_map(table, keys[0], keys[1], value))
-    section.add_figure(figures.sweep_scatter(table, keys))
-    section.add_figure(figures.sweep_partial(table, keys))
+            section.add_figure(*figures.sweep_map(table, keys[0], keys[1], value), paper="Fig. 14")
+    if len(keys) >= 3:
+        section.add_figure(*figures.sweep_scatter(table, keys), paper="Fig. 15")
+    section.add_figure(*figures.sweep_partial(table, keys))
     return section
 
 
 def diagnosis_section(result) -> Section:
     """A diagnosis: verdict, effects best first, where the gap lies, what the misfit follows, the figure."""
-    from pencli.report.diagnosis import diagnosis_figure
+    from pencli.report.diagnosis import diagnosis_caption, diagnosis_figure
 
     report = result.to_dict()
     section = Section(f"diagnosis: verdict {result.verdict}", text=" ".join(result.notes),
@@ -175,7 +179,7 @@ def diagnosis_section(result) -> Section:
                                 for w in result.where if w.get("above_noise")]))
     section.tables.append(("what the misfit follows (share of the baseline's held-out misfit explained by its "
                            "mean along each axis, in the material)", list(result.axes), [list(result.axes.values())]))
-    section.add_figure(diagnosis_figure(result))
+    section.add_figure(diagnosis_figure(result), diagnosis_caption(result))
     return section
 
 

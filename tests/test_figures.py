@@ -1,0 +1,154 @@
+"""What the report figures draw, read back from the figures themselves: names and units on every axis, captions
+whose numbers are the data's, intervals that respect their bounds, and numbered, captioned figures in the page."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+from pencli import api
+from pencli.report import figures
+from tests.conftest import REPO
+
+RAW_KEY = re.compile(r"\b[a-z]+(?:_[a-z0-9]+)*_(?:mm|s|n|nm|kpa|j|m|kg|pct|deg|m_s|m_s2|kg_m3|kn_m|kpa_s_m)\b")
+"""A stored key with its unit in the name (``blade_thickness_mm``, ``fx_n``): what no figure may show."""
+
+
+@pytest.fixture(scope="module")
+def example(tmp_path_factory):
+    root = tmp_path_factory.mktemp("figures")
+    shutil.copytree(REPO / "examples" / "workspace", root / "workspace")
+    return root / "workspace" / "runs.duckdb"
+
+
+def texts_of(fig) -> list[str]:
+    """Every piece of text a figure shows: titles, axis labels, tick labels, legends, annotations, colour bars."""
+    from matplotlib.text import Text
+
+    fig.canvas.draw()
+    return [t.get_text() for t in fig.findobj(Text) if t.get_visible() and t.get_text()]
+
+
+def close(fig):
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def model_table(db, run_id):
+    ws = api.workspace(db)
+    fit = [v for v in ws.material_versions() if run_id in v["source_runs"]][-1]
+    data = ws.read_table(fit["model_data_path"], "model", filters=[("run_id", "=", run_id)]).to_pydict()
+    return {k: np.asarray(v) for k, v in data.items()}
+
+
+def every_figure(db):
+    """(name, figure, caption) for every figure kind a report draws, from the example workspace."""
+    ws = api.workspace(db)
+    run = ws.load_run("mc-1.0-4")
+    raw = ws.load_run("mc-1.0-4", "raw")
+    events = run.events.to_dict()
+    yield ("raw", *figures.raw_channels("mc-1.0-4", raw.columns, events))
+    yield ("kinematics", *figures.kinematics_panels("mc-1.0-4", run.columns, events))
+    yield ("model", *figures.model_vs_data("mc-1.0-4", model_table(db, "mc-1.0-4")))
+    yield ("energy", *figures.energy_per_term("mc-1.0-4", {"strength": 80.0, "friction": 40.0, "damping": 0.0,
+                                                           "inertia": 25.0, "left as kinetic": 30.0},
+                                              {"springs": 170.0, "gravity": 5.0}))
+    fit = json.loads(ws.material_versions("mpacs_c")[-1]["fit"])
+    yield ("fit", *figures.fit_intervals("mpacs_c", fit))
+    sweep = ws.sweep_row(1)
+    keys = list(json.loads(sweep["variables"]))
+    table = {k: np.asarray(v) for k, v in ws.read_table(sweep["path"], "sweep").to_pydict().items()}
+    yield ("map", *figures.sweep_map(table, keys[0], keys[1], "penetration_time_s"))
+    yield ("partial", *figures.sweep_partial(table, keys))
+    three = dict(table, extra_mm=np.linspace(0, 1, len(table[keys[0]])))
+    yield ("scatter", *figures.sweep_scatter(three, [*keys, "blade_width_mm"] if "blade_width_mm" in table
+                                             else [keys[0], keys[1], keys[0]]))
+
+
+def test_no_figure_shows_a_raw_key_and_every_axis_has_a_unit(example):
+    for name, fig, caption in every_figure(example):
+        shown = texts_of(fig)
+        try:
+            assert not [t for t in shown if RAW_KEY.search(t)], (name, [t for t in shown if RAW_KEY.search(t)])
+            assert not RAW_KEY.search(caption), (name, caption)
+            for ax in fig.axes:
+                for text in (ax.get_xlabel(), ax.get_ylabel()):
+                    if text and name not in ("fit",):  # the fit's correlation axes carry symbols
+                        assert re.search(r"\[[^\]]+\]", text) or text in ("",), (name, text)
+            assert re.search(r"\d", caption), (name, caption)  # the answer, with numbers
+        finally:
+            close(fig)
+
+
+def test_the_model_figure_states_the_rms_of_its_own_data_and_draws_the_residual(example):
+    data = model_table(example, "mc-2.0-2")
+    fig, caption = figures.model_vs_data("mc-2.0-2", data)
+    try:
+        window = data["in_window"].astype(bool)
+        residual = data["resistance_n"][window] - data["resistance_model_n"][window]
+        rms = np.sqrt(np.mean(residual ** 2))
+        assert f"leaves {rms:.1f} N RMS" in caption
+        drawn = [line for ax in fig.axes for line in ax.get_lines()
+                 if np.size(line.get_ydata()) == residual.size and np.allclose(line.get_ydata(), residual)]
+        assert drawn, "the residual against Eq. 9 is drawn"
+        # nothing is drawn outside the window on the force-depth axis: no drop to 0 N after the stop
+        force_axis = fig.axes[0]
+        assert min(float(np.min(line.get_ydata())) for line in force_axis.get_lines()) > 0.0
+        assert all(np.size(line.get_xdata()) == residual.size for line in force_axis.get_lines())
+    finally:
+        close(fig)
+
+
+def test_the_fit_figure_holds_intervals_at_their_bounds_and_numbers_its_correlations(example):
+    fit = json.loads(api.workspace(example).material_versions("mpacs_c")[-1]["fit"])
+    fit["ci95"]["damping_kpa_s_m"] = [-0.81, 0.81]  # a normal interval that crosses C ≥ 0, as a C = 0 fit gives
+    fig, caption = figures.fit_intervals("mpacs_c", fit)
+    try:
+        drawn_x = [x for ax in fig.axes for line in ax.get_lines() for x in np.atleast_1d(line.get_xdata())]
+        assert min(drawn_x) >= 0.0
+        assert any("held at its bound 0" in t for t in texts_of(fig))
+        numbers = [t for t in texts_of(fig) if re.fullmatch(r"[+-]\d\.\d\d", t)]
+        assert len(numbers) == len(fit["correlation"]) ** 2
+        assert "C = " in caption and "[0" in caption.split("C = ")[1][:30]
+    finally:
+        close(fig)
+
+
+def test_a_sweep_map_is_drawn_in_the_unit_its_colour_bar_names(example):
+    ws = api.workspace(example)
+    sweep = ws.sweep_row(1)
+    keys = list(json.loads(sweep["variables"]))
+    table = {k: np.asarray(v) for k, v in ws.read_table(sweep["path"], "sweep").to_pydict().items()}
+    fig, caption = figures.sweep_map(table, keys[0], keys[1], "penetration_time_s")
+    try:
+        mesh = fig.axes[0].collections[0]
+        assert np.nanmax(mesh.get_array()) == pytest.approx(np.max(table["penetration_time_s"]) * 1e3)
+        assert any("penetration time [ms]" in t for t in texts_of(fig))
+        assert f"{np.max(table['penetration_time_s']) * 1e3:.4g} ms" in caption
+    finally:
+        close(fig)
+    with pytest.raises(ValueError, match="three varied parameters"):
+        figures.sweep_scatter(table, keys[:2])
+
+
+def test_the_report_numbers_and_captions_every_figure(example, tmp_path):
+    from pencli.report.build import PDF_TEXT_COLUMNS, Section, _text_lines, write_report
+
+    sections = api.report_runs(example, ["mc-1.0-4", "gb-1.0-2"]) + api.report_material(example, "mpacs_c")
+    write_report("pen report: two runs and MPACS C", sections, tmp_path / "r.html")
+    page = (tmp_path / "r.html").read_text()
+    assert "<html lang='en'>" in page and "name='viewport'" in page
+    numbers = [int(n) for n in re.findall(r"<figure id='figure-(\d+)'>", page)]
+    assert numbers == list(range(1, sum(len(s.figures) for s in sections) + 1))
+    captions = re.findall(r"<figcaption><b>Figure (\d+)[^<]*</b> ([^<]+)</figcaption>", page)
+    assert len(captions) == len(numbers) and all(len(text) > 40 for _, text in captions)
+    alts = re.findall(r"<img alt='([^']+)'", page)
+    assert len(set(alts)) == len(alts)  # no two figures share an alt text
+    assert "(paper Fig. 13)" in page and "(paper Fig. 11)" in page
+    long = Section("long", text="word " * 400, provenance={"key": "x" * 500})
+    assert all(len(line) <= PDF_TEXT_COLUMNS for line in _text_lines(long))
