@@ -129,6 +129,24 @@ def write_prediction_trajectory(prediction: Prediction, path: str | Path) -> Pat
     return write_trajectory(prediction.result, path, {"parameters": prediction.provenance()})
 
 
+def plot_prediction(prediction: Prediction, path: str | Path) -> str:
+    """Draw a prediction (``pen predict --plot``) to a PNG, SVG or PDF file; returns the figure's caption."""
+    import matplotlib.pyplot as plt
+
+    from pencli.io.atomic import write_atomic
+    from pencli.report.figures import prediction as prediction_figure
+
+    title = f"{prediction.penetrator.name} · {prediction.material.name} · {prediction.energizing.name}"
+    fig, caption = prediction_figure(title, prediction.result.trajectory, prediction.result.summary)
+    fig.suptitle(caption, fontsize=9, wrap=True)
+    path = Path(path)
+    try:
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=200, format=path.suffix.lstrip(".").lower()))
+    finally:
+        plt.close(fig)
+    return caption
+
+
 def presets() -> list[ParameterSet]:
     """Every bundled preset."""
     return all_presets()

@@ -152,3 +152,28 @@ def test_the_report_numbers_and_captions_every_figure(example, tmp_path):
     assert "(paper Fig. 13)" in page and "(paper Fig. 11)" in page
     long = Section("long", text="word " * 400, provenance={"key": "x" * 500})
     assert all(len(line) <= PDF_TEXT_COLUMNS for line in _text_lines(long))
+
+
+def test_predict_draws_a_run_whose_energy_bars_balance(tmp_path, runner):
+    from matplotlib.image import imread
+
+    from tests.conftest import invoke
+
+    out = tmp_path / "run.png"
+    r = invoke(runner, "predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--plot", out)
+    assert r.exit_code == 0, r.output
+    assert imread(out).shape[0] > 500 and "reaches full depth" in r.stderr
+    prediction = api.predict("al6061_1mm", "mpacs_c", "springs_4")
+    fig, caption = figures.prediction("x", prediction.result.trajectory, prediction.result.summary)
+    try:
+        bars = [p.get_height() for p in fig.axes[2].patches]
+        supplied, spent = sum(bars[:2]), sum(bars[2:])
+        assert spent == pytest.approx(supplied, rel=1e-6)  # springs + gravity = each term + what is left
+        # the stacked terms add up to the model's resistance at every depth
+        top = fig.axes[1].collections[-1].get_paths()[0].vertices[:, 1].max()
+        assert top == pytest.approx(float(np.max(prediction.result.trajectory.resistance_n)), rel=1e-6)
+    finally:
+        close(fig)
+    bad = invoke(runner, "predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--plot",
+                 tmp_path / "run.jpg")
+    assert bad.exit_code == 2 and "--plot" in bad.output and not (tmp_path / "run.jpg").exists()

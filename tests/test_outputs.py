@@ -36,6 +36,8 @@ OUTPUTS: dict[str, tuple[tuple[str, ...], bool, str]] = {
     "report-all": (("report", "--all", "--out", "{out}"), True, ""),
     "diagnose-json": (("diagnose", "gb-*", "--json", "{out}"), False, ".json"),
     "diagnose-plot": (("diagnose", "gb-*", "--plot", "{out}"), False, ".png"),
+    "predict-plot": (("predict", "-p", "appendix_c", "-m", "grill_brick", "-e", "appendix_c", "--plot", "{out}"), False,
+                     ".png"),
     "export": (("export", "gb-1.0-2", "--to", "{out}", "--force"), True, ""),
     "schema": (("params", "schema", "--out", "{out}"), True, ""),
     "truth-out": (("acquire", "--springs", "4", "--yes", "--discard", "--truth-out", "{out}"), False, ".json"),

@@ -20,6 +20,8 @@ api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
 
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+"""The figure formats --plot writes."""
 SUMMARY_FORMATS = (
     ("contact_speed_m_s", "{:.4f}"), ("contact_time_s", "{:.3f}"), ("penetration_time_s", "{:.3f}"),
     ("final_depth_mm", "{:.2f}"), ("full_penetration", "{}"), ("peak_resistance_n", "{:.1f}"),
@@ -50,6 +52,8 @@ def predict(
     out: Optional[Path] = typer.Option(None, "--out", help="Write the trajectory (t, x, v, a, each term, "
                                                            "load-cell force) to this Parquet file."),
     rate: float = typer.Option(50_000.0, "--rate", min=1.0, help="Trajectory sampling rate for --out [Hz]."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Draw the run (depth and speed against time, force "
+                                                             "by term against depth, energy) to a PNG, SVG or PDF."),
     db: Optional[Path] = DbOption,
 ) -> None:
     """Predict a blade's penetration with the reference model (CONTRACT §2).
@@ -60,11 +64,18 @@ def predict(
         api.check_output(out, db_path(db), "--out")
     if out is not None and out.suffix.lower() != ".parquet":
         raise typer.BadParameter(f"'{out}' must end in .parquet", param_hint="--out")
+    if plot is not None:
+        api.check_output(plot, db_path(db), "--plot")
+        if plot.suffix.lower() not in PLOT_SUFFIXES:
+            raise typer.BadParameter(f"'{plot}' must end in {', '.join(PLOT_SUFFIXES)}", param_hint="--plot")
     prediction = api.predict(penetrator, material, energizing, overrides=set_ or (), terms=terms,
                              speed_at_contact_m_s=speed_at_contact, allow_out_of_range=allow_out_of_range,
                              output_rate_hz=rate)
     if out is not None:
         api.write_prediction_trajectory(prediction, out)
+    if plot is not None:
+        caption = api.plot_prediction(prediction, plot)
+        err_console.print(f"wrote {escape(str(plot))}: {escape(caption)}", highlight=False, soft_wrap=True)
     for warning in prediction.warnings:
         err_console.print(f"[yellow]warning:[/yellow] {escape(warning)}", highlight=False, soft_wrap=True)
     if json_out:

@@ -418,3 +418,46 @@ def campaign_fit(material: str, data: Mapping[str, np.ndarray]):
                f"per run within the analysis window (contact + 0.5 ms to stop − 0.5 ms).")
     top.set_title(caption, fontsize=9, loc="left", wrap=True)
     return fig, caption
+
+
+def prediction(title: str, trajectory, summary):
+    """A predicted run (``pen predict --plot``): depth and speed against time, the force of each Eq. 9 term against
+    depth (stacked), and where the energy goes.
+
+    ``trajectory`` and ``summary`` are a :class:`~pencli.model.dynamics.SimulationResult`'s.  Returns the figure
+    and its caption (how the run ends, and the largest term's share of the energy)."""
+    plt = _plt()
+    fig, (motion, force, energy) = plt.subplots(1, 3, figsize=(14, 4.2), constrained_layout=True,
+                                                gridspec_kw={"width_ratios": [1.1, 1.1, 1]})
+    t = trajectory.time_s * 1e3
+    motion.plot(t, trajectory.depth_m * 1e3, color=DYNAMIC, lw=1.2)
+    motion.set_xlabel(label("time_s"))
+    motion.set_ylabel(label("depth_m"), color=DYNAMIC)
+    speed = motion.twinx()
+    speed.plot(t, trajectory.velocity_m_s, color="0.35", lw=1.0, ls="--")
+    speed.set_ylabel(label("velocity_m_s") + " (dashed)")
+    inside = trajectory.phase == 1
+    depth = trajectory.depth_m[inside] * 1e3
+    terms = ("strength", "friction", "damping", "inertia")
+    force.stackplot(depth, *(getattr(trajectory, f"{n}_n")[inside] for n in terms),
+                    colors=[TERM_COLOURS[n] for n in terms], labels=terms, alpha=0.85)
+    force.set_xlabel(label("depth_m"))
+    force.set_ylabel("resistance by term [N]")
+    force.legend(fontsize=7, loc="upper left")
+    spent = {n: getattr(summary, f"energy_{n}_j") for n in terms}
+    spent["left as kinetic"] = summary.residual_ke_j
+    supplied = {"springs": summary.spring_energy_j, "gravity": summary.gravity_work_j}
+    bars = [*supplied.items(), *spent.items()]
+    energy.bar(range(len(bars)), [v for _, v in bars],
+               color=["0.55"] * len(supplied) + [TERM_COLOURS.get(n, "0.3") for n in spent])
+    energy.set_xticks(range(len(bars)), [k for k, _ in bars], rotation=30, ha="right", fontsize=8)
+    energy.axvline(len(supplied) - 0.5, color="0.3", lw=0.8)
+    energy.set_ylabel("energy [J]")
+    total = sum(supplied.values())
+    largest = max(terms, key=spent.get)
+    how = (f"reaches full depth ({summary.final_depth_mm:.1f} mm) in {summary.penetration_time_s * 1e3:.2f} ms with "
+           f"{summary.residual_ke_j:.1f} J left" if summary.full_penetration else
+           f"stops {summary.final_depth_mm:.1f} mm deep after {summary.penetration_time_s * 1e3:.2f} ms")
+    share = f"; {largest} takes {100 * spent[largest] / total:.0f} % of the {total:.1f} J supplied" if total > 0 else ""
+    caption = f"{title}: contact at {summary.contact_speed_m_s:.2f} m/s; the blade {how}{share}."
+    return fig, caption
