@@ -988,33 +988,80 @@ def report_diagnosis(db: str | Path, refs: Sequence[str], progress: Callable[[st
     return [diagnosis_section(result)], result
 
 
+@dataclass(frozen=True)
+class ReportJob:
+    """One report of ``pen report --all``: its group on the index, title, path under the folder, what makes its
+    sections, and one line about it."""
+
+    group: str
+    title: str
+    path: Path
+    make: Callable[[], list]
+    note: str = ""
+
+
+def report_jobs(db: str | Path, *, all_versions: bool = False, diagnose: bool = False) -> list[ReportJob]:
+    """The reports ``pen report --all`` writes, in the index's order: every run, each material's newest fitted
+    version (every version with ``all_versions``), every sweep, and with ``diagnose`` a diagnosis of each
+    material's conditioned runs (three or more)."""
+    ws = workspace(db)
+    rows = {r["run_id"]: r for r in ws.list_runs()}
+    versions = ws.material_versions()
+    if not all_versions:
+        newest = {v["material"]: v for v in versions}
+        versions = [v for v in versions if newest[v["material"]] is v]
+    jobs = [ReportJob("runs", f"run {r}", Path("runs") / f"{r}.html", lambda r=r: report_runs(db, [r]),
+                      f"{rows[r]['material']}, {rows[r]['penetrator']}, {rows[r]['spring_count']} springs")
+            for r in ws.run_ids()]
+    jobs += [ReportJob("fitted materials", f"material {v['material']} v{v['version']}",
+                       Path("materials") / f"{v['material']}-v{v['version']}.html",
+                       lambda v=v: report_material(db, v["material"], v["version"]),
+                       f"fitted over {len(v['source_runs'])} runs") for v in versions]
+    jobs += [ReportJob("sweeps", f"sweep {i}", Path("sweeps") / f"sweep-{i}.html", lambda i=i: report_sweep(db, i))
+             for i in ws.sweep_ids()]
+    if diagnose:
+        conditioned = [r for r in ws.run_ids() if any(s.stage == "inertia" for s in ws.stages(r))]
+        for name in sorted({rows[r]["material"] for r in conditioned}):
+            mine = [r for r in conditioned if rows[r]["material"] == name]
+            if len(mine) >= 3:
+                jobs.append(ReportJob("diagnoses", f"diagnosis of the {name} runs",
+                                      Path("diagnoses") / f"{name}.html",
+                                      lambda mine=mine: report_diagnosis(db, mine)[0], f"{len(mine)} runs"))
+    return jobs
+
+
 def report_all(db: str | Path, out: str | Path, *, pdf: bool = True, progress: Progress | None = None,
-               extra: Sequence[tuple[str, list]] = ()) -> list[Path]:
-    """``pen report --all``: one report per run, fitted material version and sweep under ``out``, and each
-    (name, sections) of ``extra`` (the gate's record) as ``out/<name>.html``."""
+               extra: Sequence[tuple[str, list]] = (), all_versions: bool = False, diagnose: bool = False
+               ) -> list[Path]:
+    """``pen report --all``: one report per run, fitted material (its newest version; every version with
+    ``all_versions``) and sweep under ``out``, with ``diagnose`` one diagnosis per material's conditioned runs
+    (three or more), each (name, sections) of ``extra`` (the gate's record) as ``out/<name>.html``, and an
+    ``index.html`` that links them all."""
     import tempfile
 
     from pencli.io.atomic import make_parents, remove_made
-    from pencli.report.build import write_report
+    from pencli.report.build import write_index, write_report
 
     ws = workspace(db)
     out = Path(out)
-    jobs = [(f"run {r}", out / "runs" / f"{r}.html", lambda r=r: report_runs(db, [r])) for r in ws.run_ids()]
-    jobs += [(f"material {v['material']} v{v['version']}", out / "materials" / f"{v['material']}-v{v['version']}.html",
-              lambda v=v: report_material(db, v["material"], v["version"])) for v in ws.material_versions()]
-    jobs += [(f"sweep {i}", out / "sweeps" / f"sweep-{i}.html", lambda i=i: report_sweep(db, i))
-             for i in ws.sweep_ids()]
-    jobs += [(name, out / f"{name}.html", lambda sections=sections: sections) for name, sections in extra]
+    jobs = report_jobs(db, all_versions=all_versions, diagnose=diagnose)
+    jobs += [ReportJob("checks", name, Path(f"{name}.html"), lambda sections=sections: sections)
+             for name, sections in extra]
     # every report is written into a hidden folder beside ``out`` and moved into place when all are done: a
     # failure part-way (a full disk) leaves ``out`` as it was
     made = make_parents(out.parent)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     written: list[Path] = []
+    entries = []
     try:
-        for k, (title, path, make) in enumerate(jobs):
+        for k, job in enumerate(jobs):
             if progress is not None:
-                progress(title, k, len(jobs))
-            written += write_report(f"pen report: {title}", make(), staging / path.relative_to(out), pdf=pdf)
+                progress(job.title, k, len(jobs))
+            sections = job.make()
+            written += write_report(f"pen report: {job.title}", sections, staging / job.path, pdf=pdf)
+            entries.append((job.group, job.title, job.path, job.note or " · ".join(s.title for s in sections[:1])))
+        written.append(write_index(f"pen reports of {ws.db_path.parent.name or ws.db_path}", entries,
+                                   staging / "index.html"))
         made += make_parents(out)
         for path in written:
             (out / path.relative_to(staging)).parent.mkdir(parents=True, exist_ok=True)

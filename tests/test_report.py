@@ -81,12 +81,29 @@ def test_report_of_twelve_runs(example, tmp_path):
     assert html.count("<img") >= 12
 
 
-def test_all_writes_one_report_per_run_material_and_sweep(example, tmp_path, runner):
+def test_all_writes_one_report_per_run_material_and_sweep_and_an_index(example, tmp_path, runner):
     r = invoke(runner, "report", "--all", "--out", tmp_path / "reports", "--db", example, "--no-pdf")
     assert r.exit_code == 0, r.output
-    assert len(list((tmp_path / "reports" / "runs").glob("*.html"))) == 12
-    assert len(list((tmp_path / "reports" / "materials").glob("*.html"))) == 2
-    assert (tmp_path / "reports" / "sweeps" / "sweep-1.html").is_file()
+    reports = tmp_path / "reports"
+    assert len(list((reports / "runs").glob("*.html"))) == 12
+    assert len(list((reports / "materials").glob("*.html"))) == 2
+    assert (reports / "sweeps" / "sweep-1.html").is_file()
+    links = re.findall(r"<a href='([^']+)'>", (reports / "index.html").read_text())
+    written = sorted(p.relative_to(reports).as_posix() for p in reports.rglob("*.html") if p.name != "index.html")
+    assert sorted(links) == written  # the index links every report, and nothing else
+
+
+def test_all_leaves_out_superseded_fits_unless_asked_and_adds_diagnoses_when_asked(example, tmp_path):
+    copy = tmp_path / "ws"
+    shutil.copytree(Path(example).parent, copy)
+    db = copy / "runs.duckdb"
+    api.fit(db, "mpacs_c", ["mc-*"], bootstrap=0)  # version 2 supersedes version 1
+    titles = [j.title for j in api.report_jobs(db) if j.group == "fitted materials"]
+    assert titles == ["material grill_brick v1", "material mpacs_c v2"]
+    every = [j.title for j in api.report_jobs(db, all_versions=True) if j.group == "fitted materials"]
+    assert sorted(every) == ["material grill_brick v1", "material mpacs_c v1", "material mpacs_c v2"]
+    diagnoses = [j for j in api.report_jobs(db, diagnose=True) if j.group == "diagnoses"]
+    assert [j.path.as_posix() for j in diagnoses] == ["diagnoses/grill_brick.html", "diagnoses/mpacs_c.html"]
 
 
 def test_check_gate_names_every_breach_and_exits_1(example, tmp_path, runner):

@@ -25,12 +25,15 @@ def report(
     version: Optional[int] = typer.Option(None, "--version", help="With --material: which version."),
     sweep: Optional[int] = typer.Option(None, "--sweep", help="Report a sweep by id (pen runs query "
                                                               "'SELECT * FROM sweeps')."),
-    diagnose: bool = typer.Option(False, "--diagnose", help="Report a diagnosis of the RUNs."),
+    diagnose: bool = typer.Option(False, "--diagnose", help="Report a diagnosis of the RUNs (with --all: of each "
+                                                            "material's conditioned runs)."),
     all_: bool = typer.Option(False, "--all", help="Every run, fitted material and sweep of the workspace, one "
-                                                   "report each, into --out DIR."),
+                                                   "report each, into --out DIR, with an index.html."),
     out: Path = typer.Option(..., "--out", help="HTML file to write (a PDF of the same goes beside it), or a "
                                                 "folder with --all."),
     pdf: bool = typer.Option(True, "--pdf/--no-pdf", help="Also write the PDF."),
+    all_versions: bool = typer.Option(False, "--all-versions", help="With --all: every fitted version of each "
+                                                                   "material, not only the newest."),
     check: Optional[List[str]] = typer.Option(None, "--check", metavar="METRIC<=VALUE",
                                               help="Gate: nrmse<=0.15, r2>=0.9, rms_n<=50 (each run the report is "
                                                    "of, in the newest fit that holds it) or shrink>=50 (with "
@@ -59,7 +62,8 @@ def report(
         results = api.run_checks(catalog, checks, api.GateScope(everything=True)) if checks else []
         extra = [("gate", [api.gate_section(results)])] if checks else []
         with progress_bar("reports", disable=json_out) as progress:
-            written += api.report_all(catalog, out, pdf=pdf, progress=progress, extra=extra)
+            written += api.report_all(catalog, out, pdf=pdf, progress=progress, extra=extra,
+                                      all_versions=all_versions, diagnose=diagnose)
     else:
         if out.suffix.lower() != ".html":
             raise typer.BadParameter(f"'{out}' must end in .html (or use --all with a folder)", param_hint="--out")

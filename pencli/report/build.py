@@ -183,6 +183,29 @@ def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
                 plt.close(page)
 
 
+def write_index(title: str, entries: Sequence[tuple[str, str, Path, str]], path: Path) -> Path:
+    """An index page linking every report of ``pen report --all``: (group, title, path relative to the index,
+    one line about it) per report, grouped in the order given."""
+    from pencli.io.atomic import write_atomic
+
+    groups: dict[str, list] = {}
+    for group, name, relative, note in entries:
+        groups.setdefault(group, []).append((name, relative, note))
+    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+             f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
+             f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
+             f"<p>pen {__version__}, {dt.datetime.now(dt.timezone.utc):%Y-%m-%d %H:%M} UTC; "
+             f"{len(entries)} reports (each with a PDF of the same beside it when written).</p>"]
+    for group, items in groups.items():
+        parts.append(f"<h2>{html.escape(group)} ({len(items)})</h2><ul>")
+        parts.extend(f"<li><a href='{html.escape(relative.as_posix())}'>{html.escape(name)}</a>"
+                     + (f" — {html.escape(note)}" if note else "") + "</li>" for name, relative, note in items)
+        parts.append("</ul>")
+    parts.append("</body></html>")
+    write_atomic(path, lambda tmp: tmp.write_text("\n".join(parts), encoding="utf-8"))
+    return path
+
+
 def write_report(title: str, sections: Sequence[Section], html_path: str | Path, pdf: bool = True) -> list[Path]:
     """Write the HTML (and the PDF beside it): both appear, or neither changes."""
     html_path = Path(html_path)
