@@ -143,12 +143,13 @@ def test_the_report_numbers_and_captions_every_figure(example, tmp_path):
     write_report("pen report: two runs and MPACS C", sections, tmp_path / "r.html")
     page = (tmp_path / "r.html").read_text()
     assert "<html lang='en'>" in page and "name='viewport'" in page
-    numbers = [int(n) for n in re.findall(r"<figure id='figure-(\d+)'>", page)]
+    numbers = [int(n) for n in re.findall(r"<figure id='figure-(\d+)'", page)]
     assert numbers == list(range(1, sum(len(s.figures) for s in sections) + 1))
     captions = re.findall(r"<figcaption><b>Figure (\d+)[^<]*</b> ([^<]+)</figcaption>", page)
     assert len(captions) == len(numbers) and all(len(text) > 40 for _, text in captions)
-    alts = re.findall(r"<img alt='([^']+)'", page)
-    assert len(set(alts)) == len(alts)  # no two figures share an alt text
+    alts = re.findall(r"<svg role='img' aria-label='([^']+)'", page)
+    assert len(alts) == len(numbers) and len(set(alts)) == len(alts)  # each figure titled, no two alike
+    assert "<text" in page and "resistance R [N]" in page  # figures are vector, their text kept as text
     assert "(paper Fig. 13)" in page and "(paper Fig. 11)" in page
     long = Section("long", text="word " * 400, provenance={"key": "x" * 500})
     assert all(len(line) <= PDF_TEXT_COLUMNS for line in _text_lines(long))

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import base64
 import datetime as dt
 import html
 import io
 import json
+import re
 import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,9 +15,6 @@ from typing import Any, Sequence
 from pencli import __version__
 from pencli.io.atomic import atomic_group
 
-FIGURE_DPI = 200
-"""Raster resolution of a figure: 2× the 100 dpi the figures are laid out for, sharp on a high-density screen and
-on paper. [dpi]"""
 PDF_TEXT_COLUMNS = 110
 """Characters per line of a PDF text page in its monospaced 6.5 pt type on A4: longer lines wrap. [–]"""
 PDF_TEXT_LINES = 120
@@ -28,12 +25,14 @@ A4_IN = (8.27, 11.69)
 
 @dataclass(frozen=True)
 class Figure:
-    """A rendered figure and the sentence that states its answer."""
+    """A figure drawn for a report: its SVG (vector, text kept as text), the matplotlib figure still open for the
+    PDF's vector page (None once written or when no PDF is wanted), and the sentence that states its answer."""
 
-    png: bytes
+    svg: str
     caption: str
     paper: str = ""
     """The paper's figure it reproduces (``Fig. 13``), else empty."""
+    figure: Any = None
 
 
 @dataclass
@@ -45,23 +44,28 @@ class Section:
     tables: list[tuple[str, list[str], list[list[Any]]]] = field(default_factory=list)
     """(caption, header with units, rows)."""
     figures: list[Figure] = field(default_factory=list)
-    """Figures as PNG bytes with their captions (drawn and closed as they are added, so a long report holds no
-    open figures)."""
+    """Figures with their captions, drawn as SVG when added; the matplotlib figure stays open until the report's
+    PDF is written (:func:`close_figures`)."""
     provenance: dict = field(default_factory=dict)
 
     def add_figure(self, fig, caption: str, paper: str = "") -> None:
-        """Render a matplotlib Figure to PNG, keep it with its caption, and close it."""
+        """Draw a matplotlib Figure as SVG and keep it, with its caption, for the HTML and the PDF (pyplot lets go
+        of it: a long report holds no figures open in pyplot)."""
+        import matplotlib
         import matplotlib.pyplot as plt
 
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=FIGURE_DPI)
-        plt.close(fig)
-        self.figures.append(Figure(buf.getvalue(), caption, paper))
+        buf = io.StringIO()
+        with matplotlib.rc_context({"svg.fonttype": "none"}):  # text stays text: searchable, sharp at any size
+            fig.savefig(buf, format="svg")
+        plt.close(fig)  # the Figure object still draws (its canvas stays) for the PDF page
+        fig.set_layout_engine("none")  # the layout the SVG drew is kept for the PDF: laid out once, not twice
+        self.figures.append(Figure(buf.getvalue(), caption, paper, fig))
 
-    @property
-    def images(self) -> list[bytes]:
-        """The figures' PNG bytes."""
-        return [f.png for f in self.figures]
+
+def close_figures(sections: Sequence[Section]) -> None:
+    """Let go of the figures the sections hold for their PDF (their SVG is kept)."""
+    for s in sections:
+        s.figures[:] = [Figure(f.svg, f.caption, f.paper) for f in s.figures]
 
 
 CSS = """
@@ -74,7 +78,7 @@ caption { text-align: left; font-weight: 600; padding: 0.3em 0; }
 th, td { border: 1px solid #ccc; padding: 3px 8px; text-align: right; } th { background: #eee; }
 td:first-child, th:first-child { text-align: left; }
 figure { margin: 1.5em 0; }
-figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figure svg { max-width: 100%; height: auto; border: 1px solid #ddd; }
 figcaption { font-size: 0.92em; margin-top: 0.3em; }
 nav ol { columns: 2; }
 pre { background: #f6f6f6; padding: 0.6em; font-size: 0.8em; overflow-x: auto; white-space: pre-wrap; }
@@ -121,14 +125,23 @@ def render_html(title: str, sections: Sequence[Section]) -> str:
             parts.append("</table>")
         for number, f in items:
             label = figure_label(number, f)
-            parts.append(f"<figure id='figure-{number}'><img alt='{html.escape(label + ' ' + f.caption)}' "
-                         f"src='data:image/png;base64,{base64.b64encode(f.png).decode()}'>"
+            parts.append(f"<figure id='figure-{number}' role='figure' aria-label='{html.escape(label)}'>"
+                         f"{_inline_svg(f.svg, label + ' ' + f.caption)}"
                          f"<figcaption><b>{html.escape(label)}</b> {html.escape(f.caption)}</figcaption></figure>")
         if s.provenance:
             parts.append("<details><summary>provenance</summary><pre>"
                          + html.escape(json.dumps(s.provenance, indent=2, default=str)) + "</pre></details>")
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def _inline_svg(svg: str, title: str) -> str:
+    """An SVG document as an element of the page: without its XML prologue, scaled to the page's width, titled
+    for screen readers."""
+    start = svg.index("<svg")
+    body = svg[start:]
+    body = body.replace("<svg ", f"<svg role='img' aria-label='{html.escape(title)}' ", 1)
+    return re.sub(r'(<svg[^>]*?) width="[^"]*" height="[^"]*"', r"\1", body, count=1)
 
 
 def _text_lines(s: Section) -> list[str]:
@@ -161,7 +174,9 @@ def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
 
     with PdfPages(path) as pdf:
         for s, items in numbered(sections):
-            lines = _text_lines(s)
+            lines = _text_lines(s) + ["", *(textwrap.fill(f"{figure_label(n, f)} {f.caption}", PDF_TEXT_COLUMNS,
+                                                            subsequent_indent="    ") for n, f in items)]
+            lines = [piece for line in lines for piece in line.split("\n")]
             for start in range(0, len(lines), PDF_TEXT_LINES):
                 page = plt.figure(figsize=A4_IN)
                 page.text(0.05, 0.97, "\n".join(lines[start:start + PDF_TEXT_LINES]), va="top", ha="left",
@@ -169,18 +184,13 @@ def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
                 page.suptitle(title, fontsize=9, y=0.995)
                 pdf.savefig(page)
                 plt.close(page)
-            for number, f in items:
-                picture = plt.imread(io.BytesIO(f.png), format="png")
-                page = plt.figure(figsize=A4_IN)
-                height = min(0.8, 0.9 * picture.shape[0] / picture.shape[1] * A4_IN[0] / A4_IN[1])
-                ax = page.add_axes((0.05, 0.95 - height, 0.9, height))
-                ax.imshow(picture, interpolation="lanczos")
-                ax.set_axis_off()
-                caption = textwrap.fill(f"{figure_label(number, f)} {f.caption}", 95)
-                page.text(0.05, 0.93 - height, caption, va="top", ha="left", fontsize=8)
-                page.suptitle(title, fontsize=9, y=0.995)
-                pdf.savefig(page)
-                plt.close(page)
+            for number, f in items:  # each figure a vector page of its own size, its label in the corner
+                if f.figure is None:
+                    raise ValueError("a report's figures were closed before its PDF was written")
+                mark = f.figure.text(0.005, 0.995, figure_label(number, f), ha="left", va="top", fontsize=7,
+                                     color="0.35")
+                pdf.savefig(f.figure)
+                mark.remove()
 
 
 def write_index(title: str, entries: Sequence[tuple[str, str, Path, str]], path: Path) -> Path:
@@ -210,8 +220,11 @@ def write_report(title: str, sections: Sequence[Section], html_path: str | Path,
     """Write the HTML (and the PDF beside it): both appear, or neither changes."""
     html_path = Path(html_path)
     targets = [html_path, html_path.with_suffix(".pdf")] if pdf else [html_path]
-    with atomic_group(targets) as temps:
-        temps[0].write_text(render_html(title, sections), encoding="utf-8")
-        if pdf:
-            render_pdf(title, sections, temps[1])
+    try:
+        with atomic_group(targets) as temps:
+            temps[0].write_text(render_html(title, sections), encoding="utf-8")
+            if pdf:
+                render_pdf(title, sections, temps[1])
+    finally:
+        close_figures(sections)
     return targets

@@ -30,6 +30,27 @@ WINDOW_SHADE = {"color": "tab:green", "alpha": 0.12, "lw": 0}
 """How the analysis window is shaded wherever it is drawn."""
 
 
+THIN_POINTS = 1500
+"""A line of more samples than twice this is drawn from each of this many equal bins' lowest and highest sample:
+every peak a screen or page can show is kept, and a 13,000-sample record's figure stays small. [–]"""
+
+
+def _thin(x: np.ndarray, *ys: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(x, *ys) with each bin of :data:`THIN_POINTS` reduced to its samples at the lowest and highest value of the
+    first y (in time order), or as they are when short."""
+    n = len(x)
+    if n <= 2 * THIN_POINTS:
+        return (x, *ys)
+    edges = np.linspace(0, n, THIN_POINTS + 1).astype(int)
+    keep = []
+    ref = ys[0]
+    for a, b in zip(edges[:-1], edges[1:]):
+        lo, hi = a + int(np.argmin(ref[a:b])), a + int(np.argmax(ref[a:b]))
+        keep.extend(sorted({lo, hi}))
+    keep = np.asarray(keep)
+    return (x[keep], *(y[keep] for y in ys))
+
+
 def raw_channels(run_id: str, raw: Mapping[str, np.ndarray], events: Mapping[str, float]):
     """Fig. 11: raw position and forces over the stored span, the analysed window shaded.
 
@@ -37,10 +58,10 @@ def raw_channels(run_id: str, raw: Mapping[str, np.ndarray], events: Mapping[str
     plt = _plt()
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, constrained_layout=True)
     t = raw["time_s"] * 1e3
-    ax1.plot(t, raw["position_mm"], lw=0.8, color=MEASURED)
+    ax1.plot(*_thin(t, raw["position_mm"]), lw=0.8, color=MEASURED)
     ax1.set_ylabel(label("position_mm"))
     for name in ("fx_n", "fy_n", "fz_n"):
-        ax2.plot(t, raw[name], lw=0.6, label=quantity(name).name)
+        ax2.plot(*_thin(t, raw[name]), lw=0.6, label=quantity(name).name)
     ax2.set_ylabel("force [N]")
     ax2.set_xlabel(label("time_s"))
     ax2.legend(fontsize=7)

@@ -27,17 +27,18 @@ SWEEP_FIGURES = ("penetration_time_s", "peak_resistance_n", "residual_ke_j", "fi
 
 
 def parameter_rows(mapping: Mapping[str, Any]) -> list[list[Any]]:
-    """(key, value, unit) rows of one parameter mapping, units from the parameter definitions."""
+    """(parameter, value, unit, file key) rows of one parameter mapping: names and units from the parameter
+    definitions (:mod:`pencli.labels`), the key as the file spells it last."""
+    from pencli.labels import quantity
     from pencli.params.definitions import BY_KEY
 
-    rows = []
-    for key, value in mapping.items():
-        if isinstance(value, dict) and key == "coefficients":
-            for sub, v in value.items():
-                rows.append([f"coefficients.{sub}", v, BY_KEY[f"coefficients.{sub}"].unit])
-        elif key in BY_KEY:
-            rows.append([key, value, BY_KEY[key].unit])
-    return rows
+    flat: dict[str, Any] = {}
+    for key, value in mapping.items():  # in the file's order, coefficients where the file has them
+        if key == "coefficients" and isinstance(value, dict):
+            flat.update({f"coefficients.{sub}": v for sub, v in value.items()})
+        else:
+            flat[key] = value
+    return [[quantity(key).name, value, BY_KEY[key].unit, key] for key, value in flat.items() if key in BY_KEY]
 
 
 def latest_fit_with(versions: Sequence[dict], run_id: str) -> dict | None:
@@ -66,7 +67,7 @@ def run_section(ws, run_id: str, versions: Sequence[dict]) -> Section:
     events = tares[-1].parameters["events"] if tares else raw.tared().events.to_dict()
     section = Section(f"run {run_id}", provenance={"run": {k: str(v) for k, v in ws.run_row(run_id).items()}})
     rows = [r for kind in ("penetrator", "material", "energizing") for r in parameter_rows(params[kind])]
-    section.tables.append(("parameters", ["key", "value", "unit"], rows))
+    section.tables.append(("parameters", ["parameter", "value", "unit", "file key"], rows))
     section.tables.append(("stages", ["#", "stage", "command", "pen", "created (UTC)"],
                            [[s.stage_no, s.stage, s.command, s.pen_version, str(s.created_at)] for s in stages]))
     section.tables.append(("events (time since release)", ["event", "value", "unit"],
