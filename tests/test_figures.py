@@ -64,6 +64,7 @@ def every_figure(db):
     keys = list(json.loads(sweep["variables"]))
     table = {k: np.asarray(v) for k, v in ws.read_table(sweep["path"], "sweep").to_pydict().items()}
     yield ("map", *figures.sweep_map(table, keys[0], keys[1], "penetration_time_s"))
+    yield ("map-final-depth", *figures.sweep_map(table, keys[0], keys[1], "final_depth_mm"))
     yield ("partial", *figures.sweep_partial(table, keys))
     three = dict(table, extra_mm=np.linspace(0, 1, len(table[keys[0]])))
     yield ("scatter", *figures.sweep_scatter(three, [*keys, "blade_width_mm"] if "blade_width_mm" in table
@@ -126,9 +127,12 @@ def test_a_sweep_map_is_drawn_in_the_unit_its_colour_bar_names(example):
     table = {k: np.asarray(v) for k, v in ws.read_table(sweep["path"], "sweep").to_pydict().items()}
     fig, caption = figures.sweep_map(table, keys[0], keys[1], "penetration_time_s")
     try:
-        mesh = fig.axes[0].collections[0]
-        assert np.nanmax(mesh.get_array()) == pytest.approx(np.max(table["penetration_time_s"]) * 1e3)
+        filled = fig.axes[0].collections[0]  # the filled contours: their levels span the data, in ms
+        lo, hi = np.min(table["penetration_time_s"]) * 1e3, np.max(table["penetration_time_s"]) * 1e3
+        assert min(filled.levels) <= lo and hi <= max(filled.levels) <= 1.2 * hi
         assert any("penetration time [ms]" in t for t in texts_of(fig))
+        crosses = 0 < np.mean(table["full_penetration"]) < 1
+        assert ("full-penetration boundary" in caption) == bool(crosses)
         assert f"{np.max(table['penetration_time_s']) * 1e3:.4g} ms" in caption
     finally:
         close(fig)
@@ -178,3 +182,26 @@ def test_predict_draws_a_run_whose_energy_bars_balance(tmp_path, runner):
     bad = invoke(runner, "predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--plot",
                  tmp_path / "run.jpg")
     assert bad.exit_code == 2 and "--plot" in bad.output and not (tmp_path / "run.jpg").exists()
+
+
+def test_a_map_of_three_variables_holds_the_third_at_a_stated_value_and_a_list_is_drawn_as_categories():
+    rng = np.random.default_rng(3)
+    a, b, c = np.meshgrid(np.linspace(1, 2, 5), np.linspace(6, 12, 5), np.array([100.0, 150.0, 200.0]),
+                          indexing="ij")
+    table = {"blade_thickness_mm": a.ravel(), "spring_stiffness_kn_m": b.ravel(), "blade_width_mm": c.ravel()}
+    depth = np.minimum(133.0, 40 * table["spring_stiffness_kn_m"] / table["blade_thickness_mm"]
+                       * 150 / table["blade_width_mm"] + rng.normal(0, 0.1, a.size))
+    table.update(final_depth_mm=depth, full_penetration=depth >= 133.0, penetration_time_s=depth / 1e4,
+                 residual_ke_j=np.where(depth >= 133.0, 5.0, 0.0))
+    fig, caption = figures.sweep_map(table, "blade_thickness_mm", "spring_stiffness_kn_m", "final_depth_mm",
+                                     others=["blade_width_mm"])
+    close(fig)
+    assert "rectangular blade width w held at 150 mm" in caption
+    assert "over 25 designs" in caption  # the slice, not the 75 designs averaged
+    fig, caption = figures.sweep_partial(table, ["blade_thickness_mm", "blade_width_mm"], "final_depth_mm")
+    try:
+        width_axis = fig.axes[1]
+        assert [t.get_text() for t in width_axis.get_xticklabels()] == ["100", "150", "200"]
+        assert width_axis.containers  # points with their spread (an error bar), not a band
+    finally:
+        close(fig)

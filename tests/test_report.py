@@ -8,7 +8,6 @@ import shutil
 import subprocess
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from pencli import api
@@ -63,8 +62,13 @@ def test_report_of_a_sampled_sweep_is_binned(workspace, runner):
     out = workspace / "sweep.html"
     r = invoke(runner, "report", "--sweep", "1", "--out", out)
     assert r.exit_code == 0, r.output
-    images = _images(out.read_text())
-    assert len(images) == 4 and all(_not_blank(i) for i in images)
+    page = out.read_text()
+    images = _images(page)
+    # three variables: final depth for each of the 3 pairs, energy left and time for the first, the 3-D scatter,
+    # the partial dependence; a sample's maps say what each cell averages over
+    assert len(images) == 7 and all(_not_blank(i) for i in images)
+    captions = re.findall(r"<figcaption>(.*?)</figcaption>", page)
+    assert sum("each cell the mean over" in c for c in captions) == 5 and "sampled (100000 designs)" in page
 
 
 def test_report_of_twelve_runs(example, tmp_path):

@@ -187,8 +187,8 @@ def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
             for number, f in items:  # each figure a vector page of its own size, its label in the corner
                 if f.figure is None:
                     raise ValueError("a report's figures were closed before its PDF was written")
-                mark = f.figure.text(0.005, 0.995, figure_label(number, f), ha="left", va="top", fontsize=7,
-                                     color="0.35")
+                mark = f.figure.text(0.995, 0.003, figure_label(number, f), ha="right", va="bottom", fontsize=6,
+                                     color="0.45")
                 pdf.savefig(f.figure)
                 mark.remove()
 

@@ -207,36 +207,90 @@ def _cell_means(ix: np.ndarray, iy: np.ndarray, shape: tuple[int, int], values: 
         return np.where(count > 0, total / np.maximum(count, 1), np.nan).reshape(shape)
 
 
-def sweep_map(table: Mapping[str, np.ndarray], x: str, y: str, value: str = "penetration_time_s"):
-    """Fig. 14: a figure over two varied parameters as a heat map, with the full-penetration boundary.
+def _held_at(table: Mapping[str, np.ndarray], others: Sequence[str]) -> tuple[np.ndarray, str]:
+    """Which designs a map of two variables shows when others varied too: on a grid (each other variable takes
+    at most :data:`MAP_CELLS` values) the slice at each other variable's middle value, said so; on a sample, every
+    design, each cell the mean over the others, said so.  (mask, what the caption says about it)."""
+    n = len(next(iter(table.values())))
+    keep = np.ones(n, dtype=bool)
+    held, averaged = [], []
+    for key in others:
+        levels = np.unique(np.asarray(table[key], dtype=float))
+        if levels.size <= MAP_CELLS:
+            middle = levels[(levels.size - 1) // 2]
+            keep &= np.asarray(table[key], dtype=float) == middle
+            shown = quantity(key)
+            held.append(f"{shown.name} held at {middle * shown.scale:.4g}{(' ' + shown.unit) if shown.unit else ''}")
+        else:
+            averaged.append(quantity(key).name)
+    said = "; ".join(held + ([f"each cell the mean over {', '.join(averaged)}"] if averaged else []))
+    return keep, said
 
-    On a grid of two variables each cell is one design; with more variables, or a sampled sweep, a cell
-    shows the mean over the designs that fall in it (so memory is the table's, whatever the sweep's size),
-    and the boundary is where half of a cell's designs reach full depth.
-    """
+
+def full_depth_mm(table: Mapping[str, np.ndarray]) -> float | None:
+    """The final depth of the designs that reach full depth (their penetration depth), else None. [mm]"""
+    full = np.asarray(table["full_penetration"], dtype=bool)
+    if not full.any() or "final_depth_mm" not in table:
+        return None
+    return float(np.median(np.asarray(table["final_depth_mm"], dtype=float)[full]))
+
+
+def sweep_map(table: Mapping[str, np.ndarray], x: str, y: str, value: str = "final_depth_mm",
+              others: Sequence[str] = ()):
+    """Fig. 14: a figure over two varied parameters as a labelled contour map, with the full-penetration boundary.
+
+    On a grid each node is one design; a sampled sweep is binned into :data:`MAP_CELLS` cells per axis of mean
+    values (memory: the table's, whatever the sweep's size).  Other varied parameters (``others``) are held at
+    their middle value on a grid, or averaged over in a sample, and the caption says which.  The boundary is
+    where the final depth reaches the penetration depth, interpolated between nodes (not a cell staircase).
+
+    Returns the figure and its caption (the value's range, the share of designs reaching full depth)."""
     plt = _plt()
-    xs, ix = _cells(table[x])
-    ys, iy = _cells(table[y])
-    grid = _cell_means(ix, iy, (ys.size, xs.size), table[value])
-    full = _cell_means(ix, iy, (ys.size, xs.size), np.asarray(table["full_penetration"], dtype=float))
+    keep, said = _held_at(table, others)
+    part = {k: np.asarray(v)[keep] for k, v in table.items() if k in (x, y, value, "full_penetration",
+                                                                       "final_depth_mm")}
+    xs, ix = _cells(part[x])
+    ys, iy = _cells(part[y])
     shown = quantity(value)
+    grid = _cell_means(ix, iy, (ys.size, xs.size), part[value]) * shown.scale
     binned = ix.size > xs.size * ys.size
     fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
-    mesh = ax.pcolormesh(xs, ys, grid * shown.scale, shading="nearest", cmap="viridis")
-    fig.colorbar(mesh, ax=ax, label=shown.label + (" (cell mean)" if binned else ""))
-    filled = np.nan_to_num(full, nan=0.0)
-    boundary = 0 < np.nanmean(full) < 1 and xs.size > 1 and ys.size > 1
-    if boundary:
-        ax.contour(xs, ys, filled, levels=[0.5], colors="w", linewidths=2)
+    if xs.size > 1 and ys.size > 1 and np.isfinite(grid).sum() >= 4:
+        filled = ax.contourf(xs, ys, grid, levels=12, cmap="viridis")
+        lines = ax.contour(xs, ys, grid, levels=filled.levels[1:-1:2], colors="k", linewidths=0.5)
+        ax.clabel(lines, fontsize=7, fmt="%.4g")
+        fig.colorbar(filled, ax=ax, label=shown.label + (" (cell mean)" if binned else ""))
+    else:  # one value along an axis: no contours to draw
+        mesh = ax.pcolormesh(xs, ys, grid, shading="nearest", cmap="viridis")
+        fig.colorbar(mesh, ax=ax, label=shown.label)
+    depth = full_depth_mm(part)
+    boundary = False
+    if depth is not None and xs.size > 1 and ys.size > 1:
+        final = _cell_means(ix, iy, (ys.size, xs.size), part["final_depth_mm"])
+        if np.nanmin(final) < depth * FULL_DEPTH_SHARE <= np.nanmax(final):
+            ax.contour(xs, ys, final, levels=[depth * FULL_DEPTH_SHARE], colors="w", linewidths=2.2)
+            boundary = True
     ax.set_xlabel(label(x))
     ax.set_ylabel(label(y))
-    v = np.asarray(table[value], dtype=float) * shown.scale
-    share = 100.0 * float(np.mean(np.asarray(table["full_penetration"], dtype=float)))
-    caption = (f"{shown.name} over {quantity(x).name} and {quantity(y).name}: {np.nanmin(v):.4g}–{np.nanmax(v):.4g} "
-               f"{shown.unit} over {v.size} designs" + (f" ({xs.size} × {ys.size} cells, cell means)" if binned else "")
-               + f"; {share:.0f} % reach full depth" + (" (white line: the full-penetration boundary)." if boundary
-                                                        else "."))
+    v = np.asarray(part[value], dtype=float) * shown.scale
+    share = 100.0 * float(np.mean(np.asarray(part["full_penetration"], dtype=float)))
+    caption = (f"{shown.name} over {quantity(x).name} and {quantity(y).name}: {np.nanmin(v):.4g}–{np.nanmax(v):.4g}"
+               f"{(' ' + shown.unit) if shown.unit else ''} over {v.size} designs"
+               + (f" ({xs.size} × {ys.size} cells of means)" if binned else "")
+               + (f" ({said})" if said else "")
+               + f"; {share:.0f} % reach full depth"
+               + (" (white line: the full-penetration boundary)." if boundary else "."))
     return fig, caption
+
+
+FULL_DEPTH_SHARE = 0.999
+"""A design's final depth at this share of the penetration depth or more is at full depth: where the boundary is
+drawn on the final-depth field. [–]"""
+
+
+CATEGORIES = 6
+"""A varied parameter of at most this many values (a list, ``blade_thickness_mm=1,1.5,2``) is drawn as categories
+with the spread at each, not as a continuous band. [–]"""
 
 
 def sweep_partial(table: Mapping[str, np.ndarray], keys: Sequence[str], value: str = "penetration_time_s"):
@@ -262,13 +316,21 @@ def sweep_partial(table: Mapping[str, np.ndarray], keys: Sequence[str], value: s
             if part.size:
                 stats[c] = np.quantile(part, [0.1, 0.5, 0.9])
         spread[key] = float(np.nanmax(stats[:, 1]) - np.nanmin(stats[:, 1]))
-        ax.fill_between(centres, stats[:, 0], stats[:, 2], color="tab:blue", alpha=0.25, label="10–90 %")
-        ax.plot(centres, stats[:, 1], color="tab:blue", label="median")
-        ax.set_xlabel(label(key))
-        twin = ax.twinx()
         share = np.bincount(idx, weights=full, minlength=centres.size) / np.maximum(
             np.bincount(idx, minlength=centres.size), 1)
-        twin.plot(centres, share, color="k", ls="--", lw=1, label="share at full depth")
+        twin = ax.twinx()
+        if centres.size <= CATEGORIES:  # a list of values: categories, not a continuous band
+            at = np.arange(centres.size)
+            ax.errorbar(at, stats[:, 1], yerr=[stats[:, 1] - stats[:, 0], stats[:, 2] - stats[:, 1]], fmt="o",
+                        color="tab:blue", capsize=4, label="median, 10–90 %")
+            ax.set_xticks(at, [f"{c * quantity(key).scale:.4g}" for c in centres])
+            ax.set_xlim(-0.5, centres.size - 0.5)
+            twin.plot(at, share, "kD", ms=4, label="share at full depth")
+        else:
+            ax.fill_between(centres, stats[:, 0], stats[:, 2], color="tab:blue", alpha=0.25, label="10–90 %")
+            ax.plot(centres, stats[:, 1], color="tab:blue", label="median")
+            twin.plot(centres, share, color="k", ls="--", lw=1, label="share at full depth")
+        ax.set_xlabel(label(key))
         twin.set_ylim(-0.02, 1.02)
     axes[0][0].set_ylabel(shown.label)
     axes[0][0].legend(fontsize=7, loc="upper left")

@@ -136,6 +136,7 @@ def material_section(ws, row: Mapping[str, Any]) -> Section:
 def sweep_section(ws, record: Mapping[str, Any]) -> Section:
     """A sweep (its catalogue row): variables, ranges of the figures, heat maps with the full-penetration
     boundary (Fig. 14), 4-D scatter (Fig. 15), partial dependence."""
+    from pencli.labels import quantity
     from pencli.report import figures
 
     sweep_id = record["sweep_id"]
@@ -147,13 +148,19 @@ def sweep_section(ws, record: Mapping[str, Any]) -> Section:
     del arrow
     section = Section(f"sweep {sweep_id}: {record['penetrator']} · {record['material']} · {record['energizing']}",
                       provenance={k: str(v) for k, v in record.items()})
-    section.tables.append(("variables", ["key", "unit", "min", "max", "points"],
-                           [[k, v["unit"], v["min"], v["max"], v["points"]] for k, v in variables.items()]))
-    section.tables.append(("figures over the sweep", ["figure", "min", "max"],
-                           [[f, float(np.min(table[f])), float(np.max(table[f]))] for f in SWEEP_FIGURES]))
-    if len(keys) >= 2:
-        for value in ("penetration_time_s", "peak_resistance_n"):
-            section.add_figure(*figures.sweep_map(table, keys[0], keys[1], value), paper="Fig. 14")
+    grid = int(np.prod([v["points"] for v in variables.values()])) == int(record["n_designs"])
+    section.tables.append(("variables", ["parameter", "unit", "min", "max", "values", "file key"],
+                           [[quantity(k).name, v["unit"], v["min"], v["max"],
+                             v["points"] if grid else f"sampled ({record['n_designs']} designs)", k]
+                            for k, v in variables.items()]))
+    section.tables.append(("figures over the sweep", ["figure", "min", "max", "unit"],
+                           [[quantity(f).name, float(np.min(table[f])) * quantity(f).scale,
+                             float(np.max(table[f])) * quantity(f).scale, quantity(f).unit] for f in SWEEP_FIGURES]))
+    pairs = [(a, b) for i, a in enumerate(keys) for b in keys[i + 1:]]
+    for n, (x, y) in enumerate(pairs):  # final depth for every pair; energy left and time for the first
+        others = [k for k in keys if k not in (x, y)]
+        for value in (("final_depth_mm", "residual_ke_j", "penetration_time_s") if n == 0 else ("final_depth_mm",)):
+            section.add_figure(*figures.sweep_map(table, x, y, value, others), paper="Fig. 14")
     if len(keys) >= 3:
         section.add_figure(*figures.sweep_scatter(table, keys), paper="Fig. 15")
     section.add_figure(*figures.sweep_partial(table, keys))
