@@ -80,29 +80,42 @@ def analyse(db: Path) -> None:
 
 
 def build_report(db: Path, out: Path, pdf: bool = False) -> list[Path]:
-    """The whole workspace's reports (what `pen report --all` writes) plus a diagnosis of each material."""
-    from pencli.report.build import write_report
+    """The whole workspace's reports, as `pen report --all --diagnose` writes them (a diagnosis of each
+    material's runs, and an index)."""
+    import shutil
 
-    written = api.report_all(db, out, pdf=pdf)
-    for pattern in ("gb-*", "mc-*"):
-        sections, _ = api.report_diagnosis(db, [pattern])
-        written += write_report(f"pen report: diagnosis {pattern}", sections,
-                                out / "diagnoses" / f"{pattern.rstrip('-*')}.html", pdf=pdf)
-    return written
+    if out.exists():
+        shutil.rmtree(out)
+    return api.report_all(db, out, pdf=pdf, diagnose=True)
 
 
-def build_figure(db: Path, out: Path, material: str = "mpacs_c") -> Path:
-    """The user guide's opening figure: the latest fit of ``material`` against its runs, as a PNG."""
+def build_figures(db: Path, out: Path, material: str = "mpacs_c") -> list[Path]:
+    """The user guide's two figures, as PNGs in the folder ``out``: the latest fit of ``material`` against its
+    runs (``fit-mpacs-c.png``), and the final depth over the example sweep (``sweep-final-depth.png``)."""
+    import json
+
+    import matplotlib.pyplot as plt
+
     from pencli.io.atomic import write_atomic
-    from pencli.report.figures import campaign_fit
+    from pencli.report.figures import campaign_fit, sweep_map
 
     ws = api.workspace(db)
     version = ws.material_versions(material)[-1]
     table = ws.read_table(version["model_data_path"], "model-vs-data table")
-    fig, _ = campaign_fit(material, {name: table.column(name).to_numpy(zero_copy_only=False)
+    fit, _ = campaign_fit(material, {name: table.column(name).to_numpy(zero_copy_only=False)
                                      for name in table.column_names})
-    write_atomic(out, lambda tmp: fig.savefig(tmp, format="png", dpi=160))
-    return out
+    sweep = ws.sweep_row(1)
+    keys = list(json.loads(sweep["variables"]))
+    swept = ws.read_table(sweep["path"], "sweep table")
+    grid = {name: swept.column(name).to_numpy(zero_copy_only=False) for name in swept.column_names}
+    depth, caption = sweep_map(grid, keys[0], keys[1], "final_depth_mm", keys[2:])
+    depth.suptitle(caption, fontsize=8, wrap=True)
+    written = []
+    for fig, name in ((fit, "fit-mpacs-c.png"), (depth, "sweep-final-depth.png")):
+        write_atomic(out / name, lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=160))
+        plt.close(fig)
+        written.append(out / name)
+    return written
 
 
 def main() -> None:
@@ -111,11 +124,18 @@ def main() -> None:
                         help="catalog to write (runs/ goes beside it)")
     parser.add_argument("--report", type=Path, nargs="?", const=Path(__file__).resolve().parents[1] / "examples"
                         / "report", help="also condition, fit, sweep, diagnose and write the full report here")
-    parser.add_argument("--figure", type=Path, nargs="?", const=Path(__file__).resolve().parents[1] / "docs" / "img"
-                        / "fit-mpacs-c.png", help="only draw the user guide's opening figure from the workspace")
+    parser.add_argument("--figure", type=Path, nargs="?", const=Path(__file__).resolve().parents[1] / "docs" / "img",
+                        help="only draw the user guide's two figures from the workspace into this folder")
+    parser.add_argument("--report-only", action="store_true",
+                        help="with --report: write the reports from the workspace as it is, without rebuilding it")
     args = parser.parse_args()
     if args.figure is not None:
-        print(f"wrote {build_figure(args.out, args.figure)}")
+        for path in build_figures(args.out, args.figure):
+            print(f"wrote {path}")
+        return
+    if args.report is not None and args.report_only:
+        written = build_report(args.out, args.report)
+        print(f"wrote {len(written)} report files into {args.report}")
         return
     ids = build(args.out)
     print(f"built {len(ids)} runs into {args.out}")
