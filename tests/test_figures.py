@@ -46,6 +46,14 @@ def model_table(db, run_id):
     return {k: np.asarray(v) for k, v in data.items()}
 
 
+def balance_of(db, run_id):
+    from pencli.fit.energy import measured_energy
+
+    ws = api.workspace(db)
+    fit = [v for v in ws.material_versions() if run_id in v["source_runs"]][-1]
+    return measured_energy(ws.load_run(run_id), json.loads(fit["coefficients"]), json.loads(fit["fit"])["ci95"])
+
+
 def every_figure(db):
     """(name, figure, caption) for every figure kind a report draws, from the example workspace."""
     ws = api.workspace(db)
@@ -55,9 +63,7 @@ def every_figure(db):
     yield ("raw", *figures.raw_channels("mc-1.0-4", raw.columns, events))
     yield ("kinematics", *figures.kinematics_panels("mc-1.0-4", run.columns, events))
     yield ("model", *figures.model_vs_data("mc-1.0-4", model_table(db, "mc-1.0-4")))
-    yield ("energy", *figures.energy_per_term("mc-1.0-4", {"strength": 80.0, "friction": 40.0, "damping": 0.0,
-                                                           "inertia": 25.0, "left as kinetic": 30.0},
-                                              {"springs": 170.0, "gravity": 5.0}))
+    yield ("energy", *figures.energy_balance("mc-1.0-4", balance_of(db, "mc-1.0-4")))
     fit = json.loads(ws.material_versions("mpacs_c")[-1]["fit"])
     yield ("fit", *figures.fit_intervals("mpacs_c", fit))
     sweep = ws.sweep_row(1)
@@ -203,5 +209,25 @@ def test_a_map_of_three_variables_holds_the_third_at_a_stated_value_and_a_list_i
         width_axis = fig.axes[1]
         assert [t.get_text() for t in width_axis.get_xticklabels()] == ["100", "150", "200"]
         assert width_axis.containers  # points with their spread (an error bar), not a band
+    finally:
+        close(fig)
+
+
+def test_the_measured_energy_balances_to_within_two_percent_on_every_example_run(example):
+    """The sim rig's runs, conditioned and fitted: the kinetic energy at contact plus the drive's work in the
+    material is what the fitted terms dissipate plus what is left, to 2 %; the launcher delivers what its file
+    says to 3 %; and the figure draws the numbers the balance holds."""
+    for run_id in api.workspace(example).run_ids():
+        b = balance_of(example, run_id)
+        assert abs(b.unaccounted_j) < 0.02 * b.supplied_j, (run_id, b)
+        assert abs(b.launcher_shortfall_j) < 0.03 * b.launcher_j, (run_id, b)
+        for term, span in b.terms_interval_j.items():
+            assert span is None or span[0] - 1e-9 <= b.terms_j[term] <= span[1] + 1e-9, (run_id, term)
+    fig, caption = figures.energy_balance("mc-1.5-2", b := balance_of(example, "mc-1.5-2"))
+    try:
+        heights = [p.get_height() for p in fig.axes[0].patches]
+        contact, drive, *terms, left, missing = heights[1:]
+        assert contact + drive == pytest.approx(sum(terms) + left + missing)
+        assert f"{b.contact_ke_j:.1f} J" in caption and "not accounted for" in caption
     finally:
         close(fig)

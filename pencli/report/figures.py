@@ -158,27 +158,40 @@ def model_vs_data(run_id: str, data: Mapping[str, np.ndarray]):
     return fig, caption
 
 
-def energy_per_term(run_id: str, energies: Mapping[str, float], supplied: Mapping[str, float]):
-    """Figs. 14/17: where the energy of a predicted run goes: what the springs and gravity supply against what each
-    Eq. 9 term dissipates and what is left as kinetic energy.
+def energy_balance(run_id: str, balance, fit_name: str = ""):
+    """Fig. 14 (measured): where a run's energy went.  The launcher's side (what the file's launcher delivers over
+    the stand-off against the kinetic energy measured at contact), then what the springs and gravity add in the
+    material, each Eq. 9 term with its 95 % interval from the fit, what was left at the stop, and what the fit
+    does not account for.  ``balance``: a :class:`~pencli.fit.energy.EnergyBalance`.
 
-    Returns the figure and its caption (each term's share of the energy supplied)."""
+    Returns the figure and its caption (each term's share of the energy, and what is not accounted for)."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(8, 4), constrained_layout=True)
-    names = list(energies)
-    bars = [*supplied.items(), *energies.items()]
-    colours = ["0.55"] * len(supplied) + [TERM_COLOURS.get(n, "0.3") for n in names]
-    ax.bar([k for k, _ in bars], [v for _, v in bars], color=colours)
-    for i, (_, v) in enumerate(bars):
-        ax.text(i, v, f"{v:.1f}", ha="center", va="bottom", fontsize=8)
-    ax.axvline(len(supplied) - 0.5, color="0.3", lw=0.8)
+    fig, ax = plt.subplots(figsize=(9, 4.2), constrained_layout=True)
+    bars = [("launcher (file)", balance.launcher_j, "0.75", None),
+            ("at contact", balance.contact_ke_j, "0.55", None),
+            ("springs and gravity\nin the material", balance.drive_in_material_j, "0.55", None)]
+    bars += [(term, value, TERM_COLOURS[term], balance.terms_interval_j.get(term))
+             for term, value in balance.terms_j.items()]
+    bars += [("left at the stop", balance.left_ke_j, "0.3", None),
+             ("not accounted for", balance.unaccounted_j, "tab:purple", None)]
+    for i, (name, value, colour, span) in enumerate(bars):
+        ax.bar(i, value, color=colour)
+        if span is not None:
+            ax.errorbar(i, value, yerr=[[value - span[0]], [span[1] - value]], color="k", capsize=4, lw=1)
+        ax.text(i, max(value, 0.0), f"{value:.1f}", ha="center", va="bottom", fontsize=8)
+    ax.axhline(0.0, color="0.3", lw=0.6)
+    ax.axvline(1.5, color="0.3", lw=0.8)
+    ax.axvline(2.5, color="0.3", lw=0.8, ls=":")
+    ax.set_xticks(range(len(bars)), [b[0] for b in bars], fontsize=8, rotation=20, ha="right")
     ax.set_ylabel("energy [J]")
-    ax.text(len(supplied) - 0.6, ax.get_ylim()[1] * 0.97, "supplied", ha="right", va="top", fontsize=8)
-    ax.text(len(supplied) - 0.4, ax.get_ylim()[1] * 0.97, "dissipated by each term, and left over", ha="left",
-            va="top", fontsize=8)
-    total = sum(supplied.values())
-    shares = ", ".join(f"{n} {100 * energies[n] / total:.0f} %" for n in names) if total > 0 else ""
-    caption = f"{run_id}: of {total:.1f} J supplied by the springs and gravity, {shares}."
+    supplied = balance.supplied_j
+    shares = ", ".join(f"{term} {100 * value / supplied:.0f} %" for term, value in balance.terms_j.items()) \
+        if supplied > 0 else ""
+    caption = (f"{run_id}: the blade reached the surface with {balance.contact_ke_j:.1f} J (the launcher file "
+               f"gives {balance.launcher_j:.1f} J) and the springs and gravity added {balance.drive_in_material_j:.1f} "
+               f"J; of these {supplied:.1f} J{(' the fit ' + fit_name) if fit_name else ''} puts {shares}; "
+               f"{balance.left_ke_j:.1f} J were left at the stop and {balance.unaccounted_j:+.1f} J "
+               f"({100 * balance.unaccounted_j / supplied:+.1f} %) are not accounted for (bars: 95 % intervals).")
     return fig, caption
 
 

@@ -57,7 +57,7 @@ def _design_with_fit(run, coefficients: Mapping[str, float]):
 def run_section(ws, run_id: str, versions: Sequence[dict]) -> Section:
     """A run: parameters, stages, events, raw channels (Fig. 11), measurements (Fig. 12), model against data
     (Fig. 13) and energy per term with the newest fit that used it."""
-    from pencli.model.dynamics import simulate
+    from pencli.fit.energy import measured_energy
     from pencli.report import figures
 
     params = ws.run_parameters(run_id)
@@ -75,23 +75,19 @@ def run_section(ws, run_id: str, versions: Sequence[dict]) -> Section:
                             for k, v in events.items() if isinstance(v, (int, float))]))
     section.add_figure(*figures.raw_channels(run_id, raw.columns, events), paper="Fig. 11")
     inertia = [s for s in stages if s.stage == "inertia"]
-    if inertia:
-        section.add_figure(*figures.kinematics_panels(run_id, ws.load_run(run_id, inertia[-1].stage_no).columns,
-                                                      events), paper="Fig. 12")
+    conditioned = ws.load_run(run_id, inertia[-1].stage_no) if inertia else None
+    if conditioned is not None:
+        section.add_figure(*figures.kinematics_panels(run_id, conditioned.columns, events), paper="Fig. 12")
     fit = latest_fit_with(versions, run_id)
     if fit is not None and fit["model_data_path"]:
         data = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
                              filters=[("run_id", "=", run_id)]).to_pydict()
         section.add_figure(*figures.model_vs_data(run_id, {k: np.asarray(v) for k, v in data.items()}),
                            paper="Fig. 13")
-        design, _ = _design_with_fit(raw, json.loads(fit["coefficients"]))
-        s = simulate(design, output_rate_hz=2000.0).summary
-        fig, caption = figures.energy_per_term(
-            f"{run_id}, predicted with {fit['material']} v{fit['version']}",
-            {"strength": s.energy_strength_j, "friction": s.energy_friction_j, "damping": s.energy_damping_j,
-             "inertia": s.energy_inertia_j, "left as kinetic": s.residual_ke_j},
-            {"springs": s.spring_energy_j, "gravity": s.gravity_work_j})
-        section.add_figure(fig, caption, paper="Fig. 14")
+        if conditioned is not None:
+            balance = measured_energy(conditioned, json.loads(fit["coefficients"]), json.loads(fit["fit"])["ci95"])
+            fig, caption = figures.energy_balance(run_id, balance, f"{fit['material']} v{fit['version']}")
+            section.add_figure(fig, caption, paper="Fig. 14")
     return section
 
 
