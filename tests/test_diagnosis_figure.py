@@ -57,3 +57,25 @@ def test_an_effect_verdict_draws_the_residual_after_it_and_states_its_shrink(eff
     title = fig._suptitle.get_text()
     assert " + ".join(effects) in title and "75 %" in title
     assert " + ".join(effects) in fig.axes[2].get_ylabel()
+
+
+def test_the_binned_residual_is_drawn_against_the_null_replicates_band_and_counted_in_the_caption():
+    from pencli.report.diagnosis import diagnosis_caption
+
+    centres = np.linspace(2.5, 117.5, 24)
+    low, high = np.full(24, -1.0), np.full(24, 1.0)
+    baseline = np.where((centres > 40) & (centres < 60), 3.0, 0.2)  # four bins beyond the band
+    profile = {"centres": centres, "samples": np.full(24, 50), "baseline_n": baseline, "effect_n": 0.1 * baseline,
+               "null_low_n": low, "null_high_n": high}
+    diagnosis = _diagnosis("strength_layer", ("strength_layer",))
+    diagnosis = Diagnosis(**{**diagnosis.__dict__, "profiles": {"depth_mm": profile, "time_since_contact_ms": profile}})
+    fig = diagnosis_figure(diagnosis)
+    outside = int(np.sum((baseline < low) | (baseline > high)))
+    assert outside == 4
+    caption = diagnosis_caption(diagnosis)
+    assert f"before it {outside} of 24 depth bins outside" in caption and "after it 0 of 24" in caption
+    bands = [c for ax in fig.axes for c in ax.collections if c.get_label().startswith("95 % of the null")]
+    assert len(bands) == 4  # both rows, depth and time
+    means = [line for ax in fig.axes for line in ax.get_lines() if line.get_label() == "binned mean, all runs"]
+    assert any(np.allclose(line.get_ydata(), baseline) for line in means)
+    assert any(np.allclose(line.get_ydata(), 0.1 * baseline) for line in means)

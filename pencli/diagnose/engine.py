@@ -63,7 +63,7 @@ import numpy as np
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, Effect, Member, _RunView, basis_of,
                                      column_strength_factor, surfaces, views)
-from pencli.diagnose.linear import Spec, Statistics, heldout_residuals
+from pencli.diagnose.linear import Spec, Statistics, heldout_residuals, heldout_residuals_every
 from pencli.diagnose.rest import rest_drift
 from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, corner_spreads, fit_noise, gev_quantile,
                                   gumbel_quantile, normal_quantile, read_noise_chain, replicate_campaign,
@@ -487,6 +487,11 @@ class Diagnosis:
     series: tuple[dict, ...] = ()
     """Per run, for figures: time_s, depth_m, time_since_contact_s and the held-out residual [N] of the
     baseline and of the verdict's first effect (not in the JSON)."""
+    profiles: dict = field(default_factory=dict)
+    """For figures, along ``depth_mm`` and ``time_since_contact_ms``: bin centres, samples per bin, the data's
+    binned held-out residual under the baseline (``baseline_n``) and with the verdict's effect (``effect_n``),
+    and the band 95 % of the null replicates' binned means fall in (``null_low_n``, ``null_high_n``) [N]
+    (not in the JSON)."""
 
     def to_dict(self) -> dict:
         return {
@@ -1253,10 +1258,52 @@ def locate(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, d
                "baseline_residual_n": res, "effect_residual_n": after[i] if after is not None else None}
               for i, (run, t, x, _, _, res) in enumerate(series_data)]
     noise_floor = math.sqrt(float(np.mean([r.noise_n ** 2 for r in runs])))
+    profiles = _profiles(series_data, after, scan, baseline, calibration)
     return Diagnosis(tuple(r.run_id for r in runs), _baseline_record(baseline, scan, drive, decision), tuple(where),
                      tuple(final), decision.verdict, decision.verdict_effects, tuple(ambiguities), noise_floor,
                      decision.notes, decision=_decision_record(calibration, scan, drive, request, runs, started),
-                     axes=_axes(series_data), series=tuple(series))
+                     axes=_axes(series_data), series=tuple(series), profiles=profiles)
+
+
+PROFILE_BINS = 24
+"""Bins of a residual profile along depth or time since contact (the figure's binned means). [–]"""
+NULL_BAND = (2.5, 97.5)
+"""Percentiles of the null replicates' binned means that bound the figure's band: where 95 % of the campaigns
+without an effect fall. [%]"""
+
+
+def _profiles(series_data, after, scan: FamilyScan, baseline: Baseline, calibration: NullCalibration) -> dict:
+    """The held-out residual binned along depth and along time since contact, all runs' samples together: the
+    data's mean per bin under the baseline (and with the verdict's effect), and the band that 95 % of the null
+    replicates' binned means fall in.  For the figure; no decision reads it."""
+    targets = [np.column_stack([y, rep.resistance_n]) for y, rep in zip(baseline.ys, calibration.replicates)]
+    every = heldout_residuals_every(scan.matrices, targets, baseline.spec,
+                                    scan.stats.fold_coefficients(baseline.spec))
+    out = {}
+    for axis, values in (("depth_mm", [x * MM_PER_M for _, _, x, _, _, _ in series_data]),
+                         ("time_since_contact_ms", [(t - run.contact_s) * MS_PER_S
+                                                    for run, t, _, _, _, _ in series_data])):
+        along = np.concatenate(values)
+        inside = along >= 0.0
+        edges = np.linspace(0.0, float(along[inside].max()) if inside.any() else 1.0, PROFILE_BINS + 1)
+        index = np.clip(np.searchsorted(edges, along, side="right") - 1, 0, PROFILE_BINS - 1)
+        index[~inside] = -1
+        residuals = np.concatenate(every, axis=0)  # (samples, targets)
+        counts = np.bincount(index[inside], minlength=PROFILE_BINS)
+        sums = np.stack([np.bincount(index[inside], weights=residuals[inside, t], minlength=PROFILE_BINS)
+                         for t in range(residuals.shape[1])], axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            means = sums / counts[:, None]
+        low, high = np.nanpercentile(means[:, 1:], NULL_BAND, axis=1) if means.shape[1] > 1 else (means[:, 0],) * 2
+        profile = {"centres": 0.5 * (edges[:-1] + edges[1:]), "samples": counts, "baseline_n": means[:, 0],
+                   "null_low_n": low, "null_high_n": high}
+        if after is not None:
+            effect = np.concatenate(after)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                profile["effect_n"] = np.bincount(index[inside], weights=effect[inside],
+                                                  minlength=PROFILE_BINS) / counts
+        out[axis] = profile
+    return out
 
 
 def _with_trajectory(report: EffectReport, baseline: Baseline, scan: FamilyScan, decision: Decision) -> EffectReport:

@@ -162,8 +162,20 @@ class Statistics:
         return Scores(**{f.name: np.concatenate([getattr(s, f.name) for _, s in parts], axis=0)[order]
                          for f in fields(Scores)})
 
+    def fold_coefficients(self, spec: Spec) -> np.ndarray:
+        """(runs, 3 + k, targets): the shared coefficients of the fold that leaves each run out, on every target
+        (the data and each replicate), of a model with neither strength-law nor varying columns (the
+        baseline's).  For figures: the scores keep the data's alone."""
+        varying = set(self.varying.tolist())
+        if spec.scaled or varying.intersection((*spec.columns, spec.offset)):
+            raise ValueError("fold coefficients per target are kept for a model without strength-law or varying "
+                             "columns")
+        kept: list[np.ndarray] = []
+        self._score([spec], self.gram, self.cross, self.square, profile=False, keep=kept)
+        return np.stack([theta[0] for theta in kept], axis=0)
+
     def _score(self, specs: list[Spec], G: np.ndarray, C: np.ndarray, S: np.ndarray,
-               run_scale: np.ndarray | None = None, profile: bool = True) -> Scores:
+               run_scale: np.ndarray | None = None, profile: bool = True, keep: list | None = None) -> Scores:
         """Score ``specs`` on the targets of ``C``; the strength factors are profiled (:func:`_profiled_scale`)
         only on a first, unscaled pass over the measured data (``profile``): the second pass's are not used."""
         J = np.array([s.columns for s in specs])  # (M, p)
@@ -195,6 +207,8 @@ class Statistics:
         for k in range(R):
             theta = bounded_solve(A_all - Dr[k], b_all - cr[k], bounded)
             folds[:, k, :] = theta[:, :, 0]
+            if keep is not None:
+                keep.append(theta)
             heldout[:, k, :] = _quadratic(Dr[k], cr[k], ttr[k], theta)
             train[:, k, :] = _quadratic(A_all - Dr[k], b_all - cr[k], t_all - ttr[k], theta) / (R - 1)
         theta = bounded_solve(A_all, b_all, bounded)
@@ -256,6 +270,19 @@ def heldout_residuals(matrices: list[np.ndarray], targets: list[np.ndarray], spe
         rest = y - W[:, spec.offset] - X[:, 1:] @ theta
         s = X[:, 0]
         out.append(rest - (float(s @ rest) / max(float(s @ s), 1e-300)) * s)
+    return out
+
+
+def heldout_residuals_every(matrices: list[np.ndarray], targets: list[np.ndarray], spec: Spec,
+                            folds: np.ndarray) -> list[np.ndarray]:
+    """:func:`heldout_residuals` on every target at once (``targets``: per run (n, T); ``folds``: (runs, 3 + k, T)
+    from :meth:`Statistics.fold_coefficients`): per run (n, T). [N]"""
+    out = []
+    for W, Y, theta in zip(matrices, targets, folds):
+        X = W[:, list(spec.columns)]
+        rest = Y - W[:, spec.offset][:, None] - X[:, 1:] @ theta
+        s = X[:, 0]
+        out.append(rest - np.outer(s, (s @ rest) / max(float(s @ s), 1e-300)))
     return out
 
 

@@ -37,14 +37,24 @@ def diagnosis_figure(diagnosis):
         rows.append(("effect_residual_n", f"with {' + '.join(diagnosis.verdict_effects)}"))
     fig, axes = plt.subplots(len(rows), 2, figsize=(11, 3.6 * len(rows) + 0.4), sharey="row",
                              constrained_layout=True, squeeze=False)
+    profile_key = {"baseline_residual_n": "baseline_n", "effect_residual_n": "effect_n"}
     for row, (key, label) in enumerate(rows):
         for s in diagnosis.series:
             residual = s[key]
             if residual is None:
                 continue
             inside = s["depth_m"] > 0
-            axes[row, 0].plot(s["depth_m"][inside] * 1e3, residual[inside], lw=0.7, label=s["run_id"])
-            axes[row, 1].plot(s["time_since_contact_s"] * 1e3, residual, lw=0.7)
+            axes[row, 0].plot(s["depth_m"][inside] * 1e3, residual[inside], lw=0.5, alpha=0.45, label=s["run_id"])
+            axes[row, 1].plot(s["time_since_contact_s"] * 1e3, residual, lw=0.5, alpha=0.45)
+        for col, axis in enumerate(("depth_mm", "time_since_contact_ms")):
+            profile = (diagnosis.profiles or {}).get(axis)
+            if not profile or profile_key[key] not in profile:
+                continue
+            ax = axes[row, col]
+            ax.fill_between(profile["centres"], profile["null_low_n"], profile["null_high_n"], color="0.6",
+                            alpha=0.35, lw=0, label="95 % of the null replicates' binned means")
+            ax.plot(profile["centres"], profile[profile_key[key]], color="k", lw=1.6, marker="o", ms=3,
+                    label="binned mean, all runs")
         axes[row, 0].set_ylabel(f"held-out residual [N]\n{label}")
     if diagnosis.verdict != "none":
         for item in [w for w in diagnosis.where if w.get("above_noise")][:1]:
@@ -56,22 +66,45 @@ def diagnosis_figure(diagnosis):
                     ax.axvspan(*item["time_since_contact_ms"], color="orange", alpha=0.2, lw=0)
     axes[-1, 0].set_xlabel("depth below the surface [mm]")
     axes[-1, 1].set_xlabel("time since contact [ms]")
-    axes[0, 0].legend(fontsize=7, ncol=2)
+    axes[0, 0].legend(fontsize=6, ncol=2)
+    for ax in axes.ravel():
+        ax.axhline(0.0, color="0.3", lw=0.6)
     fig.suptitle(diagnosis_caption(diagnosis), fontsize=10)
     return fig
+
+
+def outside_band(profile: dict, key: str = "baseline_n") -> tuple[int, int]:
+    """(bins whose binned mean lies outside the null replicates' 95 % band, bins with samples)."""
+    import numpy as np
+
+    value = np.asarray(profile.get(key, []), dtype=float)
+    low, high = np.asarray(profile["null_low_n"], dtype=float), np.asarray(profile["null_high_n"], dtype=float)
+    seen = np.isfinite(value) & np.isfinite(low) & np.isfinite(high)
+    return int(np.sum(seen & ((value < low) | (value > high)))), int(np.sum(seen))
+
+
+def _bands_sentence(diagnosis, key: str) -> str:
+    profile = (diagnosis.profiles or {}).get("depth_mm")
+    if not profile or key not in profile:
+        return ""
+    out, bins = outside_band(profile, key)
+    return f"{out} of {bins} depth bins outside the null replicates' 95 % band (grey)"
 
 
 def diagnosis_caption(diagnosis) -> str:
     """The figure's answer in one sentence, with numbers."""
     base = diagnosis.baseline
     rms, floor = base.get("heldout_rms_n", float("nan")), base.get("null_rms_n", float("nan"))
+    before = _bands_sentence(diagnosis, "baseline_n")
     if diagnosis.verdict == "none":
         return (f"Verdict none: no gap beyond the noise (held-out RMS {rms:.1f} N against {floor:.1f} N that noise "
-                f"and the sensor chain alone leave).")
+                f"and the sensor chain alone leave" + (f"; {before}" if before else "") + ").")
     if diagnosis.verdict == "unexplained":
         return (f"Verdict unexplained: a misfit of {rms:.1f} N held-out RMS (noise alone {floor:.1f} N) that no "
-                f"catalogue effect removes half of; shaded: where it lies.")
+                f"catalogue effect removes half of" + (f"; {before}" if before else "") + "; shaded: where it lies.")
     first = next((e for e in diagnosis.effects if e.name == diagnosis.verdict_effects[0]), None)
     shrink = f"; it shrinks the held-out RMS by {first.shrink_pct:.0f} %" if first is not None else ""
+    after = _bands_sentence(diagnosis, "effect_n")
+    bands = f"; before it {before}, after it {after.split(' depth bins')[0]}" if before and after else ""
     return (f"Verdict {' + '.join(diagnosis.verdict_effects)}: held-out RMS {rms:.1f} N (noise alone {floor:.1f} N)"
-            f"{shrink}; shaded: where the gap lies.")
+            f"{shrink}{bands}; shaded: where the gap lies.")
