@@ -33,7 +33,8 @@ def diagnose(
     effects: Optional[str] = typer.Option(None, "--effects", help="Only these catalogue effects, comma-separated "
                                                                   f"(default all: {', '.join(EFFECTS)})."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Draw held-out residuals against depth and time, "
-                                                             "before and after the verdict's effect (PNG or PDF)."),
+                                                             "before and after the verdict's effect, against the "
+                                                             "null replicates' band (PNG, SVG or PDF)."),
     false_alarm: float = typer.Option(FALSE_ALARM, "--false-alarm", min=1e-4, max=0.5,
                                       help="Probability that a campaign with no effect gets any verdict but 'none' "
                                            "[–]."),
@@ -57,8 +58,8 @@ def diagnose(
         api.check_output(json_file, db_path(db), "--json")
     if plot is not None:
         api.check_output(plot, db_path(db), "--plot")
-    if plot is not None and plot.suffix.lower() not in (".png", ".pdf"):
-        raise typer.BadParameter(f"'{plot}' must end in .png or .pdf", param_hint="--plot")
+    if plot is not None and plot.suffix.lower() not in (".png", ".svg", ".pdf"):
+        raise typer.BadParameter(f"'{plot}' must end in .png, .svg or .pdf", param_hint="--plot")
     chosen = [e.strip() for e in effects.split(",")] if effects else None
     with progress_bar("diagnosing") as progress:
         result = api.diagnose(db_path(db), runs, effects=chosen, false_alarm=false_alarm, bootstrap=bootstrap,
@@ -121,4 +122,6 @@ def diagnose(
     if json_file is not None:
         console.print(f"report written to {json_file}")
     if plot is not None:
-        console.print(f"figure written to {plot}")
+        from pencli.report.diagnosis import diagnosis_caption
+
+        console.print(f"figure written to {plot}: {diagnosis_caption(result)}")

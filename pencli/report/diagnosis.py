@@ -13,7 +13,7 @@ def plot_diagnosis(diagnosis, path: str | Path) -> Path:
 
     fig = diagnosis_figure(diagnosis)
     suffix = Path(path).suffix or ".png"
-    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=110, format=suffix.lstrip(".")))
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=200, format=suffix.lstrip(".").lower()))
     plt.close(fig)
     return Path(path)
 
