@@ -78,6 +78,7 @@ def _getting_started(readme: Path) -> str:
     text = readme.read_text(encoding="utf-8")
     start, end = text.index("## Set up"), text.index("## Where everything is documented")
     body = text[start:end].replace("## Set up", "## Install", 1).replace("## A five-minute tour", "## The tour", 1)
+    body = body.replace("](docs/", "](")  # the README's links into docs/ as the site's pages see them
     return "# Getting started\n\n" + body
 
 
