@@ -1294,7 +1294,10 @@ def _profiles(series_data, after, scan: FamilyScan, baseline: Baseline, calibrat
                          for t in range(residuals.shape[1])], axis=1)
         with np.errstate(invalid="ignore", divide="ignore"):
             means = sums / counts[:, None]
-        low, high = np.nanpercentile(means[:, 1:], NULL_BAND, axis=1) if means.shape[1] > 1 else (means[:, 0],) * 2
+        low, high = np.full(PROFILE_BINS, np.nan), np.full(PROFILE_BINS, np.nan)
+        filled = counts > 0  # an empty bin has no mean and no band
+        if means.shape[1] > 1 and filled.any():
+            low[filled], high[filled] = np.percentile(means[filled, 1:], NULL_BAND, axis=1)
         profile = {"centres": 0.5 * (edges[:-1] + edges[1:]), "samples": counts, "baseline_n": means[:, 0],
                    "null_low_n": low, "null_high_n": high}
         if after is not None:
