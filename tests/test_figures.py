@@ -63,6 +63,8 @@ def every_figure(db):
     yield ("raw", *figures.raw_channels("mc-1.0-4", raw.columns, events))
     yield ("kinematics", *figures.kinematics_panels("mc-1.0-4", run.columns, events))
     yield ("model", *figures.model_vs_data("mc-1.0-4", model_table(db, "mc-1.0-4")))
+    fit_table = ws.read_table(ws.material_versions("mpacs_c")[-1]["model_data_path"], "model").to_pydict()
+    yield ("campaign", *figures.campaign_fit("mpacs_c", {k: np.asarray(v) for k, v in fit_table.items()}))
     yield ("energy", *figures.energy_balance("mc-1.0-4", balance_of(db, "mc-1.0-4")))
     fit = json.loads(ws.material_versions("mpacs_c")[-1]["fit"])
     yield ("fit", *figures.fit_intervals("mpacs_c", fit))

@@ -113,6 +113,8 @@ def material_section(ws, row: Mapping[str, Any]) -> Section:
     if row["model_data_path"]:
         table = ws.read_table(row["model_data_path"], "fit's model-vs-data table").to_pydict()
         ids = np.asarray(table["run_id"])
+        section.add_figure(*figures.campaign_fit(material, {k: np.asarray(v) for k, v in table.items()}),
+                           paper="Figs. 13–14")
         for run_id in list(dict.fromkeys(table["run_id"]))[:12]:
             sel = ids == run_id
             section.add_figure(*figures.model_vs_data(run_id, {k: np.asarray(v)[sel] for k, v in table.items()}),
