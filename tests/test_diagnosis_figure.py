@@ -79,3 +79,23 @@ def test_the_binned_residual_is_drawn_against_the_null_replicates_band_and_count
     means = [line for ax in fig.axes for line in ax.get_lines() if line.get_label() == "binned mean, all runs"]
     assert any(np.allclose(line.get_ydata(), baseline) for line in means)
     assert any(np.allclose(line.get_ydata(), 0.1 * baseline) for line in means)
+
+
+def test_the_effects_fitted_force_and_found_depth_are_drawn_on_its_row():
+    centres = np.linspace(2.5, 117.5, 24)
+    before = np.where(centres > 40, 3.0, 0.2)
+    profile = {"centres": centres, "samples": np.full(24, 50), "baseline_n": before, "effect_n": np.full(24, 0.1),
+               "null_low_n": np.full(24, -1.0), "null_high_n": np.full(24, 1.0)}
+    diagnosis = _diagnosis("strength_layer", ("strength_layer",))
+    layer = EffectReport("strength_layer", "law", "resistance", {"depth_mm": 40.0, "ratio": 0.6}, {}, 2.0, 75.0,
+                         True, 9.0)
+    diagnosis = Diagnosis(**{**diagnosis.__dict__, "effects": (layer,),
+                             "profiles": {"depth_mm": profile, "time_since_contact_ms": profile}})
+    fig = diagnosis_figure(diagnosis)
+    force = [line for line in fig.axes[2].get_lines() if line.get_label().startswith("the effect's fitted force")]
+    assert len(force) == 1 and np.allclose(force[0].get_ydata(), before - 0.1)
+    found = [line for ax in (fig.axes[0], fig.axes[2]) for line in ax.get_lines()
+             if np.allclose(np.asarray(line.get_xdata(), dtype=float), 40.0)]
+    assert len(found) == 2  # the layer's found depth on both depth panels
+    assert fig.axes[0].get_ylabel().startswith("held-out residual [N]") and "with strength_layer" in \
+        fig.axes[2].get_ylabel()

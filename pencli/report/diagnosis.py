@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 
@@ -27,6 +28,7 @@ def diagnosis_figure(diagnosis):
     lies, and says no catalogue effect explains it.
     """
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -55,7 +57,19 @@ def diagnosis_figure(diagnosis):
                             alpha=0.35, lw=0, label="95 % of the null replicates' binned means")
             ax.plot(profile["centres"], profile[profile_key[key]], color="k", lw=1.6, marker="o", ms=3,
                     label="binned mean, all runs")
+            if key == "effect_residual_n":  # what the effect takes out: its fitted force along the axis
+                ax.plot(profile["centres"], np.asarray(profile["baseline_n"]) - np.asarray(profile["effect_n"]),
+                        color="tab:red", lw=1.4, ls="--", label="the effect's fitted force (before − after)")
+                ax.legend(fontsize=6, loc="upper right")
         axes[row, 0].set_ylabel(f"held-out residual [N]\n{label}")
+    for effect in diagnosis.effects:
+        depth = effect.params.get("depth_mm") if effect.name in diagnosis.verdict_effects else None
+        if isinstance(depth, (int, float)):
+            for ax in axes[:, 0]:
+                ax.axvline(float(depth), color="tab:red", lw=1.0, ls=":")
+            axes[-1, 0].annotate(f"{effect.name} at {float(depth):.0f} mm", (float(depth), 0.0),
+                                 xycoords=("data", "axes fraction"), xytext=(3, 4), textcoords="offset points",
+                                 fontsize=7, color="tab:red")
     if diagnosis.verdict != "none":
         for item in [w for w in diagnosis.where if w.get("above_noise")][:1]:
             if item.get("depth_mm"):
@@ -69,7 +83,7 @@ def diagnosis_figure(diagnosis):
     axes[0, 0].legend(fontsize=6, ncol=2)
     for ax in axes.ravel():
         ax.axhline(0.0, color="0.3", lw=0.6)
-    fig.suptitle(diagnosis_caption(diagnosis), fontsize=10)
+    fig.suptitle(textwrap.fill(diagnosis_caption(diagnosis), 150), fontsize=9)
     return fig
 
 
