@@ -251,12 +251,3 @@ class Campaign(Sequence[Run]):
                 return r
         raise KeyError(run_id)
 
-
-def as_campaign(runs: Sequence[Run] | Campaign) -> Campaign:
-    """A campaign of ``runs`` (a campaign is returned as it is)."""
-    return runs if isinstance(runs, Campaign) else Campaign(tuple(runs))
-
-
-def ids_of(runs: Sequence[Run]) -> list[str]:
-    """The ids of runs (their names where unstored)."""
-    return [r.name for r in runs]
