@@ -25,8 +25,8 @@ A4_IN = (8.27, 11.69)
 
 @dataclass(frozen=True)
 class Figure:
-    """A figure drawn for a report: its SVG (vector, text kept as text), the matplotlib figure still open for the
-    PDF's vector page (None once written or when no PDF is wanted), and the sentence that states its answer."""
+    """A figure drawn for a report: its SVG (vector, text kept as text), the matplotlib figure kept for the PDF's
+    vector page (None once the report is written), and the sentence that states its answer."""
 
     svg: str
     caption: str
@@ -80,7 +80,6 @@ td:first-child, th:first-child { text-align: left; }
 figure { margin: 1.5em 0; }
 figure svg { max-width: 100%; height: auto; border: 1px solid #ddd; }
 figcaption { font-size: 0.92em; margin-top: 0.3em; }
-nav ol { columns: 2; }
 pre { background: #f6f6f6; padding: 0.6em; font-size: 0.8em; overflow-x: auto; white-space: pre-wrap; }
 """
 
@@ -103,6 +102,18 @@ def numbered(sections: Sequence[Section]) -> list[tuple[Section, list[tuple[int,
     return out
 
 
+def _page_head(title: str) -> str:
+    """The start of a pen HTML page up to its heading: language, viewport, title, style."""
+    return (f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+            f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
+            f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>")
+
+
+def _stamp() -> str:
+    """Which pen wrote a page, and when."""
+    return f"pen {__version__}, {dt.datetime.now(dt.timezone.utc):%Y-%m-%d %H:%M} UTC"
+
+
 def figure_label(number: int, figure: Figure) -> str:
     """``Figure 3 (paper Fig. 13).`` or ``Figure 3.``"""
     return f"Figure {number}" + (f" (paper {figure.paper})" if figure.paper else "") + "."
@@ -110,10 +121,7 @@ def figure_label(number: int, figure: Figure) -> str:
 
 def render_html(title: str, sections: Sequence[Section]) -> str:
     """The report as one HTML document with every figure inlined, numbered and captioned."""
-    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
-             f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
-             f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
-             f"<p>pen {__version__}, {dt.datetime.now(dt.timezone.utc):%Y-%m-%d %H:%M} UTC</p>"]
+    parts = [_page_head(title), f"<p>{_stamp()}</p>"]
     for s, items in numbered(sections):
         parts.append(f"<h2>{html.escape(s.title)}</h2>")
         if s.text:
@@ -174,9 +182,8 @@ def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
 
     with PdfPages(path) as pdf:
         for s, items in numbered(sections):
-            lines = _text_lines(s) + ["", *(textwrap.fill(f"{figure_label(n, f)} {f.caption}", PDF_TEXT_COLUMNS,
-                                                            subsequent_indent="    ") for n, f in items)]
-            lines = [piece for line in lines for piece in line.split("\n")]
+            lines = _text_lines(s) + [""] + [line for n, f in items for line in textwrap.wrap(
+                f"{figure_label(n, f)} {f.caption}", PDF_TEXT_COLUMNS, subsequent_indent="    ")]
             for start in range(0, len(lines), PDF_TEXT_LINES):
                 page = plt.figure(figsize=A4_IN)
                 page.text(0.05, 0.97, "\n".join(lines[start:start + PDF_TEXT_LINES]), va="top", ha="left",
@@ -201,11 +208,8 @@ def write_index(title: str, entries: Sequence[tuple[str, str, Path, str]], path:
     groups: dict[str, list] = {}
     for group, name, relative, note in entries:
         groups.setdefault(group, []).append((name, relative, note))
-    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
-             f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
-             f"<title>{html.escape(title)}</title><style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
-             f"<p>pen {__version__}, {dt.datetime.now(dt.timezone.utc):%Y-%m-%d %H:%M} UTC; "
-             f"{len(entries)} reports (each with a PDF of the same beside it when written).</p>"]
+    parts = [_page_head(title),
+             f"<p>{_stamp()}; {len(entries)} reports (each with a PDF of the same beside it when written).</p>"]
     for group, items in groups.items():
         parts.append(f"<h2>{html.escape(group)} ({len(items)})</h2><ul>")
         parts.extend(f"<li><a href='{html.escape(relative.as_posix())}'>{html.escape(name)}</a>"

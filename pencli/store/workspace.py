@@ -718,10 +718,12 @@ class Workspace:
 
         with self.batch(write=False):  # one connection for the catalogue rows
             run_id = self.resolve(ref)
-            table, chosen = self.read_stage(run_id, stage)
-            by_number = {r.stage_no: r for r in self.stages(run_id)}
+            records = self.stages(run_id)
+            chosen = self._pick(records, run_id, stage)
             row = self.run_row(run_id)
             params = self.run_parameters(run_id)
+        table = self._read_record(chosen)
+        by_number = {r.stage_no: r for r in records}
         lineage, record = [], chosen
         while record is not None:
             lineage.append(Stage(record.stage, record.command, record.parameters, record.stage_no, record.parent_no))
@@ -758,18 +760,20 @@ class Workspace:
 
     def read_stage(self, run_id: str, stage: str | int | None = None) -> tuple[pa.Table, StageRecord]:
         """A stage's table (default: the latest stage) and its record."""
-        records = self.stages(run_id)
+        chosen = self._pick(self.stages(run_id), run_id, stage)
+        return self._read_record(chosen), chosen
+
+    def _pick(self, records: Sequence[StageRecord], run_id: str, stage: str | int | None) -> StageRecord:
+        """The stage ``stage`` names (a name: its newest; a number; None: the latest) of a run's records."""
         if not records:
             raise StoreError(f"no run '{run_id}' in {self.db_path}")
         if stage is None:
-            chosen = records[-1]
-        else:
-            matches = [r for r in records if r.stage == stage or r.stage_no == stage]
-            if not matches:
-                raise StoreError(f"run '{run_id}' has no stage {stage!r}; it has: "
-                                 f"{', '.join(f'{r.stage_no}:{r.stage}' for r in records)}")
-            chosen = matches[-1]
-        return self._read_record(chosen), chosen
+            return records[-1]
+        matches = [r for r in records if r.stage == stage or r.stage_no == stage]
+        if not matches:
+            raise StoreError(f"run '{run_id}' has no stage {stage!r}; it has: "
+                             f"{', '.join(f'{r.stage_no}:{r.stage}' for r in records)}")
+        return matches[-1]
 
     def _read_record(self, chosen: StageRecord) -> pa.Table:
         """A stage's table, its content checked against the catalog's hash (else one line naming the file)."""
