@@ -286,6 +286,26 @@ def test_two_concurrent_ingests_never_corrupt(workspace):
     assert len(files) == 12 and not any(p.name.endswith(".tmp") for p in files)
 
 
+def test_a_new_catalog_never_shows_under_its_name_half_made(tmp_path, monkeypatch):
+    """Two processes making the same new catalog race unless it appears whole: DuckDB opens a file another
+    process has created but not yet written as "not a valid DuckDB database file"."""
+    from pencli.store.workspace import Workspace
+
+    db = tmp_path / "runs.duckdb"
+    seen = []
+    migrate = Workspace._migrate
+
+    def watched(self, con):
+        seen.append(db.exists())
+        migrate(self, con)
+
+    monkeypatch.setattr(Workspace, "_migrate", watched)
+    with Workspace(db).connect(write=True) as con:
+        assert con.execute("SELECT count(*) FROM runs").fetchone() == (0,)
+    assert seen[0] is False  # the first migration wrote a file under another name
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["runs.duckdb"]  # and nothing else is left
+
+
 def test_runs_list_filters_show_and_query(workspace, runner):
     write_folder(workspace / "g1", synthetic_columns(seed=1), info={"id": "g1", "date": "2026-01-05", "tags": ["x"]})
     write_folder(workspace / "m1", synthetic_columns(seed=2), material="mpacs_c", energizing="springs_2",

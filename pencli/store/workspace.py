@@ -255,6 +255,8 @@ class Workspace:
                              f"or point --db / $PEN_DB at one")
         if write:
             self.db_path.parent.mkdir(parents=True, exist_ok=True)
+            if not self.exists():
+                self._create()
         deadline = time.monotonic() + self.lock_timeout_s
         delay = 0.02
         while True:
@@ -287,6 +289,34 @@ class Workspace:
             con.close()
             raise
         return con
+
+    def _create(self) -> None:
+        """Make a new, migrated catalog under a temporary name and link it into place.
+
+        Two processes creating the same catalog at once would otherwise race: one can open the file the other
+        has made but not yet written (DuckDB: "exists, but it is not a valid DuckDB database file").  The link
+        fails if the catalog appeared meanwhile; then that one is used.
+        """
+        tmp = self.db_path.with_name(f".{self.db_path.name}.{os.getpid()}.tmp")
+        try:
+            con = duckdb.connect(str(tmp))
+            try:
+                self._migrate(con)
+            finally:
+                con.close()
+            try:
+                os.link(tmp, self.db_path)
+            except FileExistsError:
+                pass
+            except OSError:  # a file system without hard links: a rename, which a racing creator may overwrite
+                if not self.exists():
+                    os.replace(tmp, self.db_path)
+        except duckdb.Error as exc:
+            raise StoreError(f"{self.db_path}: cannot create the catalog: {str(exc).splitlines()[0]}") from None
+        finally:
+            for path in (tmp, tmp.with_name(tmp.name + ".wal")):
+                with contextlib.suppress(FileNotFoundError):
+                    path.unlink()
 
     def _migrate(self, con: duckdb.DuckDBPyConnection) -> None:
         con.execute("CREATE TABLE IF NOT EXISTS schema_migrations (version INTEGER PRIMARY KEY, name VARCHAR, "
