@@ -10,6 +10,7 @@ causes (× load-cell mass) relative to the peak resistance.
 
 from __future__ import annotations
 
+import itertools
 import time
 
 import numpy as np
@@ -18,8 +19,9 @@ from pencli.acquire.calibration import load_force_calibration, load_position_cal
 from pencli.acquire.drivers import ShotSetup
 from pencli.acquire.rig import rig_from_mapping
 from pencli.acquire.sim import SimRig
-from pencli.filter.derivatives import METHODS
+from pencli.filter.derivatives import DEFAULT_METHOD, METHODS
 from pencli.filter.tare import detect_events
+from pencli.filter.windows import FIT_EDGE_MARGINS_S, WINDOW_TRIM_S
 from pencli.params.load import load_preset
 
 SHOTS = [("grill_brick", "1", 2), ("grill_brick", "1.5", 4), ("grill_brick", "2", 6),
@@ -49,6 +51,7 @@ def main() -> None:
     from pencli.filter.inertia import motion_breaks, motion_joins
 
     rows = {name: [] for name in METHODS}
+    edges = {"contact": [], "stop": []}  # the default method's signed force error by distance from each edge
     phases = (0.5, 0.1, 0.35, 0.8)
     for i, (material, blade, springs) in enumerate(SHOTS):
         for phase in phases:
@@ -78,6 +81,44 @@ def main() -> None:
         med, worst = np.median(arr, axis=0), np.max(arr, axis=0)
         print(f"{name:10s} {med[0]:6.4f}|{worst[0]:<7.4f} {med[1]:6.1f}|{worst[1]:<8.1f} "
               f"{100 * med[2]:6.2f}%|{100 * worst[2]:<7.2f}% {med[3]:6.1f}|{worst[3]:<8.1f} {med[4]:7.1f}")
+
+    # the error by distance from the window's edges, on more shots: every blade and spring count of both materials
+    for i, (material, blade, springs) in enumerate(itertools.product(("grill_brick", "mpacs_c"), ("1", "1.5", "2"),
+                                                                      (2, 4, 6))):
+        for phase in phases:
+            motion, t, x, events, m_lc, pad = shot(material, blade, springs, 100 + i, phase)
+            c = int(np.searchsorted(t, events.contact_s))
+            s = int(np.searchsorted(t, events.stop_s))
+            window, truth = slice(c, s), slice(c - pad, s - pad)
+            _, a = derivatives(x, 30000.0, motion_breaks(t, events), DEFAULT_METHOD, count_m=0.16e-3)
+            error = (a[window] - motion.acceleration_m_s2[truth]) * m_lc / np.max(motion.resistance_n[truth])
+            edges["contact"].append(_profile(t[window] - events.contact_s, error))
+            edges["stop"].append(_profile(events.stop_s - t[window], error))
+    print(f"\n{DEFAULT_METHOD}: force error m_lc*(a - a_true) / peak R by distance from the window's edges, mean over "
+          f"the {len(edges['stop'])} records (signed: a bias they share) and RMS")
+    print(f"{'from':8s} " + " ".join(f"{f'{lo:g}-{hi:g} ms':>10s}" for lo, hi in zip(EDGE_BINS_MS[:-1], EDGE_BINS_MS[1:])))
+    for edge, profiles in edges.items():
+        arr = np.array(profiles)  # (records, bins, [mean, mean square])
+        mean = np.nanmean(arr[:, :, 0], axis=0)
+        rms = np.sqrt(np.nanmean(arr[:, :, 1], axis=0))
+        print(f"{edge:8s} " + " ".join(f"{100 * m:+6.2f}%|{100 * r:4.2f}" for m, r in zip(mean, rms)))
+    print(f"in use (pencli.filter.windows): the analysis window starts {1e3 * WINDOW_TRIM_S:g} ms after contact and "
+          f"ends as long before the stop; the resistance fit leaves out {1e3 * FIT_EDGE_MARGINS_S[0]:g} ms after "
+          f"contact and {1e3 * FIT_EDGE_MARGINS_S[1]:g} ms before the stop")
+
+
+EDGE_BINS_MS = (0.0, 0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0)
+"""Distances from an edge of the window the error profile is read in. [ms]"""
+
+
+def _profile(distance_s: np.ndarray, error: np.ndarray) -> np.ndarray:
+    """(bins, 2): the mean and the mean square of ``error`` in each bin of :data:`EDGE_BINS_MS`."""
+    out = np.full((len(EDGE_BINS_MS) - 1, 2), np.nan)
+    for i, (lo, hi) in enumerate(zip(EDGE_BINS_MS[:-1], EDGE_BINS_MS[1:])):
+        inside = (distance_s >= lo * 1e-3) & (distance_s < hi * 1e-3)
+        if inside.any():
+            out[i] = np.mean(error[inside]), np.mean(error[inside] ** 2)
+    return out
 
 
 if __name__ == "__main__":

@@ -38,7 +38,8 @@ def fit(
     all_subsets: bool = typer.Option(False, "--all-subsets", help="Also fit every combination of the terms "
                                                                   "(BAM's table) with AIC, BIC and leave-one-run-out "
                                                                   "error."),
-    bootstrap: int = typer.Option(200, "--bootstrap", min=0, help="Refits on runs resampled with replacement."),
+    bootstrap: int = typer.Option(200, "--bootstrap", min=0, help="Refits on runs resampled with replacement, each "
+                                                                          "run's samples resampled in blocks."),
     out: Optional[Path] = typer.Option(None, "--out", help="Write a CONTRACT §1 material file (YAML) that pen "
                                                            "predict takes as is."),
     json_out: bool = typer.Option(False, "--json", help='Print {"material", "coefficients", "stderr", ...}.'),
@@ -46,8 +47,10 @@ def fit(
 ) -> None:
     """Fit Cs, P, C, K simultaneously over runs of any mix of blades, springs and masses.
 
-    Reports each coefficient with its standard error, 95 % interval and a
-    bootstrap interval over runs, their correlation, per-run RMS, NRMSE and
+    Resistance mode fits each run's analysis window less 2 ms after contact
+    and 3 ms before the stop, where the encoder's derivatives are least
+    reliable. Reports each coefficient with its standard error, 95 % interval
+    and a bootstrap interval over runs, their correlation, per-run RMS, NRMSE and
     R², and names any coefficient the runs do not determine with the run that
     would.
     Example: pen fit --material mpacs_c runs/mc-* --out mpacs_c_fit.yaml

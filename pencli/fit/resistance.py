@@ -10,8 +10,9 @@ is linear in its four coefficients:
 so a simultaneous fit over many runs is a bounded linear least-squares
 problem (all coefficients ≥ 0).  Each run counts equally, whatever its
 length.  Residuals of 30 kHz data are strongly correlated, so standard
-errors use the effective number of samples (lag-1 autocorrelation per run),
-and a bootstrap over whole runs gives a second, assumption-light interval.
+errors use the effective number of samples (autocorrelation per run), and a
+bootstrap over whole runs and, within each, blocks of samples gives a second,
+assumption-light interval.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from scipy.optimize import lsq_linear
 
 from pencli.errors import DataError, FitError
 from pencli.filter.inertia import effective_samples
+from pencli.filter.windows import FIT_EDGE_MARGINS_S, fit_edges
 from pencli.fit.result import COEFFICIENT_OF, COEFFICIENTS, TERM_OF, Coefficient, FitResult, RunFit
 from pencli.model.design import Design
 from pencli.model.resistance import TERMS, coefficient_of, parse_terms, unit_terms
@@ -81,9 +83,10 @@ RECORD_COLUMNS = ("time_s", "depth_m", "velocity_m_s", "resistance_n")
 """The inertia-stage columns a fit reads."""
 
 
-def windows(runs: Sequence[Run | _Window]) -> list[_Window]:
-    """Each run's analysis window (a window is passed on as it is); a run with fewer than
-    :data:`~pencli.run.MIN_WINDOW_SAMPLES` samples in it is refused with its id."""
+def windows(runs: Sequence[Run | _Window], margins_s: tuple[float, float] = (0.0, 0.0)) -> list[_Window]:
+    """Each run's analysis window (a window is passed on as it is), less ``margins_s`` after contact and before
+    the stop (:func:`pencli.filter.windows.fit_edges`); a run with fewer than
+    :data:`~pencli.run.MIN_WINDOW_SAMPLES` samples left is refused with its id."""
     out = []
     for run in runs:
         if isinstance(run, _Window):
@@ -92,6 +95,9 @@ def windows(runs: Sequence[Run | _Window]) -> list[_Window]:
         events = run.require_events()
         record = {name: run.column(name) for name in RECORD_COLUMNS}
         keep = run.window
+        if any(margins_s):
+            first, last = fit_edges(events.contact_s, events.stop_s, margins_s)
+            keep = keep & (record["time_s"] >= first) & (record["time_s"] <= last)
         if keep.sum() < MIN_WINDOW_SAMPLES:
             raise DataError(f"run '{run.name}': only {int(keep.sum())} samples in the analysis window")
         out.append(_Window(run.run_id, run.design, *(record[name][keep] for name in RECORD_COLUMNS),
@@ -140,9 +146,31 @@ def _problem(series: Sequence[_Window], varying: Sequence[str], fixed: Mapping[s
 
 
 def _fit_values(p: _Problem, mask: np.ndarray | None = None) -> np.ndarray:
+    """The fit's coefficients on the rows ``mask`` selects (a boolean mask or row indices, repeats allowed)."""
     rows = slice(None) if mask is None else mask
     w = p.weights[rows][:, None]
     return _solve(p.X[rows] * w, (p.y[rows] - p.fixed_part[rows]) * w[:, 0])
+
+
+BLOCK_CORRELATION_TIMES = 2.0
+"""The bootstrap resamples a run's samples in blocks this many of its residuals' correlation times long
+(n / n_eff, :func:`~pencli.filter.inertia.effective_samples`), so each block is nearly independent of the next. [–]"""
+
+
+def _resampled_rows(run_index: np.ndarray, blocks: Sequence[int], rng: np.random.Generator) -> np.ndarray:
+    """One bootstrap sample's rows: runs drawn with replacement, and in each drawn run its samples drawn again as
+    blocks of ``blocks[run]`` neighbouring samples (a moving-block bootstrap), as many as the run has.
+
+    Resampling whole runs alone cannot see a residual pattern every run shares (derivative errors at the
+    same place in every run); within runs, the blocks where the pattern sits are drawn more or less often, so a
+    coefficient that leans on them varies, and its interval widens."""
+    starts = np.concatenate([[0], np.cumsum(np.bincount(run_index, minlength=len(blocks)))])
+    rows = []
+    for r in rng.integers(0, len(blocks), len(blocks)):
+        n, length = int(starts[r + 1] - starts[r]), min(int(blocks[r]), int(starts[r + 1] - starts[r]))
+        first = rng.integers(0, n - length + 1, int(np.ceil(n / length)))
+        rows.append(starts[r] + (first[:, None] + np.arange(length)[None, :]).ravel()[:n])
+    return np.concatenate(rows)
 
 
 def ranges_of(series: Sequence[_Window]) -> dict:
@@ -167,17 +195,18 @@ def fit_resistance(runs: Sequence[Run], material: str, *, terms: Iterable[str] |
 
     Parameters
     ----------
-    runs : conditioned runs (inertia stage); each is fitted over its analysis window.
+    runs : conditioned runs (inertia stage); each is fitted over its analysis window less the edge margins
+        (:data:`~pencli.filter.windows.FIT_EDGE_MARGINS_S`), where the encoder's derivatives are least reliable.
     material : name recorded in the result.
     terms : Eq. 9 terms switched on (others are 0).
     fixed : coefficients held at a value (file units), e.g. ``{"damping_kpa_s_m": 0}``.
-    bootstrap : refits on runs resampled with replacement (0: none).
+    bootstrap : refits on runs resampled with replacement, each run's samples resampled in blocks (0: none).
     n_effective : sample count for AIC/BIC; models compared must share one (default: from these residuals).
     progress : called with (bootstrap refits done, bootstrap) as they finish.
     """
     if not runs:
         raise FitError("no runs to fit")
-    series = windows(runs)
+    series = windows(runs, FIT_EDGE_MARGINS_S)
     chosen = parse_terms(terms)
     fixed = dict(fixed or {})
     for name in fixed:
@@ -213,12 +242,12 @@ def fit_resistance(runs: Sequence[Run], material: str, *, terms: Iterable[str] |
 
     boot = None
     if bootstrap and len(series) >= 3:
+        blocks = [max(1, int(np.ceil(BLOCK_CORRELATION_TIMES * np.sum(p.run_index == i) / e)))
+                  for i, e in enumerate(per_run_eff)]
         rng = np.random.default_rng(seed)
         draws = []
         for k in range(bootstrap):
-            pick = rng.integers(0, len(series), len(series))
-            sub = _problem([series[i] for i in pick], varying, held)
-            draws.append(_fit_values(sub))
+            draws.append(_fit_values(p, _resampled_rows(p.run_index, blocks, rng)))
             if progress is not None and (k % 10 == 9 or k == bootstrap - 1):
                 progress(k + 1, bootstrap)
         boot = np.percentile(np.array(draws), [2.5, 97.5], axis=0)
@@ -296,7 +325,7 @@ def all_subsets(runs: Sequence[Run], material: str, *, terms: Iterable[str] | st
     term, so they compare models on the same data.
     """
     chosen = parse_terms(terms)
-    series = windows(runs)
+    series = windows(runs, FIT_EDGE_MARGINS_S)
     full = fit_resistance(series, material, terms=chosen, fixed=fixed, bootstrap=0, leave_one_out=False)
     out = []
     for k in range(1, len(chosen) + 1):
