@@ -73,6 +73,20 @@ def test_a_true_damping_is_recovered_within_its_interval(tmp_path):
     assert set(min(subsets, key=lambda s: s.bic).terms) == {"strength", "friction", "damping", "inertia"}
 
 
+@pytest.mark.parametrize("span_ms", [40.0, 10.0, 6.0, 1.0, 0.0])
+def test_the_fits_edge_margins_keep_at_least_half_of_a_short_run(span_ms):
+    from pencli.filter.windows import FIT_EDGE_MARGINS_S, FIT_KEEPS_AT_LEAST, fit_edges
+
+    contact, stop = 0.1, 0.1 + span_ms * 1e-3
+    first, last = fit_edges(contact, stop)
+    assert contact <= first <= last <= stop
+    assert last - first >= FIT_KEEPS_AT_LEAST * (stop - contact) - 1e-12
+    if span_ms * 1e-3 * (1 - FIT_KEEPS_AT_LEAST) >= sum(FIT_EDGE_MARGINS_S):  # a long run: the margins whole
+        assert (first - contact, stop - last) == pytest.approx(FIT_EDGE_MARGINS_S, abs=1e-12)
+    else:  # a short one: both shrunk alike
+        assert (first - contact) * FIT_EDGE_MARGINS_S[1] == pytest.approx((stop - last) * FIT_EDGE_MARGINS_S[0])
+
+
 def test_dynamic_fit_predicts_each_penetration_time_within_2_percent(campaign):
     material, db = campaign
     result = api.fit(db, material, ["all"], mode="dynamic", record=False, bootstrap=0).result

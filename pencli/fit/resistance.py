@@ -291,7 +291,8 @@ def fit_resistance(runs: Sequence[Run], material: str, *, terms: Iterable[str] |
     bic = n_ic * np.log(rss_norm) + n_params * np.log(n_ic)
     warnings = determinacy_warnings(coefficients, varying, corr, len(series))
     return FitResult(material, "resistance", chosen, coefficients, corr, varying, tuple(runs), len(p.y), n_eff,
-                     float(aic), float(bic), loro, ranges_of(series), tuple(warnings), True, "", held)
+                     float(aic), float(bic), loro, ranges_of(series), tuple(warnings), True, "", held,
+                     tuple(1e3 * m for m in FIT_EDGE_MARGINS_S))
 
 
 def determinacy_warnings(coefficients: Mapping[str, Coefficient], varying: Sequence[str], corr: np.ndarray,

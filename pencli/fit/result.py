@@ -83,6 +83,9 @@ class FitResult:
     success: bool = True
     message: str = ""
     fixed: dict = field(default_factory=dict)
+    edge_margins_ms: tuple[float, float] | None = None
+    """What a resistance fit left out of each run's analysis window after contact and before the stop (less in a
+    short run, :func:`pencli.filter.windows.fit_edges`); None for a dynamic fit. [ms]"""
 
     def values(self) -> dict[str, float]:
         return {name: c.value for name, c in self.coefficients.items()}
@@ -106,6 +109,7 @@ class FitResult:
             "bootstrap_ci95": {n: list(c.bootstrap_ci95) if c.bootstrap_ci95 else None
                                for n, c in self.coefficients.items()},
             "fixed": dict(self.fixed),
+            "edge_margins_ms": list(self.edge_margins_ms) if self.edge_margins_ms is not None else None,
             "correlation": corr,
             "runs": [r.to_dict() for r in self.runs],
             "n_samples": self.n_samples,

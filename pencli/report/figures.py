@@ -510,8 +510,13 @@ def campaign_fit(material: str, data: Mapping[str, np.ndarray]):
     bottom.axhline(0.0, color="0.4", lw=0.6)
     bottom.set_ylabel("measured − model [N]")
     bottom.set_xlabel("depth below the surface [mm]")
+    from pencli.filter.windows import FIT_EDGE_MARGINS_S, WINDOW_TRIM_S
+
+    trim, (after, before) = 1e3 * WINDOW_TRIM_S, (1e3 * m for m in FIT_EDGE_MARGINS_S)
     caption = (f"{material}: Eq. 9 fitted over {len(runs)} runs leaves {min(rms_all):.1f}–{max(rms_all):.1f} N RMS "
-               f"per run within the analysis window (contact + 0.5 ms to stop − 0.5 ms).")
+               f"per run within the analysis window (contact + {trim:g} ms to stop − {trim:g} ms; a resistance fit "
+               f"leaves out {after:g} ms after contact and {before:g} ms before the stop, where the encoder's "
+               f"derivatives are least reliable).")
     top.set_title(caption, fontsize=9, loc="left", wrap=True)
     return fig, caption
 
