@@ -18,6 +18,7 @@ from pencli.diagnose.effects import EFFECTS, views
 from pencli.errors import PenNotice
 from pencli.testing.campaigns import make_campaign
 from tests.conftest import invoke
+from tests.test_diagnosis_figure import drawn_as_said, fitted_force
 
 SIX = [("1", 2), ("1", 6), ("1.5", 4), ("2", 2), ("2", 6), ("1.5", 6)]
 BLOCKS = [5600, 6000, 6400, 7200, 8200, 5900]
@@ -81,6 +82,7 @@ def test_null_campaign_with_block_scatter_is_none(tmp_path):
     result = api.diagnose(campaign(tmp_path, [], 31), ["all"])
     assert result.verdict == "none"
     assert not any(e.significant for e in result.effects)
+    drawn_as_said(result)  # one row, nothing shaded
 
 
 def test_grill_brick_null_is_none(tmp_path):
@@ -98,6 +100,7 @@ def test_plateau_layer_is_found_as_a_strength_layer_where_it_is(tmp_path):
     assert layer.params["ratio"] < 0.9
     top = result.where[0]
     assert top["phase"] == "penetration" and top["depth_mm"][1] >= 40
+    drawn_as_said(result)  # the layer's found depth on both depth panels
     # the dynamic model with the layer predicts the run better than the baseline's, which absorbed part of it
     # (its force added to the baseline's coefficients, the layer was counted twice: 11.44 ms to full depth
     # against 11.76 ms for the baseline and 12.00 ms measured, on the campaign with unrecorded block scatter)
@@ -159,6 +162,7 @@ def test_effect_outside_the_catalogue_is_unexplained(tmp_path):
                           ["all"])
     assert result.verdict == "unexplained"
     assert result.where and result.where[0]["phase"] in ("penetration", "contact")
+    drawn_as_said(result)  # one row, shaded where the misfit lies
 
 
 def test_two_effects_are_both_found(tmp_path):
@@ -285,6 +289,14 @@ def test_a_family_no_other_test_shows_alone_is_named_and_closes_the_gap(tmp_path
     ok, shrink = judge(result, truth)
     assert ok, (result.verdict, [(e.name, e.z, e.shrink_pct) for e in result.effects[:3]])
     assert shrink >= 60, shrink
+    fig = drawn_as_said(result)
+    if label.startswith("force_drift"):  # a drift's gap lies at rest after the stop: drawn there, on the time axis
+        top = result.where[0]
+        assert top["phase"] == "rest" and top["depth_mm"] is None
+        penetrating = max(float(np.max(s["time_since_contact_s"])) for s in result.series) * 1e3
+        assert top["time_since_contact_ms"][0] > penetrating
+        rest = [line for line in fig.axes[1].get_lines() if line.get_linestyle() == "--"]
+        assert len(rest) == len(result.series)  # every run's rest drawn
 
 
 def test_a_null_behind_an_anti_alias_filter_is_none(tmp_path):
@@ -507,6 +519,12 @@ def test_a_delay_whose_late_rise_falls_outside_the_stand_off_tolerance_is_a_lag(
     late = result.baseline["late_force_rise_ms"]
     assert nuisances["standoff_mm"][2] > 2.9 and set(late) == {"r02-1mm-4s"}, late
     assert abs(late["r02-1mm-4s"] - (2.96 / 10.4 + effects[0]["tau_ms"])) < 0.1, late
+    # the figure: no found depth (a lag has none); what the lag takes out is largest at the force's step, in the
+    # first millisecond after contact
+    fig = drawn_as_said(result)
+    since_contact, force = fitted_force(fig, fig.axes[3])
+    seen = np.isfinite(force)
+    assert since_contact[seen][np.argmax(np.abs(force[seen]))] < 1.0
 
 
 @pytest.mark.campaign

@@ -99,3 +99,44 @@ def test_the_effects_fitted_force_and_found_depth_are_drawn_on_its_row():
     assert len(found) == 2  # the layer's found depth on both depth panels
     assert fig.axes[0].get_ylabel().startswith("held-out residual [N]") and "with strength_layer" in \
         fig.axes[2].get_ylabel()
+
+
+def drawn_as_said(diagnosis):
+    """Draw ``diagnosis`` and check that the figure follows it (for tests that made a real diagnosis): a row
+    after the effect only for a named verdict; spans only where the first located item above the noise lies, on
+    the axis it names, and only where residuals are drawn; a found depth only for an effect that has one; the
+    verdict and its shrink in the caption.  Returns the figure."""
+    fig = diagnosis_figure(diagnosis)
+    named = diagnosis.verdict not in ("none", "unexplained")
+    assert len(fig.axes) == (4 if named else 2)
+    located = next((w for w in diagnosis.where if w.get("above_noise")), None) if diagnosis.verdict != "none" else None
+    for col, key in ((0, "depth_mm"), (1, "time_since_contact_ms")):
+        expected = [] if not located or not located.get(key) else [tuple(located[key])]
+        for row, ax in enumerate(fig.axes[col::2]):
+            spans = [_extent(p) for p in _spans_of(ax)]
+            assert all(np.allclose(span, expected[0]) for span in spans) if expected else not spans, (key, spans)
+            if row == 0:  # the baseline's row draws where its gap lies
+                assert len(spans) == len(expected), (key, spans, expected)
+            drawn = np.concatenate([np.asarray(line.get_xdata(), dtype=float) for line in ax.get_lines()])
+            for lo, hi in spans:  # residuals are drawn where the span is
+                assert np.any((drawn >= lo) & (drawn <= hi)), (key, lo, hi)
+    depths = [e.params["depth_mm"] for e in diagnosis.effects
+              if e.name in diagnosis.verdict_effects and isinstance(e.params.get("depth_mm"), (int, float))]
+    found = [line for ax in fig.axes[0::2] for line in ax.get_lines()
+             if len(set(np.asarray(line.get_xdata(), dtype=float).tolist())) == 1 and line.get_linestyle() == ":"]
+    assert len(found) == (len(fig.axes) // 2) * len(depths)
+    title = fig._suptitle.get_text().replace("\n", " ")
+    if named:
+        first = next(e for e in diagnosis.effects if e.name == diagnosis.verdict_effects[0])
+        assert " + ".join(diagnosis.verdict_effects) in title and f"{first.shrink_pct:.0f} %" in title
+    return fig
+
+
+def _spans_of(ax) -> list:
+    return [p for p in ax.patches if isinstance(p, (Polygon, Rectangle))]
+
+
+def fitted_force(fig, row_axis) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y) of the effect's fitted force drawn on an axis of the effect's row."""
+    (line,) = [line for line in row_axis.get_lines() if line.get_label().startswith("the effect's fitted force")]
+    return np.asarray(line.get_xdata(), dtype=float), np.asarray(line.get_ydata(), dtype=float)

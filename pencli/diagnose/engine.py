@@ -486,7 +486,9 @@ class Diagnosis:
     """Share of the baseline's held-out misfit that organises along depth, speed, time since contact, acceleration."""
     series: tuple[dict, ...] = ()
     """Per run, for figures: time_s, depth_m, time_since_contact_s and the held-out residual [N] of the
-    baseline and of the verdict's first effect (not in the JSON)."""
+    baseline and of the verdict's first effect; where the run rests after its stop, that span's time since
+    contact and force less what holds the blade (``rest_time_since_contact_s``, ``rest_residual_n``; not in the
+    JSON)."""
     profiles: dict = field(default_factory=dict)
     """For figures, along ``depth_mm`` and ``time_since_contact_ms``: bin centres, samples per bin, the data's
     binned held-out residual under the baseline (``baseline_n``) and with the verdict's effect (``effect_n``),
@@ -522,6 +524,20 @@ def _residual_series(runs, uses, residuals):
     return out
 
 
+def _rest_residual(run: _RunView) -> tuple[np.ndarray, np.ndarray] | None:
+    """The run's ``rest`` phase (:data:`REST_PHASE_S` after the stop) as (mask of the record's samples, force
+    less what holds the blade there: the springs and the weight after an arrest, nothing after a hard stop [N]);
+    None with too few samples."""
+    rest = (run.time_s > run.stop_s + REST_PHASE_S[0]) & (run.time_s < run.stop_s + REST_PHASE_S[1])
+    if rest.sum() <= MIN_REST_SAMPLES:
+        return None
+    d = run.design
+    x_end = float(np.median(run.depth_m[rest]))
+    held = (d.drive_stiffness_n_m * max(d.stroke_m - x_end - d.surface_offset_m, 0.0)
+            + d.effective_mass_kg * d.gravity_m_s2) if run.end == "arrest" else 0.0
+    return rest, run.resistance_n[rest] - held
+
+
 def _where(series, floor_sq: float) -> list[dict]:
     """Split the baseline's held-out misfit by phase, with depth, time and speed bands."""
     phases: dict[str, dict[str, list]] = {}
@@ -534,18 +550,15 @@ def _where(series, floor_sq: float) -> list[dict]:
                 d = phases.setdefault(name, {"r": [], "t": [], "x": [], "v": [], "tc": []})
                 for key, values in (("r", res), ("t", t), ("x", x), ("v", v), ("tc", t - run.contact_s)):
                     d[key].append(values[sel])
-        rest = (run.time_s > run.stop_s + REST_PHASE_S[0]) & (run.time_s < run.stop_s + REST_PHASE_S[1])
-        if rest.sum() > MIN_REST_SAMPLES:
-            d_ = run.design
-            x_end = float(np.median(run.depth_m[rest]))
-            held = (d_.drive_stiffness_n_m * max(d_.stroke_m - x_end - d_.surface_offset_m, 0.0)
-                    + d_.effective_mass_kg * d_.gravity_m_s2) if run.end == "arrest" else 0.0
+        rest = _rest_residual(run)
+        if rest is not None:
+            mask, r = rest
             d = phases.setdefault("rest", {"r": [], "t": [], "x": [], "v": [], "tc": []})
-            d["r"].append(run.resistance_n[rest] - held)
-            d["t"].append(run.time_s[rest])
-            d["x"].append(run.depth_m[rest])
-            d["v"].append(np.zeros(int(rest.sum())))
-            d["tc"].append(run.time_s[rest] - run.contact_s)
+            d["r"].append(r)
+            d["t"].append(run.time_s[mask])
+            d["x"].append(run.depth_m[mask])
+            d["v"].append(np.zeros(int(mask.sum())))
+            d["tc"].append(run.time_s[mask] - run.contact_s)
     excess = {}
     for name, d in phases.items():
         r = np.concatenate(d["r"])
@@ -1230,6 +1243,16 @@ def _context_notes(runs: Sequence[_RunView], verdict: str, reports: Mapping[str,
     return notes
 
 
+def _rest_series(run: _RunView) -> dict:
+    """For the figure: the run's rest phase after the stop as ``rest_time_since_contact_s`` and
+    ``rest_residual_n`` (:func:`_rest_residual`), or nothing."""
+    rest = _rest_residual(run)
+    if rest is None:
+        return {}
+    mask, residual = rest
+    return {"rest_time_since_contact_s": run.time_s[mask] - run.contact_s, "rest_residual_n": residual}
+
+
 def _late_rises(runs: Sequence[_RunView]) -> dict[str, float]:
     """Per run whose force rises after the stand-off tolerance, how long after the position's contact. [ms]"""
     return {r.run_id: round((r.force_rise_s - r.contact_s) * MS_PER_S, 3) for r in runs if r.force_rise_s is not None}
@@ -1255,7 +1278,8 @@ def locate(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, d
     after = _verdict_residuals(scan.stats, scan.matrices, baseline.ys, scan.candidates, scan.tested,
                                list(decision.verdict_effects), baseline.spec)
     series = [{"run_id": run.run_id, "time_s": t, "depth_m": x, "time_since_contact_s": t - run.contact_s,
-               "baseline_residual_n": res, "effect_residual_n": after[i] if after is not None else None}
+               "baseline_residual_n": res, "effect_residual_n": after[i] if after is not None else None,
+               **_rest_series(run)}
               for i, (run, t, x, _, _, res) in enumerate(series_data)]
     noise_floor = math.sqrt(float(np.mean([r.noise_n ** 2 for r in runs])))
     profiles = _profiles(series_data, after, scan, baseline, calibration)

@@ -20,8 +20,9 @@ def plot_diagnosis(diagnosis, path: str | Path) -> Path:
 
 
 def diagnosis_figure(diagnosis):
-    """Held-out residuals of every run against depth and time since contact: the baseline's, and with the
-    verdict's effect; the span where the gap lies shaded only where the verdict places a gap.
+    """Held-out residuals of every run against depth and time since contact: the baseline's (and, dashed, the
+    force at rest after the stop less what holds the blade), and with the verdict's effect; the span where the
+    gap lies shaded only where the verdict places a gap, on the rows that draw residuals there.
 
     A ``none`` verdict draws the baseline's row alone and says there is no gap beyond the noise: nothing is
     drawn that the verdict denies.  ``unexplained`` draws the baseline's row with the span where the misfit
@@ -47,7 +48,10 @@ def diagnosis_figure(diagnosis):
                 continue
             inside = s["depth_m"] > 0
             axes[row, 0].plot(s["depth_m"][inside] * 1e3, residual[inside], lw=0.5, alpha=0.45, label=s["run_id"])
-            axes[row, 1].plot(s["time_since_contact_s"] * 1e3, residual, lw=0.5, alpha=0.45)
+            line, = axes[row, 1].plot(s["time_since_contact_s"] * 1e3, residual, lw=0.5, alpha=0.45)
+            if key == "baseline_residual_n" and s.get("rest_residual_n") is not None:  # at rest after the stop
+                axes[row, 1].plot(s["rest_time_since_contact_s"] * 1e3, s["rest_residual_n"], lw=0.5, alpha=0.45,
+                                  color=line.get_color(), ls="--")
         for col, axis in enumerate(("depth_mm", "time_since_contact_ms")):
             profile = (diagnosis.profiles or {}).get(axis)
             if not profile or profile_key[key] not in profile:
@@ -72,12 +76,14 @@ def diagnosis_figure(diagnosis):
                                  fontsize=7, color="tab:red")
     if diagnosis.verdict != "none":
         for item in [w for w in diagnosis.where if w.get("above_noise")][:1]:
-            if item.get("depth_mm"):
-                for ax in axes[:, 0]:
-                    ax.axvspan(*item["depth_mm"], color="orange", alpha=0.2, lw=0)
-            if item.get("time_since_contact_ms"):
-                for ax in axes[:, 1]:
-                    ax.axvspan(*item["time_since_contact_ms"], color="orange", alpha=0.2, lw=0)
+            for col, key in ((0, "depth_mm"), (1, "time_since_contact_ms")):
+                if not item.get(key):
+                    continue
+                lo, hi = item[key]
+                for ax in axes[:, col]:  # only where the row draws residuals: a span over nothing says nothing
+                    drawn = [np.asarray(line.get_xdata(), dtype=float) for line in ax.get_lines()]
+                    if any(np.any((x >= lo) & (x <= hi)) for x in drawn):
+                        ax.axvspan(lo, hi, color="orange", alpha=0.2, lw=0)
     axes[-1, 0].set_xlabel("depth below the surface [mm]")
     axes[-1, 1].set_xlabel("time since contact [ms]")
     axes[0, 0].legend(fontsize=6, ncol=2)
