@@ -101,6 +101,22 @@ def test_the_effects_fitted_force_and_found_depth_are_drawn_on_its_row():
         fig.axes[2].get_ylabel()
 
 
+def test_the_effects_fitted_force_is_drawn_with_the_runs_range():
+    centres = np.linspace(2.5, 117.5, 24)
+    before = np.where(centres > 40, 3.0, 0.2)
+    low, high = before - 0.1 - 0.5, before - 0.1 + 0.7
+    profile = {"centres": centres, "samples": np.full(24, 50), "baseline_n": before, "effect_n": np.full(24, 0.1),
+               "null_low_n": np.full(24, -1.0), "null_high_n": np.full(24, 1.0), "force_low_n": low,
+               "force_high_n": high}
+    diagnosis = _diagnosis("strength_layer", ("strength_layer",))
+    diagnosis = Diagnosis(**{**diagnosis.__dict__, "profiles": {"depth_mm": profile, "time_since_contact_ms": profile}})
+    fig = diagnosis_figure(diagnosis)
+    (band,) = [c for c in fig.axes[2].collections if c.get_label().startswith("its range over the held-out runs")]
+    ys = np.concatenate([path.vertices[:, 1] for path in band.get_paths()])
+    assert np.isclose(ys.min(), low.min()) and np.isclose(ys.max(), high.max())
+    assert not [c for c in fig.axes[0].collections if c.get_label().startswith("its range")]  # the effect's row only
+
+
 def drawn_as_said(diagnosis):
     """Draw ``diagnosis`` and check that the figure follows it (for tests that made a real diagnosis): a row
     after the effect only for a named verdict; spans only where the first located item above the noise lies, on
@@ -125,6 +141,13 @@ def drawn_as_said(diagnosis):
     found = [line for ax in fig.axes[0::2] for line in ax.get_lines()
              if len(set(np.asarray(line.get_xdata(), dtype=float).tolist())) == 1 and line.get_linestyle() == ":"]
     assert len(found) == (len(fig.axes) // 2) * len(depths)
+    for profile in (diagnosis.profiles or {}).values():  # the pooled fitted force lies within the runs' range
+        if named and "force_low_n" in profile:
+            force = np.asarray(profile["baseline_n"]) - np.asarray(profile["effect_n"])
+            both = np.isfinite(profile["force_low_n"]) & np.isfinite(force)
+            assert both.any()
+            assert np.all(profile["force_low_n"][both] - 1e-9 <= force[both])
+            assert np.all(force[both] <= profile["force_high_n"][both] + 1e-9)
     title = fig._suptitle.get_text().replace("\n", " ")
     if named:
         first = next(e for e in diagnosis.effects if e.name == diagnosis.verdict_effects[0])

@@ -492,8 +492,9 @@ class Diagnosis:
     profiles: dict = field(default_factory=dict)
     """For figures, along ``depth_mm`` and ``time_since_contact_ms``: bin centres, samples per bin, the data's
     binned held-out residual under the baseline (``baseline_n``) and with the verdict's effect (``effect_n``),
-    and the band 95 % of the null replicates' binned means fall in (``null_low_n``, ``null_high_n``) [N]
-    (not in the JSON)."""
+    the band 95 % of the null replicates' binned means fall in (``null_low_n``, ``null_high_n``), and the
+    lowest and highest run's binned fitted force of the effect, ``baseline_n − effect_n`` run by run
+    (``force_low_n``, ``force_high_n``) [N] (not in the JSON)."""
 
     def to_dict(self) -> dict:
         return {
@@ -1329,8 +1330,31 @@ def _profiles(series_data, after, scan: FamilyScan, baseline: Baseline, calibrat
             with np.errstate(invalid="ignore", divide="ignore"):
                 profile["effect_n"] = np.bincount(index[inside], weights=effect[inside],
                                                   minlength=PROFILE_BINS) / counts
+            profile["force_low_n"], profile["force_high_n"] = _runs_range(
+                index, residuals[:, 0] - effect, np.concatenate([np.full(v.size, k) for k, v in enumerate(values)]))
         out[axis] = profile
     return out
+
+
+def _runs_range(index: np.ndarray, force: np.ndarray, run: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per bin of ``index`` (−1: outside every bin), the lowest and the highest of the runs' own binned means of
+    ``force`` (each held-out run predicted by the fold fitted without it, so the spread holds the folds'
+    disagreement as well as the runs' own); NaN where fewer than two runs have samples. [N]"""
+    low, high = np.full(PROFILE_BINS, np.nan), np.full(PROFILE_BINS, np.nan)
+    inside = index >= 0
+    per_run = []
+    for k in np.unique(run):
+        mine = inside & (run == k)
+        counts = np.bincount(index[mine], minlength=PROFILE_BINS)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            per_run.append(np.bincount(index[mine], weights=force[mine], minlength=PROFILE_BINS) / counts)
+    if not per_run:
+        return low, high
+    means = np.stack(per_run)  # (runs, bins), NaN where a run has no sample
+    two = np.sum(np.isfinite(means), axis=0) >= 2
+    if two.any():
+        low[two], high[two] = np.nanmin(means[:, two], axis=0), np.nanmax(means[:, two], axis=0)
+    return low, high
 
 
 def _with_trajectory(report: EffectReport, baseline: Baseline, scan: FamilyScan, decision: Decision) -> EffectReport:

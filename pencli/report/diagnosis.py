@@ -21,8 +21,9 @@ def plot_diagnosis(diagnosis, path: str | Path) -> Path:
 
 def diagnosis_figure(diagnosis):
     """Held-out residuals of every run against depth and time since contact: the baseline's (and, dashed, the
-    force at rest after the stop less what holds the blade), and with the verdict's effect; the span where the
-    gap lies shaded only where the verdict places a gap, on the rows that draw residuals there.
+    force at rest after the stop less what holds the blade, when the gap lies there), and with the verdict's
+    effect; the span where the gap lies shaded only where the verdict places a gap, on the rows that draw
+    residuals there.
 
     A ``none`` verdict draws the baseline's row alone and says there is no gap beyond the noise: nothing is
     drawn that the verdict denies.  ``unexplained`` draws the baseline's row with the span where the misfit
@@ -41,6 +42,8 @@ def diagnosis_figure(diagnosis):
     fig, axes = plt.subplots(len(rows), 2, figsize=(11, 3.6 * len(rows) + 0.4), sharey="row",
                              constrained_layout=True, squeeze=False)
     profile_key = {"baseline_residual_n": "baseline_n", "effect_residual_n": "effect_n"}
+    located = next((w for w in diagnosis.where if w.get("above_noise")), None) if diagnosis.verdict != "none" else None
+    at_rest = located is not None and located.get("phase") == "rest"  # the gap lies after the stop: draw the rest
     for row, (key, label) in enumerate(rows):
         for s in diagnosis.series:
             residual = s[key]
@@ -49,7 +52,7 @@ def diagnosis_figure(diagnosis):
             inside = s["depth_m"] > 0
             axes[row, 0].plot(s["depth_m"][inside] * 1e3, residual[inside], lw=0.5, alpha=0.45, label=s["run_id"])
             line, = axes[row, 1].plot(s["time_since_contact_s"] * 1e3, residual, lw=0.5, alpha=0.45)
-            if key == "baseline_residual_n" and s.get("rest_residual_n") is not None:  # at rest after the stop
+            if at_rest and key == "baseline_residual_n" and s.get("rest_residual_n") is not None:
                 axes[row, 1].plot(s["rest_time_since_contact_s"] * 1e3, s["rest_residual_n"], lw=0.5, alpha=0.45,
                                   color=line.get_color(), ls="--")
         for col, axis in enumerate(("depth_mm", "time_since_contact_ms")):
@@ -64,6 +67,10 @@ def diagnosis_figure(diagnosis):
             if key == "effect_residual_n":  # what the effect takes out: its fitted force along the axis
                 ax.plot(profile["centres"], np.asarray(profile["baseline_n"]) - np.asarray(profile["effect_n"]),
                         color="tab:red", lw=1.4, ls="--", label="the effect's fitted force (before − after)")
+                if "force_low_n" in profile:
+                    ax.fill_between(profile["centres"], profile["force_low_n"], profile["force_high_n"],
+                                    color="tab:red", alpha=0.15, lw=0,
+                                    label="its range over the held-out runs (lowest to highest run)")
                 ax.legend(fontsize=6, loc="upper right")
         axes[row, 0].set_ylabel(f"held-out residual [N]\n{label}")
     for effect in diagnosis.effects:
@@ -74,16 +81,15 @@ def diagnosis_figure(diagnosis):
             axes[-1, 0].annotate(f"{effect.name} at {float(depth):.0f} mm", (float(depth), 0.0),
                                  xycoords=("data", "axes fraction"), xytext=(3, 4), textcoords="offset points",
                                  fontsize=7, color="tab:red")
-    if diagnosis.verdict != "none":
-        for item in [w for w in diagnosis.where if w.get("above_noise")][:1]:
-            for col, key in ((0, "depth_mm"), (1, "time_since_contact_ms")):
-                if not item.get(key):
-                    continue
-                lo, hi = item[key]
-                for ax in axes[:, col]:  # only where the row draws residuals: a span over nothing says nothing
-                    drawn = [np.asarray(line.get_xdata(), dtype=float) for line in ax.get_lines()]
-                    if any(np.any((x >= lo) & (x <= hi)) for x in drawn):
-                        ax.axvspan(lo, hi, color="orange", alpha=0.2, lw=0)
+    if located is not None:
+        for col, key in ((0, "depth_mm"), (1, "time_since_contact_ms")):
+            if not located.get(key):
+                continue
+            lo, hi = located[key]
+            for ax in axes[:, col]:  # only where the row draws residuals: a span over nothing says nothing
+                drawn = [np.asarray(line.get_xdata(), dtype=float) for line in ax.get_lines()]
+                if any(np.any((x >= lo) & (x <= hi)) for x in drawn):
+                    ax.axvspan(lo, hi, color="orange", alpha=0.2, lw=0)
     axes[-1, 0].set_xlabel("depth below the surface [mm]")
     axes[-1, 1].set_xlabel("time since contact [ms]")
     axes[0, 0].legend(fontsize=6, ncol=2)
