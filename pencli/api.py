@@ -22,7 +22,7 @@ from pencli.model.design import Design, design_from_sets
 
 if TYPE_CHECKING:
     from pencli.model.dynamics import SimulationResult
-from pencli.params.definitions import Kind
+from pencli.params.definitions import COVARIANCE_KEY, Kind
 from pencli.params.load import all_presets, load_file, load_preset, preset_names, resolve
 from pencli.params.overrides import parse_overrides
 from pencli.params.validate import ParameterSet
@@ -46,6 +46,23 @@ class Prediction:
     result: SimulationResult
     warnings: tuple[str, ...] = ()
     """Where the design leaves what the material's fit saw (``fitted_ranges``)."""
+    terms: tuple[str, ...] | str | None = None
+    """The Eq. 9 terms switched on (None: all)."""
+    speed_at_contact_m_s: float | None = None
+    """The contact speed asked for instead of the launcher's (None: the launcher's). [m/s]"""
+
+    def band(self, draws: int | None = None):
+        """The prediction band over the material's fitted covariance
+        (:func:`pencli.predict.band.prediction_band`), or None when the material file carries none."""
+        from pencli.predict.band import BAND_DRAWS, prediction_band
+
+        covariance = self.material.coefficient_covariance
+        if not covariance:
+            return None
+        mean = {key.split(".", 1)[1]: value for key, value in self.material.values.items()
+                if key.startswith("coefficients.")}
+        return prediction_band(self.design, mean, covariance, self.result, terms=self.terms,
+                               speed_at_contact_m_s=self.speed_at_contact_m_s, draws=draws or BAND_DRAWS)
 
     def to_dict(self) -> dict:
         """CONTRACT §5 record plus where the parameters came from."""
@@ -93,7 +110,8 @@ def predict(penetrator: str | Path, material: str | Path, energizing: str | Path
                                   allow_out_of_range=allow_out_of_range)
     design = design_from_sets(p, m, e)
     result = simulate(design, terms, speed_at_contact_m_s=speed_at_contact_m_s, output_rate_hz=output_rate_hz)
-    return Prediction(p, m, e, design, result, outside_fitted_ranges(p, m, result))
+    return Prediction(p, m, e, design, result, outside_fitted_ranges(p, m, result),
+                      tuple(terms) if terms is not None and not isinstance(terms, str) else terms, speed_at_contact_m_s)
 
 
 def outside_fitted_ranges(penetrator: ParameterSet, material: ParameterSet, result: SimulationResult) -> tuple[str, ...]:
@@ -137,7 +155,8 @@ def plot_prediction(prediction: Prediction, path: str | Path) -> str:
     from pencli.report.figures import prediction as prediction_figure
 
     title = f"{prediction.penetrator.name} · {prediction.material.name} · {prediction.energizing.name}"
-    fig, caption = prediction_figure(title, prediction.result.trajectory, prediction.result.summary)
+    fig, caption = prediction_figure(title, prediction.result.trajectory, prediction.result.summary,
+                                     prediction.band())
     fig.suptitle(caption, fontsize=9, wrap=True)
     path = Path(path)
     try:
@@ -675,7 +694,25 @@ def material_file_from_fit(name: str, runs: Sequence, result) -> dict:
         **{k: float(v) for k, v in props.items()},
         "coefficients": {k: float(v) for k, v in result.values().items()},
         "fitted_ranges": {k: [float(a), float(b)] for k, (a, b) in result.ranges.items()},
+        **({COVARIANCE_KEY: covariance} if (covariance := fitted_covariance(result)) else {}),
     }
+
+
+def fitted_covariance(result) -> dict[str, dict[str, float]]:
+    """The covariance of a fit's varying coefficients (file units) from their standard errors and correlation;
+    empty when a standard error is not finite."""
+    import math
+
+    stderr = [result.coefficients[name].stderr for name in result.varying]
+    if not stderr or not all(s is not None and math.isfinite(s) for s in stderr):
+        return {}
+    out = {}
+    for i, a in enumerate(result.varying):
+        out[a] = {}
+        for j, b in enumerate(result.varying):
+            rho = 1.0 if i == j else float(result.correlation[i, j])
+            out[a][b] = float(stderr[i] * stderr[j] * (rho if math.isfinite(rho) else 0.0))
+    return out
 
 
 def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resistance",

@@ -8,6 +8,7 @@ import re
 import shutil
 
 import numpy as np
+import yaml
 import pytest
 
 from pencli import api
@@ -190,6 +191,60 @@ def test_predict_draws_a_run_whose_energy_bars_balance(tmp_path, runner):
     bad = invoke(runner, "predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--plot",
                  tmp_path / "run.jpg")
     assert bad.exit_code == 2 and "--plot" in bad.output and not (tmp_path / "run.jpg").exists()
+
+
+def test_a_prediction_band_follows_the_fitted_covariance(tmp_path):
+    """With the covariance of one coefficient, the band of the penetration time lies between the runs simulated
+    (independently of the band) at that coefficient 1.56σ and 2.36σ either side: the time is monotonic in the
+    strength, and the 2.5 and 97.5 % points of 400 draws scatter by 0.135σ about ±1.96σ (±0.4σ is three of
+    that).  With no covariance the band is the prediction itself; the figure shades it and its caption states it."""
+    from dataclasses import replace
+
+    from pencli.model.dynamics import simulate
+    from pencli.predict.band import prediction_band
+
+    central = api.predict("al6061_1mm", "mpacs_c", "springs_2")
+    mean = {k.split(".", 1)[1]: v for k, v in central.material.values.items() if k.startswith("coefficients.")}
+    sigma = 0.02 * mean["strength_factor"]
+    band = prediction_band(central.design, mean, {"strength_factor": {"strength_factor": sigma ** 2}},
+                           central.result, draws=400)
+
+    def time_at(k):
+        factor = (mean["strength_factor"] + k * sigma) / mean["strength_factor"]
+        design = replace(central.design, strength_factor=central.design.strength_factor * factor)
+        return simulate(design).summary.penetration_time_s
+
+    lo, hi = band.figures["penetration_time_s"]
+    inner, outer = sorted((time_at(-1.56), time_at(1.56))), sorted((time_at(-2.36), time_at(2.36)))
+    assert outer[0] < lo < inner[0] < inner[1] < hi < outer[1], (outer, inner, lo, hi)
+    assert np.all(band.depth_low_m <= central.result.trajectory.depth_m + 1e-6)  # the integrator's tolerance
+    assert np.all(central.result.trajectory.depth_m <= band.depth_high_m + 1e-6)
+    still = prediction_band(central.design, mean, {"strength_factor": {"strength_factor": 0.0}}, central.result,
+                            draws=5)
+    assert still.figures["penetration_time_s"][1] - still.figures["penetration_time_s"][0] < 1e-12
+    fig, caption = figures.prediction("x", central.result.trajectory, central.result.summary, band)
+    try:
+        assert f"takes {lo * 1e3:.2f}–{hi * 1e3:.2f} ms" in caption and "95 % of 400 draws" in caption
+        shaded = [c for ax in fig.axes for c in ax.collections if "drawn from the fit's covariance" in c.get_label()]
+        assert len(shaded) == 2  # depth against time, resistance against depth
+    finally:
+        close(fig)
+
+
+def test_a_fit_writes_its_covariance_and_predict_plots_its_band(tmp_path, runner):
+    from tests.conftest import invoke
+
+    example = tmp_path / "ws"
+    shutil.copytree(REPO / "examples" / "workspace", example)
+    db = example / "runs.duckdb"
+    outcome = api.fit(db, "mpacs_c", ["mc-*"], out=tmp_path / "fit.yaml", record=False, bootstrap=0)
+    written = yaml.safe_load((tmp_path / "fit.yaml").read_text())["coefficient_covariance"]
+    for name, c in outcome.result.coefficients.items():
+        assert written[name][name] == pytest.approx(c.stderr ** 2, rel=1e-9)
+    r = invoke(runner, "predict", "-p", "al6061_1mm", "-m", tmp_path / "fit.yaml", "-e", "springs_4", "--plot",
+               tmp_path / "run.svg")
+    assert r.exit_code == 0, r.output
+    assert "over the fit's uncertainty (95 % of 100 draws)" in r.stderr
 
 
 def test_a_map_of_three_variables_holds_the_third_at_a_stated_value_and_a_list_is_drawn_as_categories():

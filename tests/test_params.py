@@ -11,6 +11,8 @@ import yaml
 from pencli.params.definitions import KINDS, PARAMETERS, params_of
 from pencli.params.load import all_presets, load_file
 from pencli.params.schema import json_schema
+from pencli.errors import ParameterError
+from pencli.params.validate import validate_mapping
 from tests.conftest import REPO, SPEC, invoke
 
 GOOD = {
@@ -262,3 +264,40 @@ def test_full_depth_prediction_is_not_called_outside_a_fit_that_saw_full_depth(t
     mapping["fitted_ranges"] = {"depth_mm": [0.0, 60.0]}
     path.write_text(yaml.safe_dump(mapping))
     assert any("depth" in w for w in api.predict("appendix_c", str(path), "appendix_c").warnings)
+
+
+COVARIANCE = {"strength_factor": {"strength_factor": 4e-4, "inertia_coefficient": -1e-3},
+              "inertia_coefficient": {"strength_factor": -1e-3, "inertia_coefficient": 0.25}}
+
+
+@pytest.mark.parametrize("covariance, said", [
+    ({"strength_factr": {"strength_factr": 1.0}}, "coefficient_covariance.strength_factr': unknown coefficient"),
+    ({"strength_factor": {"strength_factor": -1.0}}, "a variance is ≥ 0"),
+    ({**COVARIANCE, "strength_factor": {"strength_factor": 4e-4, "inertia_coefficient": 1e-3}}, "symmetric"),
+    ({**COVARIANCE, "inertia_coefficient": {"inertia_coefficient": 0.25}}, "expected a value for each of"),
+    ({"strength_factor": {"strength_factor": "big"}}, "expected a finite number"),
+    ([1, 2], "expected a mapping"),
+])
+def test_a_bad_coefficient_covariance_is_one_line_naming_the_key(covariance, said):
+    mapping = load_file(REPO / "pencli" / "params" / "presets" / "material" / "mpacs_c.yaml").to_mapping()
+    mapping["coefficient_covariance"] = covariance
+    with pytest.raises(ParameterError, match="coefficient_covariance") as caught:
+        validate_mapping(mapping, "fitted.yaml")
+    assert said in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_a_coefficient_covariance_survives_a_round_trip_and_the_schema(tmp_path):
+    import jsonschema
+
+    from pencli.params.schema import json_schema
+
+    mapping = load_file(REPO / "pencli" / "params" / "presets" / "material" / "mpacs_c.yaml").to_mapping()
+    mapping["coefficient_covariance"] = COVARIANCE
+    checked = validate_mapping(mapping, "fitted.yaml")
+    assert checked.coefficient_covariance == COVARIANCE
+    again = validate_mapping(yaml.safe_load(yaml.safe_dump(checked.to_mapping())), "again.yaml")
+    assert again.coefficient_covariance == COVARIANCE
+    jsonschema.validate(checked.to_mapping(), json_schema("material"))
+    mapping["coefficient_covariance"] = {"strength_factr": {"strength_factr": 1.0}}
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(mapping, json_schema("material"))

@@ -208,6 +208,11 @@ RANGE_KEYS: dict[str, str] = {
 }
 """``fitted_ranges:`` of a material file written by ``pen fit``: [min, max] of what the fit saw."""
 
+COVARIANCE_KEY = "coefficient_covariance"
+"""The key of a material file written by ``pen fit`` that holds the fitted coefficients' covariance: a mapping of
+coefficient → coefficient → value in the product of their file units (the ``coefficients:`` names; the
+coefficients the fit held are absent).  ``pen predict --plot`` draws a prediction band from it."""
+
 
 def params_of(kind: Kind) -> tuple[Param, ...]:
     """The parameters of one kind, in definition order."""

@@ -14,6 +14,7 @@ from typing import Any, Mapping
 
 from pencli.errors import ParameterError
 from pencli.params.definitions import (
+    COVARIANCE_KEY,
     EITHER_OR,
     BY_KEY,
     KINDS,
@@ -52,6 +53,8 @@ class ParameterSet:
     overrides: Mapping[str, float] = field(default_factory=dict)
     fitted_ranges: Mapping[str, tuple[float, float]] | None = None
     """Material files from ``pen fit``: what the fit saw, for ``predict`` to warn outside it."""
+    coefficient_covariance: Mapping[str, Mapping[str, float]] | None = None
+    """Material files from ``pen fit``: the fitted coefficients' covariance (file units), for ``predict``'s band."""
 
     def get(self, key: str, default: float | None = None) -> float | None:
         """Value of ``key`` in file units, or ``default`` when absent."""
@@ -74,6 +77,8 @@ class ParameterSet:
                 out[param.key] = value
         if self.fitted_ranges:
             out["fitted_ranges"] = {k: list(v) for k, v in self.fitted_ranges.items()}
+        if self.coefficient_covariance:
+            out[COVARIANCE_KEY] = {k: dict(row) for k, row in self.coefficient_covariance.items()}
         return out
 
     def with_values(self, updates: Mapping[str, float], *, allow_out_of_range: bool = False,
@@ -160,12 +165,15 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
     if not isinstance(notes, str):
         raise ParameterError(f"{source}: key 'notes': got {notes!r}; expected a string")
 
-    fitted_ranges = None
+    fitted_ranges = covariance = None
     if "fitted_ranges" in data and kind == "material":
         fitted_ranges = _fitted_ranges(data["fitted_ranges"], source)
+    if COVARIANCE_KEY in data and kind == "material":
+        covariance = _covariance(data[COVARIANCE_KEY], source)
     flat: dict[str, Any] = {}
     for key, value in data.items():
-        if key in ("kind", "name") or key in OPTIONAL_TOP_KEYS or (key == "fitted_ranges" and kind == "material"):
+        if key in ("kind", "name") or key in OPTIONAL_TOP_KEYS or (
+                key in ("fitted_ranges", COVARIANCE_KEY) and kind == "material"):
             continue
         if key == "coefficients" and kind == "material":
             if value is None:
@@ -219,7 +227,43 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
             first = rule.keys[0]
             shown = ", ".join(f"{k}={values[k]:g}" for k in rule.keys)
             raise ParameterError(f"{source}: key '{first}': got {shown}; {first} {rule.message}")
-    return ParameterSet(kind=kind, name=name, values=values, source=source, notes=notes, fitted_ranges=fitted_ranges)
+    return ParameterSet(kind=kind, name=name, values=values, source=source, notes=notes, fitted_ranges=fitted_ranges,
+                        coefficient_covariance=covariance)
+
+
+def _covariance(value: Any, source: str) -> dict[str, dict[str, float]]:
+    """``coefficient_covariance:`` checked: coefficient names, every pair given, finite numbers, symmetric,
+    variances ≥ 0."""
+    names = [p.key.split(".", 1)[1] for p in params_of("material") if p.key.startswith("coefficients.")]
+
+    def where(*parts: str) -> str:
+        return f"{source}: key '{'.'.join((COVARIANCE_KEY, *parts))}'"
+
+    if not isinstance(value, Mapping) or not value:
+        raise ParameterError(f"{where()}: expected a mapping of coefficient → coefficient → covariance")
+    keys = [str(k) for k in value]
+    for key in keys:
+        if key not in names:
+            raise ParameterError(f"{where(key)}: unknown coefficient; coefficients: {', '.join(names)}")
+    out: dict[str, dict[str, float]] = {}
+    for a in keys:
+        row = value[a]
+        if not isinstance(row, Mapping) or sorted(str(k) for k in row) != sorted(keys):
+            raise ParameterError(f"{where(a)}: expected a value for each of {', '.join(keys)}")
+        out[a] = {}
+        for b in keys:
+            v = row[b]
+            if not _is_number(v) or not math.isfinite(v):
+                raise ParameterError(f"{where(a, b)}: got {v!r}; expected a finite number")
+            out[a][b] = float(v)
+    for i, a in enumerate(keys):
+        if out[a][a] < 0:
+            raise ParameterError(f"{where(a, a)}: got {out[a][a]!r}; a variance is ≥ 0")
+        for b in keys[i + 1:]:
+            if not math.isclose(out[a][b], out[b][a], rel_tol=1e-9, abs_tol=1e-300):
+                raise ParameterError(f"{where(a, b)}: got {out[a][b]!r} but {b}.{a} is {out[b][a]!r}; a "
+                                     f"covariance is symmetric")
+    return out
 
 
 def _fitted_ranges(value: Any, source: str) -> dict[str, tuple[float, float]]:

@@ -521,12 +521,14 @@ def campaign_fit(material: str, data: Mapping[str, np.ndarray]):
     return fig, caption
 
 
-def prediction(title: str, trajectory, summary):
+def prediction(title: str, trajectory, summary, band=None):
     """A predicted run (``pen predict --plot``): depth and speed against time, the force of each Eq. 9 term against
-    depth (stacked), and where the energy goes.
+    depth (stacked), and where the energy goes; with ``band`` (:class:`~pencli.predict.band.Band`, from a fitted
+    material's covariance), the spread of depth, speed and resistance over the fit's uncertainty.
 
     ``trajectory`` and ``summary`` are a :class:`~pencli.model.dynamics.SimulationResult`'s.  Returns the figure
-    and its caption (how the run ends, and the largest term's share of the energy)."""
+    and its caption (how the run ends, the largest term's share of the energy, and the band's interval of the
+    penetration time)."""
     plt = _plt()
     fig, (motion, force, energy) = plt.subplots(1, 3, figsize=(14, 4.2), constrained_layout=True,
                                                 gridspec_kw={"width_ratios": [1.1, 1.1, 1]})
@@ -542,9 +544,18 @@ def prediction(title: str, trajectory, summary):
     terms = ("strength", "friction", "damping", "inertia")
     force.stackplot(depth, *(getattr(trajectory, f"{n}_n")[inside] for n in terms),
                     colors=[TERM_COLOURS[n] for n in terms], labels=terms, alpha=0.85)
+    if band is not None:
+        share = f"{100 * band.level:.0f} % of {band.draws} runs drawn from the fit's covariance"
+        motion.fill_between(band.time_s * 1e3, band.depth_low_m * 1e3, band.depth_high_m * 1e3, color=DYNAMIC,
+                            alpha=0.25, lw=0, label=share)
+        speed.fill_between(band.time_s * 1e3, band.velocity_low_m_s, band.velocity_high_m_s, color="0.35",
+                           alpha=0.2, lw=0)
+        motion.legend(fontsize=7, loc="lower right")
+        force.fill_between(band.depth_m * 1e3, band.resistance_low_n, band.resistance_high_n, facecolor="none",
+                           edgecolor="k", hatch="////", lw=0.6, label=f"total, {share}")
     force.set_xlabel(label("depth_m"))
     force.set_ylabel("resistance by term [N]")
-    force.legend(fontsize=7, loc="upper left")
+    force.legend(fontsize=7, loc="lower right")
     spent = {n: getattr(summary, f"energy_{n}_j") for n in terms}
     spent["left as kinetic"] = summary.residual_ke_j
     supplied = {"springs": summary.spring_energy_j, "gravity": summary.gravity_work_j}
@@ -560,5 +571,10 @@ def prediction(title: str, trajectory, summary):
            f"{summary.residual_ke_j:.1f} J left" if summary.full_penetration else
            f"stops {summary.final_depth_mm:.1f} mm deep after {summary.penetration_time_s * 1e3:.2f} ms")
     share = f"; {largest} takes {100 * spent[largest] / total:.0f} % of the {total:.1f} J supplied" if total > 0 else ""
-    caption = f"{title}: contact at {summary.contact_speed_m_s:.2f} m/s; the blade {how}{share}."
+    spread = ""
+    if band is not None:
+        lo, hi = band.figures["penetration_time_s"]
+        spread = (f"; over the fit's uncertainty ({100 * band.level:.0f} % of {band.draws} draws) the penetration "
+                  f"takes {lo * 1e3:.2f}–{hi * 1e3:.2f} ms")
+    caption = f"{title}: contact at {summary.contact_speed_m_s:.2f} m/s; the blade {how}{share}{spread}."
     return fig, caption
