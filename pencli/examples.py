@@ -98,6 +98,7 @@ def build_figures(db: Path, out: Path, material: str = "mpacs_c") -> list[Path]:
 
     from pencli.io.atomic import write_atomic
     from pencli.report.figures import campaign_fit, sweep_map
+    from pencli.report.sections import sweep_boundary
 
     ws = api.workspace(db)
     version = ws.material_versions(material)[-1]
@@ -108,7 +109,9 @@ def build_figures(db: Path, out: Path, material: str = "mpacs_c") -> list[Path]:
     keys = list(json.loads(sweep["variables"]))
     swept = ws.read_table(sweep["path"], "sweep table")
     grid = {name: swept.column(name).to_numpy(zero_copy_only=False) for name in swept.column_names}
-    depth, caption = sweep_map(grid, keys[0], keys[1], "final_depth_mm", keys[2:])
+    base = json.loads(swept.schema.metadata[b"pen:base"])
+    depth, caption = sweep_map(grid, keys[0], keys[1], "final_depth_mm", keys[2:],
+                               sweep_boundary(grid, base, keys[0], keys[1], keys[2:]))
     depth.suptitle(caption, fontsize=8, wrap=True)
     written = []
     for fig, name in ((fit, "fit-mpacs-c.png"), (depth, "sweep-final-depth.png")):

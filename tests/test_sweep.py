@@ -319,3 +319,50 @@ def test_cached_kernels_are_dropped_when_any_kernel_source_changes(tmp_path):
     (tmp_path / "model" / "kernel.py").write_text("x = 2\n")  # a callee changes in another folder
     assert drop_stale_kernels(folders, stamp)
     assert {p.name for f in folders for p in (f / "__pycache__").iterdir()} == {"kernels.sha256"}
+
+
+def test_the_full_penetration_boundary_is_found_where_the_scalar_simulator_flips(tmp_path):
+    """Each crossing the batch simulator's bisection places on a grid line has, a ten-thousandth of a grid step
+    either side of it along that line, one design that reaches full depth and one that does not, by the scalar
+    simulator (an independent integration); the report's map draws exactly those points."""
+    import json
+
+    import pyarrow.parquet as pq
+
+    from pencli.predict.sweep import boundary_roots
+    from pencli.report import figures
+    from pencli.report.sections import sweep_boundary
+
+    x, y = "blade_thickness_mm", "spring_stiffness_kn_m"
+    out = tmp_path / "grid.parquet"
+    api.sweep("appendix_c", "grill_brick", "appendix_c", vary=[f"{x}=0.8:2.5", f"{y}=6:14"], resolution=7, out=out)
+    arrow = pq.read_table(out)
+    table = {name: arrow.column(name).to_numpy(zero_copy_only=False) for name in arrow.column_names}
+    base = json.loads(arrow.schema.metadata[b"pen:base"])
+    points = sweep_boundary(table, base, x, y, [])
+    assert points is not None and len(points) >= 4
+    xs, ys = np.unique(table[x]), np.unique(table[y])
+    step = {x: xs[1] - xs[0], y: ys[1] - ys[0]}
+
+    def reaches(values):
+        prediction = api.predict("appendix_c", "grill_brick", "appendix_c",
+                                 overrides=[f"{k}={float(v)!r}" for k, v in values.items()])
+        return prediction.result.summary.full_penetration
+
+    for px, py in points:
+        along = x if np.any(np.isclose(ys, py, rtol=0, atol=1e-9)) else y  # on a row it moved along x
+        at = {x: px, y: py}
+        below, above = dict(at), dict(at)
+        below[along] -= 1e-4 * step[along]
+        above[along] += 1e-4 * step[along]
+        assert reaches(below) != reaches(above), (px, py, along)
+    fig, caption = figures.sweep_map(table, x, y, "final_depth_mm", (), points)
+    try:
+        (dots,) = [line for line in fig.axes[0].get_lines() if line.get_label() == "full-penetration boundary"]
+        assert np.allclose(np.column_stack([dots.get_xdata(), dots.get_ydata()]), points)
+        assert f"{len(points)} crossings found on the simulator" in caption
+    finally:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    assert boundary_roots(base, x, y, xs, ys, np.ones((ys.size, xs.size), dtype=bool)).shape == (0, 2)

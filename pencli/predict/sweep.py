@@ -306,3 +306,40 @@ def solve_boundary(evaluate: Callable[[np.ndarray], np.ndarray], lo: float, hi: 
                 return float(values[0]), 0.0
             lo, hi = values[i - 1], values[i]
     return float(lo if want == "max" else hi), float(hi - lo)
+
+
+BOUNDARY_HALVINGS = 24
+"""Halvings of a grid step each full-penetration crossing is bisected by: it is placed to 2⁻²⁴ (6e-8) of the
+step. [–]"""
+
+
+def boundary_roots(base: Mapping[str, float], x: str, y: str, xs: np.ndarray, ys: np.ndarray, full: np.ndarray,
+                   held: Mapping[str, float] | None = None, halvings: int = BOUNDARY_HALVINGS) -> np.ndarray:
+    """Where the full-penetration boundary crosses each line of a grid, as (k, 2) points (x, y) in file units.
+
+    ``full`` (len(ys), len(xs)) says which nodes reach full depth (``base`` with ``x``, ``y`` and ``held`` set);
+    between two neighbouring nodes that differ, along a row or a column, the crossing is bisected on the batch
+    simulator (all crossings in one batch per halving), assuming the design crosses once between them.
+    """
+    from pencli.predict.chunks import run_chunk
+
+    full = np.asarray(full, dtype=bool)
+    moving, fixed, low, high, low_full = [], [], [], [], []
+    for j in range(ys.size):  # along each row: x moves, y is fixed
+        for i in np.flatnonzero(full[j, :-1] != full[j, 1:]):
+            moving.append(0), fixed.append(ys[j]), low.append(xs[i]), high.append(xs[i + 1]), low_full.append(full[j, i])
+    for i in range(xs.size):  # along each column
+        for j in np.flatnonzero(full[:-1, i] != full[1:, i]):
+            moving.append(1), fixed.append(xs[i]), low.append(ys[j]), high.append(ys[j + 1]), low_full.append(full[j, i])
+    if not moving:
+        return np.empty((0, 2))
+    moving, fixed = np.array(moving), np.array(fixed, dtype=float)
+    low, high, low_full = np.array(low, dtype=float), np.array(high, dtype=float), np.array(low_full)
+    extra = {k: np.full(moving.size, float(v)) for k, v in (held or {}).items()}
+    for _ in range(halvings):
+        middle = 0.5 * (low + high)
+        columns = {x: np.where(moving == 0, middle, fixed), y: np.where(moving == 1, middle, fixed), **extra}
+        same = np.asarray(run_chunk(dict(base), columns)["full_penetration"], dtype=bool) == low_full
+        low, high = np.where(same, middle, low), np.where(same, high, middle)
+    root = 0.5 * (low + high)
+    return np.column_stack([np.where(moving == 0, root, fixed), np.where(moving == 1, root, fixed)])

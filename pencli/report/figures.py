@@ -249,13 +249,15 @@ def full_depth_mm(table: Mapping[str, np.ndarray]) -> float | None:
 
 
 def sweep_map(table: Mapping[str, np.ndarray], x: str, y: str, value: str = "final_depth_mm",
-              others: Sequence[str] = ()):
+              others: Sequence[str] = (), boundary: np.ndarray | None = None):
     """Fig. 14: a figure over two varied parameters as a labelled contour map, with the full-penetration boundary.
 
     On a grid each node is one design; a sampled sweep is binned into :data:`MAP_CELLS` cells per axis of mean
     values (memory: the table's, whatever the sweep's size).  Other varied parameters (``others``) are held at
     their middle value on a grid, or averaged over in a sample, and the caption says which.  The boundary is
-    where the final depth reaches the penetration depth, interpolated between nodes (not a cell staircase).
+    drawn at ``boundary`` ((k, 2) points (x, y), file units: where each grid line crosses it, found on the
+    simulator, :func:`pencli.predict.sweep.boundary_roots`), else where the final depth reaches the penetration
+    depth, interpolated between cells (a sample).
 
     Returns the figure and its caption (the value's range, the share of designs reaching full depth)."""
     plt = _plt()
@@ -277,12 +279,17 @@ def sweep_map(table: Mapping[str, np.ndarray], x: str, y: str, value: str = "fin
         mesh = ax.pcolormesh(xs, ys, grid, shading="nearest", cmap="viridis")
         fig.colorbar(mesh, ax=ax, label=shown.label)
     depth = full_depth_mm(part)
-    boundary = False
-    if depth is not None and xs.size > 1 and ys.size > 1:
+    drawn = ""
+    if boundary is not None and len(boundary):
+        ax.plot(boundary[:, 0], boundary[:, 1], "o", color="w", ms=3.5, mec="k", mew=0.4,
+                label="full-penetration boundary")
+        drawn = (f" (white dots: the full-penetration boundary where it crosses the grid's lines, {len(boundary)} "
+                 f"crossings found on the simulator).")
+    elif depth is not None and xs.size > 1 and ys.size > 1:
         final = _cell_means(ix, iy, (ys.size, xs.size), part["final_depth_mm"])
         if np.nanmin(final) < depth * FULL_DEPTH_SHARE <= np.nanmax(final):
             ax.contour(xs, ys, final, levels=[depth * FULL_DEPTH_SHARE], colors="w", linewidths=2.2)
-            boundary = True
+            drawn = " (white line: the full-penetration boundary, interpolated between cells)."
     ax.set_xlabel(label(x))
     ax.set_ylabel(label(y))
     v = np.asarray(part[value], dtype=float) * shown.scale
@@ -292,7 +299,7 @@ def sweep_map(table: Mapping[str, np.ndarray], x: str, y: str, value: str = "fin
                + (f" ({xs.size} × {ys.size} cells of means)" if binned else "")
                + (f" ({said})" if said else "")
                + f"; {share:.0f} % reach full depth"
-               + (" (white line: the full-penetration boundary)." if boundary else "."))
+               + (drawn or "."))
     return fig, caption
 
 

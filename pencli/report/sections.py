@@ -143,6 +143,7 @@ def sweep_section(ws, record: Mapping[str, Any]) -> Section:
     wanted = list(dict.fromkeys([*keys, *SWEEP_FIGURES, "full_penetration"]))  # only what the figures need
     arrow = ws.read_table(record["path"], f"sweep {sweep_id}'s table", columns=wanted)
     table = {name: arrow.column(name).to_numpy(zero_copy_only=False) for name in wanted}
+    base = json.loads((arrow.schema.metadata or {}).get(b"pen:base", b"null"))
     del arrow
     section = Section(f"sweep {sweep_id}: {record['penetrator']} · {record['material']} · {record['energizing']}",
                       provenance={k: str(v) for k, v in record.items()})
@@ -158,11 +159,40 @@ def sweep_section(ws, record: Mapping[str, Any]) -> Section:
     for n, (x, y) in enumerate(pairs):  # final depth for every pair; energy left and time for the first
         others = [k for k in keys if k not in (x, y)]
         for value in (("final_depth_mm", "residual_ke_j", "penetration_time_s") if n == 0 else ("final_depth_mm",)):
-            section.add_figure(*figures.sweep_map(table, x, y, value, others), paper="Fig. 14")
+            section.add_figure(*figures.sweep_map(table, x, y, value, others,
+                                                  sweep_boundary(table, base, x, y, others) if grid else None),
+                               paper="Fig. 14")
     if len(keys) >= 3:
         section.add_figure(*figures.sweep_scatter(table, keys), paper="Fig. 15")
     section.add_figure(*figures.sweep_partial(table, keys))
     return section
+
+
+def sweep_boundary(table: Mapping[str, np.ndarray], base: Mapping[str, float] | None, x: str, y: str,
+              others: Sequence[str]) -> np.ndarray | None:
+    """Where a grid sweep's full-penetration boundary crosses the lines of its (x, y) grid, the other varied
+    parameters held at their middle values (as the map holds them), found on the simulator; None without the
+    sweep's base parameters (a table from an older pen) or for a sample."""
+    from pencli.predict.sweep import boundary_roots
+    from pencli.report.figures import MAP_CELLS
+
+    if not base:
+        return None
+    keep = np.ones(len(table[x]), dtype=bool)
+    held = {}
+    for key in others:
+        levels = np.unique(np.asarray(table[key], dtype=float))
+        if levels.size > MAP_CELLS:  # the map averages over this one: no slice to find a boundary on
+            return None
+        held[key] = float(levels[(levels.size - 1) // 2])
+        keep &= np.asarray(table[key], dtype=float) == held[key]
+    px, py = np.asarray(table[x], dtype=float)[keep], np.asarray(table[y], dtype=float)[keep]
+    xs, ys = np.unique(px), np.unique(py)
+    if xs.size < 2 or ys.size < 2 or xs.size * ys.size != px.size:
+        return None
+    full = np.zeros((ys.size, xs.size), dtype=bool)
+    full[np.searchsorted(ys, py), np.searchsorted(xs, px)] = np.asarray(table["full_penetration"], dtype=bool)[keep]
+    return boundary_roots(base, x, y, xs, ys, full, held)
 
 
 def diagnosis_section(result) -> Section:
