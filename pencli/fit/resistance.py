@@ -99,7 +99,9 @@ def windows(runs: Sequence[Run | _Window], margins_s: tuple[float, float] = (0.0
             first, last = fit_edges(events.contact_s, events.stop_s, margins_s)
             keep = keep & (record["time_s"] >= first) & (record["time_s"] <= last)
         if keep.sum() < MIN_WINDOW_SAMPLES:
-            raise DataError(f"run '{run.name}': only {int(keep.sum())} samples in the analysis window")
+            less = " less the fit's edge margins" if any(margins_s) else ""
+            raise DataError(f"run '{run.name}': only {int(keep.sum())} samples in the analysis window{less}; a fit "
+                            f"needs at least {MIN_WINDOW_SAMPLES}")
         out.append(_Window(run.run_id, run.design, *(record[name][keep] for name in RECORD_COLUMNS),
                            events.contact_s, events.stop_s, events.end, events.contact_speed_m_s, record,
                            run.material.name))
