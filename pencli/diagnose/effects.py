@@ -24,7 +24,7 @@ coefficients is the number of columns (no second table).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property, partial
 from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
@@ -197,6 +197,10 @@ class Basis:
     strength_factor_mean: float | None = None
     """The baseline's strength factor, mean over the campaign's runs, by magnitude (:func:`column_strength_factor`;
     with ``frontal``)."""
+    memo: dict = field(default_factory=dict, compare=False, repr=False)
+    """Columns that members build again and again from this run's times alone (a ringing's modes, which its
+    two-mode members share), by what they are built from; shared by the copies :func:`dataclasses.replace` makes
+    (which change the acceleration, which they do not read)."""
 
     def matrix(self) -> np.ndarray:
         return np.column_stack([self.strength, self.friction, self.damping, self.inertia])
@@ -769,8 +773,15 @@ def _modes(modes: Sequence[tuple[float, float]], by: str) -> Callable[[_RunView,
         # one mode follows its neighbourhood to first order; two modes keep two columns each: with four each,
         # some development ringings gained more (dev 1 of 102000: 83.5 % against 69.1 %), but diagnoses took 1.4×
         # as long (dev 0, 1, 3, 6: 69.9 s against 49.2 s; 43.1 s with no first-order columns)
-        first_order = len(modes) == 1
-        return Columns(np.column_stack([_mode_columns(run, b, f, z, scale, first_order) for f, z in modes]))
+        if len(modes) == 1:
+            return Columns(_mode_columns(run, b, *modes[0], scale, True))
+        built = []
+        for f, z in modes:  # the two-mode members share their modes: each is built once per run
+            key = ("mode", f, z, scale, run.seen_contact_s)
+            if key not in b.memo:
+                b.memo[key] = _mode_columns(run, b, f, z, scale, False)
+            built.append(b.memo[key])
+        return Columns(np.column_stack(built))
 
     return build
 
