@@ -48,19 +48,20 @@ def readme_commands(text: str) -> list[str]:
 
 
 def _prepare(root: Path) -> None:
+    """The scratch folder as the commands assume it (made in this process: what is tested is the commands)."""
+    import yaml
+
+    from pencli import api
+
     shutil.copytree(REPO / "examples" / "workspace", root / "examples" / "workspace")
-    pen = [sys.executable, "-m", "pencli"]
-    env = {**os.environ, "PEN_DB": ""}
-    example = str(root / "examples" / "workspace" / "runs.duckdb")
+    example = root / "examples" / "workspace" / "runs.duckdb"
     lab = root / "lab" / "2026-11-20"
     for run in ("mc-1.0-4", "mc-1.0-6", "mc-1.5-2", "mc-1.5-6", "mc-2.0-2", "mc-2.0-4", "gb-1.0-2"):
-        subprocess.run([*pen, "export", run, "--to", str(lab / run), "--db", example], check=True, env=env,
-                       capture_output=True)
+        api.export_run(example, run, lab / run)
     write_bam_workbook(root / "old" / "experiment_12", synthetic_columns(n=800),
                        ["Time (ms)", "Pos", "Fx", "Fy", "Fz", "Mx", "My", "Mz"], lambda row: [row[0] * 1000, *row[1:]])
-    shown = subprocess.run([*pen, "params", "show", "al6061_1mm"], check=True, env=env, capture_output=True,
-                           text=True).stdout
-    (root / "my_blade.yaml").write_text(shown.replace("name: al6061_1mm", "name: my_blade"))
+    blade = api.show_preset("al6061_1mm", "penetrator")[0].to_mapping()
+    (root / "my_blade.yaml").write_text(yaml.safe_dump({**blade, "name": "my_blade"}, sort_keys=False))
 
 
 def docs_pages() -> list[Path]:
