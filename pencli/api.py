@@ -22,7 +22,7 @@ from pencli.model.design import Design, design_from_sets
 
 if TYPE_CHECKING:
     from pencli.model.dynamics import SimulationResult
-from pencli.params.definitions import COVARIANCE_KEY, Kind
+from pencli.params.definitions import COEFFICIENT_NAMES, COVARIANCE_KEY, Kind
 from pencli.params.load import all_presets, load_file, load_preset, preset_names, resolve
 from pencli.params.overrides import parse_overrides
 from pencli.params.validate import ParameterSet
@@ -59,8 +59,7 @@ class Prediction:
         covariance = self.material.coefficient_covariance
         if not covariance:
             return None
-        mean = {key.split(".", 1)[1]: value for key, value in self.material.values.items()
-                if key.startswith("coefficients.")}
+        mean = {name: self.material.values[f"coefficients.{name}"] for name in COEFFICIENT_NAMES}
         return prediction_band(self.design, mean, covariance, self.result, terms=self.terms,
                                speed_at_contact_m_s=self.speed_at_contact_m_s, draws=draws or BAND_DRAWS)
 
@@ -694,25 +693,8 @@ def material_file_from_fit(name: str, runs: Sequence, result) -> dict:
         **{k: float(v) for k, v in props.items()},
         "coefficients": {k: float(v) for k, v in result.values().items()},
         "fitted_ranges": {k: [float(a), float(b)] for k, (a, b) in result.ranges.items()},
-        **({COVARIANCE_KEY: covariance} if (covariance := fitted_covariance(result)) else {}),
+        **({COVARIANCE_KEY: covariance} if (covariance := result.covariance()) else {}),
     }
-
-
-def fitted_covariance(result) -> dict[str, dict[str, float]]:
-    """The covariance of a fit's varying coefficients (file units) from their standard errors and correlation;
-    empty when a standard error is not finite."""
-    import math
-
-    stderr = [result.coefficients[name].stderr for name in result.varying]
-    if not stderr or not all(s is not None and math.isfinite(s) for s in stderr):
-        return {}
-    out = {}
-    for i, a in enumerate(result.varying):
-        out[a] = {}
-        for j, b in enumerate(result.varying):
-            rho = 1.0 if i == j else float(result.correlation[i, j])
-            out[a][b] = float(stderr[i] * stderr[j] * (rho if math.isfinite(rho) else 0.0))
-    return out
 
 
 def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resistance",

@@ -90,6 +90,15 @@ class FitResult:
     def values(self) -> dict[str, float]:
         return {name: c.value for name, c in self.coefficients.items()}
 
+    def covariance(self) -> dict[str, dict[str, float]]:
+        """The varying coefficients' covariance (file units) from their standard errors and correlation; empty
+        when a standard error is not finite."""
+        stderr = [self.coefficients[name].stderr for name in self.varying]
+        if not stderr or not all(s is not None and math.isfinite(s) for s in stderr):
+            return {}
+        return {a: {b: float(stderr[i] * stderr[j] * (1.0 if i == j else float(np.nan_to_num(self.correlation[i, j]))))
+                    for j, b in enumerate(self.varying)} for i, a in enumerate(self.varying)}
+
     def to_dict(self) -> dict:
         """The CONTRACT §6 record (material, coefficients, stderr) and everything else."""
         def clean(x):

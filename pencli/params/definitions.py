@@ -188,6 +188,8 @@ BY_KEY: dict[str, Param] = {p.key: p for p in PARAMETERS}
 """Every parameter by its YAML key (dotted for ``coefficients.*``)."""
 
 COEFFICIENT_KEYS: tuple[str, ...] = tuple(p.key for p in PARAMETERS if p.key.startswith("coefficients."))
+COEFFICIENT_NAMES: tuple[str, ...] = tuple(key.split(".", 1)[1] for key in COEFFICIENT_KEYS)
+"""The Eq. 9 coefficients by the names a material file's ``coefficients:`` gives them."""
 
 TERM_COEFFICIENT: dict[str, str] = {
     "strength": "coefficients.strength_factor",

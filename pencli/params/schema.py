@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from pencli.params.definitions import COVARIANCE_KEY, EITHER_OR, OPTIONAL_TOP_KEYS, RANGE_KEYS, Kind, Param, params_of
+from pencli.params.definitions import COEFFICIENT_NAMES, COVARIANCE_KEY, EITHER_OR, OPTIONAL_TOP_KEYS, RANGE_KEYS, Kind, Param, params_of
 
 
 def _property(param: Param) -> dict[str, Any]:
@@ -55,7 +55,7 @@ def json_schema(kind: Kind) -> dict[str, Any]:
             "type": "object", "description": "what `pen fit` saw: [min, max] per quantity (predict warns outside)",
             "properties": {key: {**pair, "x-unit": unit} for key, unit in RANGE_KEYS.items()},
             "additionalProperties": False}
-        coefficients = [p.key.split(".", 1)[1] for p in params_of(kind) if p.key.startswith("coefficients.")]
+        coefficients = list(COEFFICIENT_NAMES)
         properties[COVARIANCE_KEY] = {
             "type": "object", "description": "the fitted coefficients' covariance, written by `pen fit` (file units; "
                                              "`pen predict --plot` draws a prediction band from it)",

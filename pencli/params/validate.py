@@ -14,6 +14,7 @@ from typing import Any, Mapping
 
 from pencli.errors import ParameterError
 from pencli.params.definitions import (
+    COEFFICIENT_NAMES,
     COVARIANCE_KEY,
     EITHER_OR,
     BY_KEY,
@@ -234,7 +235,7 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
 def _covariance(value: Any, source: str) -> dict[str, dict[str, float]]:
     """``coefficient_covariance:`` checked: coefficient names, every pair given, finite numbers, symmetric,
     variances ≥ 0."""
-    names = [p.key.split(".", 1)[1] for p in params_of("material") if p.key.startswith("coefficients.")]
+    names = COEFFICIENT_NAMES
 
     def where(*parts: str) -> str:
         return f"{source}: key '{'.'.join((COVARIANCE_KEY, *parts))}'"

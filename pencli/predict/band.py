@@ -7,14 +7,14 @@ coefficients are ≥ 0), and each draw's run is simulated with the same design a
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Iterable, Mapping
 
 import numpy as np
 
+from pencli.fit.resistance import with_coefficients
 from pencli.model.design import Design
 from pencli.model.dynamics import simulate
-from pencli.model.resistance import TERMS, coefficient_of
 
 BAND_DRAWS = 100
 """Coefficient draws a band is read from: the 2.5 and 97.5 % points of 100 draws scatter by about a fifth of
@@ -56,11 +56,6 @@ def coefficient_draws(mean: Mapping[str, float], covariance: Mapping[str, Mappin
     return [{**mean, **dict(zip(names, row))} for row in drawn]
 
 
-def _with(design: Design, values: Mapping[str, float]) -> Design:
-    return replace(design, **{coefficient_of(t).si_name: values[coefficient_of(t).key.split(".", 1)[1]]
-                              * coefficient_of(t).si_scale for t in TERMS})
-
-
 def prediction_band(design: Design, mean: Mapping[str, float], covariance: Mapping[str, Mapping[str, float]],
                     central, *, terms: Iterable[str] | str | None = None, speed_at_contact_m_s: float | None = None,
                     draws: int = BAND_DRAWS, seed: int = 0, level: float = BAND_LEVEL) -> Band:
@@ -72,7 +67,7 @@ def prediction_band(design: Design, mean: Mapping[str, float], covariance: Mappi
     depth, speed, force, figures = [], [], [], {k: [] for k in ("penetration_time_s", "final_depth_mm",
                                                                 "residual_ke_j", "peak_resistance_n")}
     for values in coefficient_draws(mean, covariance, draws, seed):
-        run = simulate(_with(design, values), terms, speed_at_contact_m_s=speed_at_contact_m_s,
+        run = simulate(with_coefficients(design, values), terms, speed_at_contact_m_s=speed_at_contact_m_s,
                        output_rate_hz=rate_hz)
         tr = run.trajectory
         depth.append(np.interp(t, tr.time_s, tr.depth_m))  # past its end a draw holds its last value

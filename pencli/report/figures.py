@@ -220,6 +220,13 @@ def _cell_means(ix: np.ndarray, iy: np.ndarray, shape: tuple[int, int], values: 
         return np.where(count > 0, total / np.maximum(count, 1), np.nan).reshape(shape)
 
 
+def held_level(values: np.ndarray) -> float | None:
+    """The value a map holds another varied parameter at: its middle level on a grid (at most
+    :data:`MAP_CELLS` levels), None where the map averages over it instead."""
+    levels = np.unique(np.asarray(values, dtype=float))
+    return float(levels[(levels.size - 1) // 2]) if levels.size <= MAP_CELLS else None
+
+
 def _held_at(table: Mapping[str, np.ndarray], others: Sequence[str]) -> tuple[np.ndarray, str]:
     """Which designs a map of two variables shows when others varied too: on a grid (each other variable takes
     at most :data:`MAP_CELLS` values) the slice at each other variable's middle value, said so; on a sample, every
@@ -228,9 +235,8 @@ def _held_at(table: Mapping[str, np.ndarray], others: Sequence[str]) -> tuple[np
     keep = np.ones(n, dtype=bool)
     held, averaged = [], []
     for key in others:
-        levels = np.unique(np.asarray(table[key], dtype=float))
-        if levels.size <= MAP_CELLS:
-            middle = levels[(levels.size - 1) // 2]
+        middle = held_level(table[key])
+        if middle is not None:
             keep &= np.asarray(table[key], dtype=float) == middle
             shown = quantity(key)
             held.append(f"{shown.name} held at {middle * shown.scale:.4g}{(' ' + shown.unit) if shown.unit else ''}")

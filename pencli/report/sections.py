@@ -174,18 +174,18 @@ def sweep_boundary(table: Mapping[str, np.ndarray], base: Mapping[str, float] | 
     parameters held at their middle values (as the map holds them), found on the simulator; None without the
     sweep's base parameters (a table from an older pen) or for a sample."""
     from pencli.predict.sweep import boundary_roots
-    from pencli.report.figures import MAP_CELLS
+    from pencli.report.figures import held_level
 
     if not base:
         return None
     keep = np.ones(len(table[x]), dtype=bool)
     held = {}
     for key in others:
-        levels = np.unique(np.asarray(table[key], dtype=float))
-        if levels.size > MAP_CELLS:  # the map averages over this one: no slice to find a boundary on
+        middle = held_level(table[key])
+        if middle is None:  # the map averages over this one: no slice to find a boundary on
             return None
-        held[key] = float(levels[(levels.size - 1) // 2])
-        keep &= np.asarray(table[key], dtype=float) == held[key]
+        held[key] = middle
+        keep &= np.asarray(table[key], dtype=float) == middle
     px, py = np.asarray(table[x], dtype=float)[keep], np.asarray(table[y], dtype=float)[keep]
     xs, ys = np.unique(px), np.unique(py)
     if xs.size < 2 or ys.size < 2 or xs.size * ys.size != px.size:
