@@ -958,13 +958,17 @@ def run_ids(db: str | Path, refs: Sequence[str]) -> list[str]:
 
 def report_runs(db: str | Path, refs: Sequence[str]) -> list:
     """Sections for runs: raw channels (Fig. 11), measurements (Fig. 12), model against data (Fig. 13),
-    energy per term (Fig. 14), parameters and provenance."""
-    from pencli.report.sections import run_section
+    energy per term (Fig. 14), parameters and provenance.  One run is drawn alone; several are drawn together
+    (each figure holds every run) and followed by each run's tables."""
+    from pencli.report.sections import campaign_sections, run_section
 
     ws = workspace(db)
     with ws.batch(write=False):  # one catalogue connection for every section
         versions = ws.material_versions()
-        return [run_section(ws, ws.resolve(ref), versions) for ref in expand_run_refs(ws, refs)]
+        ids = list(dict.fromkeys(ws.resolve(ref) for ref in expand_run_refs(ws, refs)))
+        if len(ids) == 1:
+            return [run_section(ws, ids[0], versions)]
+        return campaign_sections(ws, ids, versions)
 
 
 def report_material(db: str | Path, material: str, version: int | None = None) -> list:

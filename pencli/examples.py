@@ -103,8 +103,9 @@ def build_figures(db: Path, out: Path, material: str = "mpacs_c") -> list[Path]:
     ws = api.workspace(db)
     version = ws.material_versions(material)[-1]
     table = ws.read_table(version["model_data_path"], "model-vs-data table")
-    fit, _ = campaign_fit(material, {name: table.column(name).to_numpy(zero_copy_only=False)
-                                     for name in table.column_names})
+    fit, fit_caption = campaign_fit(material, {name: table.column(name).to_numpy(zero_copy_only=False)
+                                               for name in table.column_names})
+    fit.axes[0].set_title(fit_caption, fontsize=9, loc="left", wrap=True)  # a picture on its own carries its caption
     sweep = ws.sweep_row(1)
     keys = list(json.loads(sweep["variables"]))
     swept = ws.read_table(sweep["path"], "sweep table")

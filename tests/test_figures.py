@@ -67,6 +67,11 @@ def every_figure(db):
     fit_table = ws.read_table(ws.material_versions("mpacs_c")[-1]["model_data_path"], "model").to_pydict()
     yield ("campaign", *figures.campaign_fit("mpacs_c", {k: np.asarray(v) for k, v in fit_table.items()}))
     yield ("energy", *figures.energy_balance("mc-1.0-4", balance_of(db, "mc-1.0-4")))
+    together = [(r, ws.load_run(r, "raw"), ws.load_run(r)) for r in ("mc-1.0-4", "gb-1.5-4")]
+    yield ("campaign-raw", *figures.campaign_raw([(r, raw.columns, run.events.to_dict()) for r, raw, run in together]))
+    yield ("campaign-kinematics", *figures.campaign_kinematics([(r, run.columns, run.events.to_dict())
+                                                                for r, _, run in together]))
+    yield ("campaign-energy", *figures.campaign_energy([(r, balance_of(db, r)) for r, _, _ in together]))
     fit = json.loads(ws.material_versions("mpacs_c")[-1]["fit"])
     yield ("fit", *figures.fit_intervals("mpacs_c", fit))
     sweep = ws.sweep_row(1)
@@ -286,5 +291,56 @@ def test_the_measured_energy_balances_to_within_two_percent_on_every_example_run
         contact, drive, *terms, left, missing = heights[1:]
         assert contact + drive == pytest.approx(sum(terms) + left + missing)
         assert f"{b.contact_ke_j:.1f} J" in caption and "not accounted for" in caption
+    finally:
+        close(fig)
+
+
+def test_runs_drawn_together_show_each_run_once_per_panel_in_its_own_colour(example):
+    ws = api.workspace(example)
+    ids = ["mc-1.0-4", "mc-2.0-2", "gb-1.0-2"]
+    runs = {r: ws.load_run(r) for r in ids}
+    raws = {r: ws.load_run(r, "raw") for r in ids}
+    fig, caption = figures.campaign_raw([(r, raws[r].columns, runs[r].events.to_dict()) for r in ids])
+    kin, kin_caption = figures.campaign_kinematics([(r, runs[r].columns, runs[r].events.to_dict()) for r in ids])
+    try:
+        for panel in [*fig.axes, *kin.axes]:
+            colours = [tuple(line.get_color()) for line in panel.get_lines() if np.size(line.get_xdata()) > 2]
+            assert len(colours) == len(ids) and len(set(colours)) == len(ids)  # one line per run, colours apart
+        assert [t.get_text() for t in fig.legends[0].get_texts()] == ids
+        peaks = [float(np.max(raws[r].columns["fz_n"])) for r in ids]
+        assert f"peak axial force {min(peaks):.0f}–{max(peaks):.0f} N" in caption
+        # each run's depth is drawn against the time since its own contact: 0 mm at 0 ms
+        for line in kin.axes[0].get_lines()[:len(ids)]:
+            t, depth = np.asarray(line.get_xdata()), np.asarray(line.get_ydata())
+            assert abs(float(np.interp(0.0, t, depth))) < 1.0
+        speeds = [runs[r].events.contact_speed_m_s for r in ids]
+        assert f"contact (dashed) at {min(speeds):.2f}–{max(speeds):.2f} m/s" in kin_caption
+        arrested = sum(runs[r].events.end == "arrest" for r in ids)
+        assert f"{arrested} arrested in the material" in kin_caption
+    finally:
+        close(fig)
+        close(kin)
+
+
+def test_the_campaign_energy_bars_are_each_runs_shares_and_a_term_set_to_zero_draws_nothing(example):
+    from dataclasses import replace
+
+    ids = ["mc-1.0-4", "mc-1.5-2", "gb-2.0-2"]
+    balances = [(r, balance_of(example, r)) for r in ids]
+    balances = [(r, replace(b, terms_j={**b.terms_j, "damping": 0.0})) for r, b in balances]  # as a fit at C = 0
+    fig, caption = figures.campaign_energy(balances)
+    try:
+        ax = fig.axes[0]
+        legend = [t.get_text() for t in fig.legends[0].get_texts()]
+        bars = {name: container for name, container in zip(legend, ax.containers)}
+        for k, (run_id, b) in enumerate(balances):
+            for term, value in b.terms_j.items():
+                if term in bars:
+                    assert bars[term].patches[k].get_width() == pytest.approx(100 * value / b.supplied_j)
+            lost = bars["not accounted for"].patches[k]
+            assert lost.get_width() == pytest.approx(100 * b.unaccounted_j / b.supplied_j)
+        assert "damping" not in legend and {"strength", "friction", "inertia"} <= set(legend)
+        worst = max(balances, key=lambda rb: abs(rb[1].unaccounted_j / rb[1].supplied_j))
+        assert f"{100 * worst[1].unaccounted_j / worst[1].supplied_j:+.1f} % ({worst[0]})" in caption
     finally:
         close(fig)

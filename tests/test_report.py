@@ -36,7 +36,7 @@ def _not_blank(svg: str) -> bool:
 
 def test_every_figure_kind_renders_from_the_example_workspace(example, tmp_path, runner):
     kinds = {
-        "runs": (["gb-1.0-2", "mc-2.0-4"], 8),  # raw, measurements, model vs data, energy per term, per run
+        "runs": (["gb-1.0-2", "mc-2.0-4"], 5),  # together: raw, measurements, model vs data per fit (2), energy
         "material": (["--material", "mpacs_c"], 2 + 6),  # intervals + Fig. 16 + model vs data per run
         "sweep": (["--sweep", "1"], 3),  # two heat maps with the boundary, partial dependence (2 variables: no 3-D)
         "diagnosis": (["mc-*", "--diagnose"], 1),
@@ -71,15 +71,24 @@ def test_report_of_a_sampled_sweep_is_binned(workspace, runner):
     assert sum("each cell the mean over" in c for c in captions) == 5 and "sampled (100000 designs)" in page
 
 
-def test_report_of_twelve_runs(example, tmp_path):
-    """One report of the twelve example runs (how long it takes is measured by bench/bench_report.py)."""
+def test_report_of_twelve_runs_draws_them_together_then_gives_each_runs_tables(example, tmp_path):
+    """One report of the twelve example runs (how long it takes is measured by bench/bench_report.py): one section
+    whose figures hold every run (raw channels, measurements, one model-against-data figure per fit, energy), then
+    each run's tables, pointing to its own report for its figures; one run alone is drawn alone."""
     from pencli.report.build import write_report
 
     sections = api.report_runs(example, ["all"])
     write_report("twelve runs", sections, tmp_path / "all.html")
-    assert len(sections) == 12
+    assert len(sections) == 13
+    together, *each = sections
+    fits = {v["material"] for v in api.workspace(example).material_versions()}
+    assert [f.paper for f in together.figures] == ["Fig. 11", "Fig. 12", *["Figs. 13–14"] * len(fits), "Fig. 14"]
+    assert [row[0] for row in together.tables[0][2]] == [s.title.removeprefix("run ") for s in each]
+    assert all(not s.figures and f"pen report {s.title.removeprefix('run ')}" in s.text for s in each)
     html = (tmp_path / "all.html").read_text()
-    assert len(_images(html)) >= 12 * 3
+    assert len(_images(html)) == len(together.figures)
+    alone = api.report_runs(example, ["mc-1.0-4"])
+    assert len(alone) == 1 and [f.paper for f in alone[0].figures] == ["Fig. 11", "Fig. 12", "Fig. 13", "Fig. 14"]
 
 
 def test_all_writes_one_report_per_run_material_and_sweep_and_an_index(example, tmp_path, runner):

@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import html
 import io
 import json
+import logging
 import re
 import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 from pencli import __version__
 from pencli.io.atomic import atomic_group
@@ -21,6 +23,12 @@ PDF_TEXT_LINES = 120
 """Lines on one PDF text page; a longer section continues on the next page. [–]"""
 A4_IN = (8.27, 11.69)
 """A4 portrait, width and height. [in]"""
+PDF_TEXT_PT = 6.5
+"""Type size of a PDF text page. [pt]"""
+PDF_TEXT_TOP, PDF_TEXT_LEFT = 0.965, 0.05
+"""Where a PDF text page's first line's baseline starts, as fractions of the page's height and width. [–]"""
+PDF_LINE_PITCH_PT = (PDF_TEXT_TOP - 0.01) * A4_IN[1] * 72 / PDF_TEXT_LINES
+"""Baseline to baseline on a PDF text page: its :data:`PDF_TEXT_LINES` lines fill the page. [pt]"""
 
 
 @dataclass(frozen=True)
@@ -171,6 +179,49 @@ def _text_lines(s: Section) -> list[str]:
     return out
 
 
+def _in_core_font(ch: str) -> bool:
+    """Whether a PDF's built-in Courier can show ``ch`` (its encoding is Windows-1252)."""
+    try:
+        ch.encode("cp1252")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+@contextlib.contextmanager
+def _quiet_font_matching() -> Iterator[None]:
+    """matplotlib logs each weight it substitutes; a text page's built-in Courier has one weight (medium) and its
+    mathtext cells another, both as meant."""
+    logger = logging.getLogger("matplotlib.font_manager")
+    level = logger.level
+    logger.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def _text_page(plt, title: str, lines: Sequence[str]):
+    """An A4 page of monospaced lines, to be saved with ``pdf.use14corefonts``: the PDF's built-in Courier
+    needs no glyphs embedded (a page of provenance tables is written in a twentieth of the time an embedded
+    font takes), and each character it cannot show (η, μ, ρ, θ) is set in the grid's cell as mathtext, which
+    the PDF embeds."""
+    page = plt.figure(figsize=A4_IN)
+    page.suptitle(title, fontsize=9, y=0.995)
+    pitch = PDF_LINE_PITCH_PT / 72 / A4_IN[1]
+    advance = 0.6 * PDF_TEXT_PT / 72 / A4_IN[0]  # Courier: every character 0.6 em wide
+    for k, line in enumerate(lines):
+        y = PDF_TEXT_TOP - k * pitch
+        core = "".join(ch if _in_core_font(ch) else " " for ch in line)
+        if core.strip():
+            page.text(PDF_TEXT_LEFT, y, core, va="baseline", ha="left", family="monospace", fontsize=PDF_TEXT_PT)
+        for column, ch in enumerate(line):
+            if not _in_core_font(ch):
+                page.text(PDF_TEXT_LEFT + column * advance, y, f"$\\mathrm{{{ch}}}$", va="baseline", ha="left",
+                          fontsize=PDF_TEXT_PT)
+    return page
+
+
 def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
     """The same content as a PDF of A4 pages: a text page per section (tables, provenance; long lines wrap, long
     sections continue), then each figure on a page of its own with its number and caption."""
@@ -185,11 +236,9 @@ def render_pdf(title: str, sections: Sequence[Section], path: Path) -> None:
             lines = _text_lines(s) + [""] + [line for n, f in items for line in textwrap.wrap(
                 f"{figure_label(n, f)} {f.caption}", PDF_TEXT_COLUMNS, subsequent_indent="    ")]
             for start in range(0, len(lines), PDF_TEXT_LINES):
-                page = plt.figure(figsize=A4_IN)
-                page.text(0.05, 0.97, "\n".join(lines[start:start + PDF_TEXT_LINES]), va="top", ha="left",
-                          family="monospace", fontsize=6.5)
-                page.suptitle(title, fontsize=9, y=0.995)
-                pdf.savefig(page)
+                page = _text_page(plt, title, lines[start:start + PDF_TEXT_LINES])
+                with matplotlib.rc_context({"pdf.use14corefonts": True}), _quiet_font_matching():
+                    pdf.savefig(page)
                 plt.close(page)
             for number, f in items:  # each figure a vector page of its own size, its label in the corner
                 if f.figure is None:

@@ -35,13 +35,18 @@ THIN_POINTS = 1500
 every peak a screen or page can show is kept, and a 13,000-sample record's figure stays small. [–]"""
 
 
-def _thin(x: np.ndarray, *ys: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(x, *ys) with each bin of :data:`THIN_POINTS` reduced to its samples at the lowest and highest value of the
+OVERLAY_THIN_POINTS = 500
+""":data:`THIN_POINTS` for a figure that overlays many runs: each line a third as fine, the figure as light as one
+run's. [–]"""
+
+
+def _thin(x: np.ndarray, *ys: np.ndarray, bins: int = THIN_POINTS) -> tuple[np.ndarray, ...]:
+    """(x, *ys) with each of ``bins`` equal bins reduced to its samples at the lowest and highest value of the
     first y (in time order), or as they are when short."""
     n = len(x)
-    if n <= 2 * THIN_POINTS:
+    if n <= 2 * bins:
         return (x, *ys)
-    edges = np.linspace(0, n, THIN_POINTS + 1).astype(int)
+    edges = np.linspace(0, n, bins + 1).astype(int)
     keep = []
     ref = ys[0]
     for a, b in zip(edges[:-1], edges[1:]):
@@ -493,9 +498,12 @@ def _symbol(key: str) -> str:
     return param.symbol if param is not None and param.symbol else key
 
 
-def campaign_fit(material: str, data: Mapping[str, np.ndarray]):
+def campaign_fit(material: str, data: Mapping[str, np.ndarray], fitted_runs: int | None = None,
+                 colours: Mapping[str, tuple] | None = None):
     """Paper Figs. 13–14 for a whole fit: every run's measured resistance against depth with its Eq. 9 model
-    (measured x, v) on one axis, and each run's residual beneath, over the analysis window.
+    (measured x, v) on one axis, and each run's residual beneath, over the analysis window (``data``: the fit's
+    model-vs-data table, or the rows of some of its runs; ``fitted_runs``: how many runs the fit used, when
+    ``data`` holds fewer; ``colours``: each run's, when the report's other figures hold more runs).
 
     Returns the figure and its caption, which states the answer: the RMS the model leaves per run.
     """
@@ -503,9 +511,9 @@ def campaign_fit(material: str, data: Mapping[str, np.ndarray]):
     runs = list(dict.fromkeys(np.asarray(data["run_id"]).tolist()))
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6.4), sharex=True, constrained_layout=True,
                                       gridspec_kw={"height_ratios": [2.2, 1]})
-    colours = plt.get_cmap("tab10").colors  # colour-blind-safe enough for ≤ 10 runs, one colour per run
+    colours = colours or run_colours(runs)
     rms_all = []
-    for k, run_id in enumerate(runs):
+    for run_id in runs:
         mine = (np.asarray(data["run_id"]) == run_id) & np.asarray(data["in_window"], dtype=bool)
         depth = np.asarray(data["depth_m"])[mine] * 1e3
         measured = np.asarray(data["resistance_n"])[mine]
@@ -514,7 +522,7 @@ def campaign_fit(material: str, data: Mapping[str, np.ndarray]):
         rms = float(np.sqrt(np.mean(residual ** 2)))
         r2 = 1.0 - float(np.sum(residual ** 2) / np.sum((measured - measured.mean()) ** 2))
         rms_all.append(rms)
-        colour = colours[k % len(colours)]
+        colour = colours[run_id]
         top.plot(depth, measured, color=colour, lw=0.6, alpha=0.55)
         top.plot(depth, model, color=colour, lw=1.4, label=f"{run_id}: RMS {rms:.1f} N, R² {r2:.4f}")
         bottom.plot(depth, residual, color=colour, lw=0.6)
@@ -526,11 +534,129 @@ def campaign_fit(material: str, data: Mapping[str, np.ndarray]):
     from pencli.filter.windows import FIT_EDGE_MARGINS_S, WINDOW_TRIM_S
 
     trim, (after, before) = 1e3 * WINDOW_TRIM_S, (1e3 * m for m in FIT_EDGE_MARGINS_S)
-    caption = (f"{material}: Eq. 9 fitted over {len(runs)} runs leaves {min(rms_all):.1f}–{max(rms_all):.1f} N RMS "
+    over = (f"fitted over {fitted_runs} runs leaves, on these {len(runs)}," if fitted_runs not in (None, len(runs))
+            else f"fitted over {len(runs)} runs leaves")
+    caption = (f"{material}: Eq. 9 {over} {min(rms_all):.1f}–{max(rms_all):.1f} N RMS "
                f"per run within the analysis window (contact + {trim:g} ms to stop − {trim:g} ms; a resistance fit "
                f"leaves out {after:g} ms after contact and {before:g} ms before the stop, where the encoder's "
                f"derivatives are least reliable).")
-    top.set_title(caption, fontsize=9, loc="left", wrap=True)
+    return fig, caption
+
+
+def run_colours(run_ids: Sequence[str]) -> dict[str, tuple]:
+    """One colour per run, the same in every figure of a report (tab10 up to ten runs, tab20 beyond, then
+    repeating)."""
+    plt = _plt()
+    colours = plt.get_cmap("tab10" if len(run_ids) <= 10 else "tab20").colors
+    return {run_id: colours[k % len(colours)] for k, run_id in enumerate(run_ids)}
+
+
+def _run_legend(fig, colours: Mapping[str, tuple]) -> None:
+    """One legend of the runs' colours, beside the figure's panels."""
+    from matplotlib.lines import Line2D
+
+    fig.legend([Line2D([], [], color=c, lw=1.5) for c in colours.values()], list(colours), fontsize=7,
+               loc="outside right upper", title="run", title_fontsize=7)
+
+
+def campaign_raw(runs: Sequence[tuple[str, Mapping[str, np.ndarray], Mapping[str, float]]]):
+    """Fig. 11 for a campaign: every run's raw position and axial force against time since its contact, on one
+    pair of axes (``runs``: (run id, raw channels, events) each).
+
+    Returns the figure and its caption (the runs' peak axial forces and how long they were in the material)."""
+    plt = _plt()
+    colours = run_colours([r[0] for r in runs])
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True, layout="constrained")
+    peaks, spans = [], []
+    for run_id, raw, events in runs:
+        t = (raw["time_s"] - events["contact_s"]) * 1e3
+        near = (t > -15.0) & (t < (events["stop_s"] - events["contact_s"]) * 1e3 + 15.0)
+        ax1.plot(*_thin(t[near], raw["position_mm"][near], bins=OVERLAY_THIN_POINTS), lw=0.8, color=colours[run_id])
+        ax2.plot(*_thin(t[near], raw["fz_n"][near], bins=OVERLAY_THIN_POINTS), lw=0.6, color=colours[run_id])
+        peaks.append(float(np.max(raw["fz_n"])))
+        spans.append((events["stop_s"] - events["contact_s"]) * 1e3)
+    ax1.set_ylabel(label("position_mm"))
+    ax2.set_ylabel(label("fz_n"))
+    ax2.set_xlabel("time since contact [ms]")
+    for ax in (ax1, ax2):
+        ax.axvline(0.0, color="grey", ls="--", lw=0.8)
+    _run_legend(fig, colours)
+    caption = (f"{len(runs)} runs: raw position and axial force from 15 ms before contact (dashed) to 15 ms after "
+               f"the stop; peak axial force {min(peaks):.0f}–{max(peaks):.0f} N, {min(spans):.1f}–{max(spans):.1f} "
+               f"ms from contact to the stop.")
+    return fig, caption
+
+
+def campaign_kinematics(runs: Sequence[tuple[str, Mapping[str, np.ndarray], Mapping[str, float]]]):
+    """Fig. 12 for a campaign: every run's depth, resistance R = F − m·a and speed against time since its
+    contact (``runs``: (run id, conditioned columns, events) each).
+
+    Returns the figure and its caption (contact speeds and final depths, with how many runs were arrested)."""
+    plt = _plt()
+    colours = run_colours([r[0] for r in runs])
+    fig, axes = plt.subplots(3, 1, figsize=(10, 7), sharex=True, layout="constrained")
+    for run_id, stage, events in runs:
+        t = (stage["time_s"] - events["contact_s"]) * 1e3
+        near = (t > -5.0) & (t < (events["stop_s"] - events["contact_s"]) * 1e3 + 5.0)
+        colour = colours[run_id]
+        axes[0].plot(*_thin(t[near], stage["depth_m"][near] * 1e3, bins=OVERLAY_THIN_POINTS), color=colour, lw=0.8)
+        axes[1].plot(*_thin(t[near], stage["resistance_n"][near], bins=OVERLAY_THIN_POINTS), color=colour, lw=0.6)
+        axes[2].plot(*_thin(t[near], stage["velocity_m_s"][near], bins=OVERLAY_THIN_POINTS), color=colour, lw=0.8)
+    axes[0].set_ylabel(label("depth_m"))
+    axes[1].set_ylabel("resistance R = F − m·a [N]")
+    axes[2].set_ylabel(label("velocity_m_s"))
+    axes[2].set_xlabel("time since contact [ms]")
+    for ax in axes:
+        ax.axvline(0.0, color="grey", ls="--", lw=0.8)
+    _run_legend(fig, colours)
+    speeds = [e["contact_speed_m_s"] for _, _, e in runs]
+    depths = [e["final_depth_m"] * 1e3 for _, _, e in runs]
+    arrested = sum(1 for _, _, e in runs if e.get("end") == "arrest")
+    caption = (f"{len(runs)} runs: contact (dashed) at {min(speeds):.2f}–{max(speeds):.2f} m/s; final depth "
+               f"{min(depths):.1f}–{max(depths):.1f} mm; {arrested} arrested in the material, "
+               f"{len(runs) - arrested} reached the hard stops.")
+    return fig, caption
+
+
+def campaign_energy(balances: Sequence[tuple[str, object]]):
+    """Fig. 14 (measured) for a campaign: for each run, where the energy supplied in the material (kinetic at
+    contact plus the springs' and gravity's work) went, as shares: each Eq. 9 term with its fit's coefficients,
+    what was left at the stop, and what the fit does not account for (``balances``: (run id,
+    :class:`~pencli.fit.energy.EnergyBalance`) each).
+
+    Returns the figure and its caption (each term's share over the runs, and the largest unaccounted share)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(10, 1.2 + 0.32 * len(balances)), layout="constrained")
+    names = [run_id for run_id, _ in balances]
+    terms = list(TERM_COLOURS)
+    shares: dict[str, list[float]] = {name: [] for name in (*terms, "left at the stop", "not accounted for")}
+    for _, b in balances:
+        supplied = b.supplied_j if b.supplied_j > 0 else float("nan")
+        for term in terms:
+            shares[term].append(100.0 * b.terms_j.get(term, 0.0) / supplied)
+        shares["left at the stop"].append(100.0 * b.left_ke_j / supplied)
+        shares["not accounted for"].append(100.0 * b.unaccounted_j / supplied)
+    y = np.arange(len(names))[::-1]
+    left = np.zeros(len(names))
+    colours = {**TERM_COLOURS, "left at the stop": "0.3", "not accounted for": "tab:purple"}
+    for name, values in shares.items():
+        if name in terms and max(values) <= 0.0:
+            continue  # a term the fits set to 0 (damping, mostly): no bar, no legend entry
+        width = np.asarray(values)  # the last, "not accounted for", is signed: it may run back from the end
+        ax.barh(y, width, left=left, color=colours[name], height=0.6, label=name)
+        left = left + width
+    ax.axvline(100.0, color="k", lw=0.8, ls=":")
+    ax.set_yticks(y, names, fontsize=7)
+    ax.set_xlabel("share of the energy supplied in the material [%]")
+    fig.legend(fontsize=7, loc="outside right upper")
+    spans = {t: (min(v), max(v)) for t, v in shares.items()}
+    worst = max(range(len(names)), key=lambda k: abs(shares["not accounted for"][k]))
+    caption = (f"{len(names)} runs: of the energy supplied in the material, "
+               + ", ".join(f"{t} {lo:.0f}–{hi:.0f} %" for t, (lo, hi) in spans.items()
+                           if t in terms and hi > 0.5)
+               + f", {spans['left at the stop'][0]:.0f}–{spans['left at the stop'][1]:.0f} % left at the stop; "
+               f"the most the fits leave unaccounted is {shares['not accounted for'][worst]:+.1f} % "
+               f"({names[worst]}); dotted: 100 %.")
     return fig, caption
 
 

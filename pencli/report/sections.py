@@ -54,41 +54,112 @@ def _design_with_fit(run, coefficients: Mapping[str, float]):
     return with_coefficients(run.design, coefficients), run.material
 
 
-def run_section(ws, run_id: str, versions: Sequence[dict]) -> Section:
-    """A run: parameters, stages, events, raw channels (Fig. 11), measurements (Fig. 12), model against data
-    (Fig. 13) and energy per term with the newest fit that used it."""
-    from pencli.fit.energy import measured_energy
-    from pencli.report import figures
+class _RunData:
+    """What a run's section and a campaign's figures read from the workspace: the parameters, stages, raw
+    channels, events, the conditioned (inertia) stage and the newest fit that used the run."""
 
-    params = ws.run_parameters(run_id)
-    stages = ws.stages(run_id)
-    raw = ws.load_run(run_id, "raw")
-    tares = [s for s in stages if s.stage == "tare"]
-    events = tares[-1].parameters["events"] if tares else raw.tared().events.to_dict()
-    section = Section(f"run {run_id}", provenance={"run": {k: str(v) for k, v in ws.run_row(run_id).items()}})
-    rows = [r for kind in ("penetrator", "material", "energizing") for r in parameter_rows(params[kind])]
+    def __init__(self, ws, run_id: str, versions: Sequence[dict]):
+        self.run_id = run_id
+        self.params = ws.run_parameters(run_id)
+        self.stages = ws.stages(run_id)
+        self.row = ws.run_row(run_id)
+        self.raw = ws.load_run(run_id, "raw")
+        tares = [s for s in self.stages if s.stage == "tare"]
+        self.events = tares[-1].parameters["events"] if tares else self.raw.tared().events.to_dict()
+        inertia = [s for s in self.stages if s.stage == "inertia"]
+        self.conditioned = ws.load_run(run_id, inertia[-1].stage_no) if inertia else None
+        self.fit = latest_fit_with(versions, run_id)
+
+    def balance(self):
+        """The measured energy balance with the fit's coefficients (None without a fit or a conditioned stage)."""
+        from pencli.fit.energy import measured_energy
+
+        if self.fit is None or self.conditioned is None:
+            return None
+        return measured_energy(self.conditioned, json.loads(self.fit["coefficients"]),
+                               json.loads(self.fit["fit"])["ci95"])
+
+
+def _event_value(key: str, value: float) -> tuple[float, str]:
+    """An event as a report shows it: times in ms, speeds in m/s, depths in mm."""
+    if key.endswith("_m_s"):
+        return value, "m/s"
+    if key.endswith("_s"):
+        return value * 1e3, "ms"
+    if key.endswith("_m"):
+        return value * 1e3, "mm"
+    return value, ""
+
+
+def run_section(ws, run_id: str, versions: Sequence[dict], figures: bool = True, data: _RunData | None = None
+                ) -> Section:
+    """A run: parameters, stages, events and, with ``figures``, raw channels (Fig. 11), measurements (Fig. 12),
+    model against data (Fig. 13) and energy per term (Fig. 14) with the newest fit that used it."""
+    from pencli.report import figures as draw
+
+    run = data or _RunData(ws, run_id, versions)
+    events = run.events
+    section = Section(f"run {run_id}", provenance={"run": {k: str(v) for k, v in run.row.items()}})
+    rows = [r for kind in ("penetrator", "material", "energizing") for r in parameter_rows(run.params[kind])]
     section.tables.append(("parameters", ["parameter", "value", "unit", "file key"], rows))
     section.tables.append(("stages", ["#", "stage", "command", "pen", "created (UTC)"],
-                           [[s.stage_no, s.stage, s.command, s.pen_version, str(s.created_at)] for s in stages]))
-    section.tables.append(("events (time since release)", ["event", "value", "unit"],
-                           [[k, v * 1e3 if k.endswith("_s") else v, "ms" if k.endswith("_s") else ""]
-                            for k, v in events.items() if isinstance(v, (int, float))]))
-    section.add_figure(*figures.raw_channels(run_id, raw.columns, events), paper="Fig. 11")
-    inertia = [s for s in stages if s.stage == "inertia"]
-    conditioned = ws.load_run(run_id, inertia[-1].stage_no) if inertia else None
-    if conditioned is not None:
-        section.add_figure(*figures.kinematics_panels(run_id, conditioned.columns, events), paper="Fig. 12")
-    fit = latest_fit_with(versions, run_id)
+                           [[s.stage_no, s.stage, s.command, s.pen_version, str(s.created_at)] for s in run.stages]))
+    section.tables.append(("events (times since the release)", ["event", "value", "unit"],
+                           [[k, *_event_value(k, v)] for k, v in events.items() if isinstance(v, (int, float))]))
+    if not figures:
+        section.text = (f"This run is drawn with the others above; pen report {run_id} draws its own raw channels, "
+                        f"measurements, model against data and energy balance.")
+        return section
+    section.add_figure(*draw.raw_channels(run_id, run.raw.columns, events), paper="Fig. 11")
+    if run.conditioned is not None:
+        section.add_figure(*draw.kinematics_panels(run_id, run.conditioned.columns, events), paper="Fig. 12")
+    fit = run.fit
     if fit is not None and fit["model_data_path"]:
-        data = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
-                             filters=[("run_id", "=", run_id)]).to_pydict()
-        section.add_figure(*figures.model_vs_data(run_id, {k: np.asarray(v) for k, v in data.items()}),
+        table = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
+                              filters=[("run_id", "=", run_id)]).to_pydict()
+        section.add_figure(*draw.model_vs_data(run_id, {k: np.asarray(v) for k, v in table.items()}),
                            paper="Fig. 13")
-        if conditioned is not None:
-            balance = measured_energy(conditioned, json.loads(fit["coefficients"]), json.loads(fit["fit"])["ci95"])
-            fig, caption = figures.energy_balance(run_id, balance, f"{fit['material']} v{fit['version']}")
+        balance = run.balance()
+        if balance is not None:
+            fig, caption = draw.energy_balance(run_id, balance, f"{fit['material']} v{fit['version']}")
             section.add_figure(fig, caption, paper="Fig. 14")
     return section
+
+
+def campaign_sections(ws, run_ids: Sequence[str], versions: Sequence[dict]) -> list[Section]:
+    """Several runs: one section that draws them together (raw channels, Fig. 11; measurements, Fig. 12; model
+    against data per fit, Figs. 13–14; where the energy went, Fig. 14), then each run's tables."""
+    from pencli.report import figures as draw
+
+    runs = [_RunData(ws, run_id, versions) for run_id in run_ids]
+    section = Section(f"{len(runs)} runs together")
+    section.tables.append(("runs", ["run", "material", "blade thickness [mm]", "springs", "speed at contact [m/s]",
+                                    "final depth [mm]", "end", "newest fit"],
+                           [[r.run_id, r.row["material"], r.row["blade_thickness_mm"], r.row["spring_count"],
+                             r.events.get("contact_speed_m_s"), 1e3 * r.events.get("final_depth_m", float("nan")),
+                             r.events.get("end"), f"{r.fit['material']} v{r.fit['version']}" if r.fit else "none"]
+                            for r in runs]))
+    section.add_figure(*draw.campaign_raw([(r.run_id, r.raw.columns, r.events) for r in runs]), paper="Fig. 11")
+    conditioned = [(r.run_id, r.conditioned.columns, r.events) for r in runs if r.conditioned is not None]
+    if conditioned:
+        section.add_figure(*draw.campaign_kinematics(conditioned), paper="Fig. 12")
+    colours = draw.run_colours(run_ids)
+    by_fit: dict[tuple, list[_RunData]] = {}
+    for r in runs:
+        if r.fit is not None and r.fit["model_data_path"]:
+            by_fit.setdefault((r.fit["material"], r.fit["version"]), []).append(r)
+    for (material, version), mine in by_fit.items():
+        fit = mine[0].fit
+        ids = [r.run_id for r in mine]
+        table = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
+                              filters=[("run_id", "in", ids)]).to_pydict()
+        section.add_figure(*draw.campaign_fit(f"{material} v{version}", {k: np.asarray(v) for k, v in table.items()},
+                                              fitted_runs=len(fit["source_runs"] or []), colours=colours),
+                           paper="Figs. 13–14")
+    balances = [(r.run_id, b) for r in runs if (b := r.balance()) is not None]
+    if balances:
+        section.add_figure(*draw.campaign_energy(balances), paper="Fig. 14")
+    return [section, *(run_section(ws, r.run_id, versions, figures=False, data=r) for r in runs)]
 
 
 def material_section(ws, row: Mapping[str, Any]) -> Section:
@@ -219,5 +290,5 @@ def diagnosis_section(result) -> Section:
     return section
 
 
-__all__ = ["REFERENCE_ESTIMATES", "diagnosis_section", "latest_fit_with", "material_section", "parameter_rows",
+__all__ = ["REFERENCE_ESTIMATES", "campaign_sections", "diagnosis_section", "latest_fit_with", "material_section", "parameter_rows",
            "run_section", "sweep_section"]
