@@ -789,7 +789,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
 
     from pencli.io.outputs import nearest_existing
     from pencli.model.dynamics import check_contact_speed
-    from pencli.predict.batch import ENDS
+    from pencli.predict.batch import ENDS, NOT_SIMULATED
     from pencli.predict.chunks import evaluate_columns
     from pencli.predict.sweep import MAX_DESIGNS, SPEED, Grid, Sample, parse_vary, table_bytes
     from pencli.store.tables import StreamedTable
@@ -827,6 +827,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     started = _time.perf_counter()
     stats = {"full_penetration": 0, "penetration_time_s": [np.inf, -np.inf], "peak_resistance_n": [np.inf, -np.inf],
              "final_depth_mm": [np.inf, -np.inf]}
+    not_simulated: dict[str, int] = {}
     meta = {"pen:version": __import__("pencli").__version__, "pen:base": json.dumps(base),
             "pen:variables": json.dumps([v.key for v in variables])}
     with (StreamedTable(target, meta, categories={"end": ENDS}, compression="none",
@@ -837,9 +838,15 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
             if table is not None:
                 table.write({**{k: np.asarray(v, dtype=float) for k, v in chunk.items()}, **result})
             stats["full_penetration"] += int(np.sum(result["full_penetration"]))
+            codes, counts = np.unique(np.asarray(result["end"]), return_counts=True)  # codes into ENDS
+            for code, count in zip(codes.tolist(), counts.tolist()):
+                if code >= NOT_SIMULATED:
+                    not_simulated[ENDS[code]] = not_simulated.get(ENDS[code], 0) + count
             for key in ("penetration_time_s", "peak_resistance_n", "final_depth_mm"):
-                stats[key] = [min(stats[key][0], float(np.min(result[key]))),
-                              max(stats[key][1], float(np.max(result[key])))]
+                values = result[key][np.isfinite(result[key])]  # not simulated: NaN, no figure
+                if values.size:
+                    stats[key] = [min(stats[key][0], float(np.min(values))),
+                                  max(stats[key][1], float(np.max(values)))]
     seconds = _time.perf_counter() - started
     sweep_id = None
     path = Path(target) if target is not None else None
@@ -850,7 +857,8 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
                                       variables=varied, n_designs=total, command=command)
     summary = {"n_designs": total, "full_penetration_share": stats["full_penetration"] / total,
                "penetration_time_s": stats["penetration_time_s"], "peak_resistance_n": stats["peak_resistance_n"],
-               "final_depth_mm": stats["final_depth_mm"], "designs_per_s": total / seconds if seconds else None}
+               "final_depth_mm": stats["final_depth_mm"], "not_simulated": not_simulated,
+               "designs_per_s": total / seconds if seconds else None}
     return SweepOutcome(total, varied, summary, path, sweep_id, seconds)
 
 

@@ -366,3 +366,37 @@ def test_the_full_penetration_boundary_is_found_where_the_scalar_simulator_flips
 
         plt.close(fig)
     assert boundary_roots(base, x, y, xs, ys, np.ones((ys.size, xs.size), dtype=bool)).shape == (0, 2)
+
+
+def test_designs_not_simulated_have_no_figures_and_are_counted_by_reason(tmp_path):
+    """A sweep row the simulator did not run (here a load cell heavier than the body it sits in, which the
+    parameter rules forbid) has NaN figures, not zeros, which read as an arrest at the surface, and the
+    summary's ranges come from the simulated designs alone."""
+    out = tmp_path / "sweep.parquet"
+    outcome = api.sweep("al6061_1mm", "mpacs_c", "springs_4", vary=["load_cell_mass_kg=0.1:5",
+                                                                    "surface_offset_mm=100:600"],
+                        resolution=5, out=out)
+    table = pq.read_table(out).to_pydict()
+    end = np.asarray(table["end"])
+    sprung = load_preset("al6061_1mm", "penetrator").values["sprung_mass_kg"]
+    heavy = np.asarray(table["load_cell_mass_kg"]) > sprung
+    assert np.array_equal(end == "invalid", heavy) and 0 < heavy.sum() < heavy.size
+    floats = [k for k, v in table.items() if k not in ("end", "full_penetration", "load_cell_mass_kg",
+                                                     "surface_offset_mm") and isinstance(v[0], float)]
+    assert len(floats) == 11
+    for key in floats:
+        values = np.asarray(table[key], dtype=float)
+        assert np.all(np.isnan(values[heavy])), key
+        assert np.all(np.isfinite(values[~heavy])), key
+    assert not np.any(np.asarray(table["full_penetration"])[heavy])
+    assert outcome.summary["not_simulated"] == {"invalid": int(heavy.sum())}
+    depth = np.asarray(table["final_depth_mm"])[~heavy]
+    assert outcome.summary["final_depth_mm"] == [float(depth.min()), float(depth.max())]
+    # the edge of the valid designs is no full-penetration boundary: every design simulated here reaches full
+    # depth, so a map of this sweep draws none
+    from pencli.report.sections import sweep_boundary
+
+    assert np.all(np.asarray(table["full_penetration"])[~heavy])
+    base = json.loads(pq.read_schema(out).metadata[b"pen:base"])
+    arrays = {k: np.asarray(v) for k, v in table.items()}
+    assert sweep_boundary(arrays, base, "load_cell_mass_kg", "surface_offset_mm", []).shape == (0, 2)

@@ -112,6 +112,9 @@ def sweep(
     s = outcome.summary
     console.print(f"{outcome.n_designs} designs in {outcome.seconds:.2f} s ({s['designs_per_s']:.0f} designs/s); "
                   f"{100 * s['full_penetration_share']:.1f} % reach full depth")
+    if s["not_simulated"]:
+        console.print("not simulated (NaN figures in the table): " + ", ".join(
+            f"{count} {end}" for end, count in s["not_simulated"].items()))
     table = Table(header_style="bold")
     for col in ("figure", "min", "max", "unit"):
         table.add_column(col)

@@ -48,6 +48,10 @@ assert ENDS[:4] == tuple(name for name, code in sorted(
      "stalled": damped.STALLED}.items(), key=lambda item: item[1]))
 _CODE = {name: np.int8(i) for i, name in enumerate(ENDS)}
 OVERFLOW = ENDS.index("overflow")
+NOT_SIMULATED = ENDS.index("no_contact")
+"""This end and those after it (``no_contact``, ``invalid``, ``overflow``) are designs not simulated: their
+figures are NaN, not zeros, which would read as an arrest at the surface."""
+assert ENDS[NOT_SIMULATED:] == ("no_contact", "invalid", "overflow")
 
 
 @dataclass(frozen=True)
@@ -62,7 +66,8 @@ class BatchResult:
     def end(self) -> np.ndarray:
         """``arrest``, ``full_depth``, ``creep`` (see :mod:`pencli.predict.damped`), ``stalled``, ``no_contact``,
         ``invalid`` (a CONTRACT §1 rule broken) or ``overflow`` (a force beyond
-        :data:`~pencli.model.design.FORCE_LIMIT_N`: not simulated, as ``pen predict`` refuses it) per design."""
+        :data:`~pencli.model.design.FORCE_LIMIT_N`: not simulated, as ``pen predict`` refuses it) per design;
+        the last three have NaN figures."""
         return np.asarray(ENDS)[self.code]
 
     def __len__(self) -> int:
@@ -166,8 +171,8 @@ def _time_estimate(v0, m, kd, xk, mg, a0, a1, b, dd, depth):
 def _simulate_all(v0, m, kd, stroke, s0, g, a0, a1, b, dd, depth, speed_given, skip, out, code):
     """Each design from contact to its end, its figures into the rows of ``out`` (:data:`_ROWS`) and its end
     into ``code``: the closed form at C = 0, the damped path otherwise; a design with a ``skip`` code is not
-    simulated and books no motion (its launcher still books the spring energy up to the surface), nor is one
-    whose forces are beyond float64's useful range (``overflow``)."""
+    simulated, nor is one whose forces are beyond float64's useful range (``overflow``): their figures are
+    NaN (:data:`NOT_SIMULATED`)."""
     for i in range(v0.size):
         u_start = s0[i] if speed_given else 0.0  # a given speed at contact starts the books at the surface
         t = x = v = e_damp = e_inert = peak = peak_x = 0.0
@@ -205,6 +210,8 @@ def _simulate_all(v0, m, kd, stroke, s0, g, a0, a1, b, dd, depth, speed_given, s
         out[8, i] = 0.5 * c1 * x * x
         out[9, i] = e_damp
         out[10, i] = e_inert
+        if code[i] >= NOT_SIMULATED:
+            out[:, i] = np.nan
 
 
 def design_arrays(design: Design, count: int = 1) -> dict[str, np.ndarray]:

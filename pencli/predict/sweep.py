@@ -314,22 +314,26 @@ step. [–]"""
 
 
 def boundary_roots(base: Mapping[str, float], x: str, y: str, xs: np.ndarray, ys: np.ndarray, full: np.ndarray,
-                   held: Mapping[str, float] | None = None, halvings: int = BOUNDARY_HALVINGS) -> np.ndarray:
+                   held: Mapping[str, float] | None = None, halvings: int = BOUNDARY_HALVINGS,
+                   simulated: np.ndarray | None = None) -> np.ndarray:
     """Where the full-penetration boundary crosses each line of a grid, as (k, 2) points (x, y) in file units.
 
     ``full`` (len(ys), len(xs)) says which nodes reach full depth (``base`` with ``x``, ``y`` and ``held`` set);
     between two neighbouring nodes that differ, along a row or a column, the crossing is bisected on the batch
     simulator (all crossings in one batch per halving), assuming the design crosses once between them.
+    ``simulated`` (same shape; default all) marks the nodes the simulator ran: a node that was not (an invalid
+    design) reaches no depth, and the edge of the valid designs is no full-penetration boundary.
     """
     from pencli.predict.chunks import run_chunk
 
     full = np.asarray(full, dtype=bool)
+    ran = np.ones(full.shape, dtype=bool) if simulated is None else np.asarray(simulated, dtype=bool)
     moving, fixed, low, high, low_full = [], [], [], [], []
     for j in range(ys.size):  # along each row: x moves, y is fixed
-        for i in np.flatnonzero(full[j, :-1] != full[j, 1:]):
+        for i in np.flatnonzero((full[j, :-1] != full[j, 1:]) & ran[j, :-1] & ran[j, 1:]):
             moving.append(0), fixed.append(ys[j]), low.append(xs[i]), high.append(xs[i + 1]), low_full.append(full[j, i])
     for i in range(xs.size):  # along each column
-        for j in np.flatnonzero(full[:-1, i] != full[1:, i]):
+        for j in np.flatnonzero((full[:-1, i] != full[1:, i]) & ran[:-1, i] & ran[1:, i]):
             moving.append(1), fixed.append(xs[i]), low.append(ys[j]), high.append(ys[j + 1]), low_full.append(full[j, i])
     if not moving:
         return np.empty((0, 2))

@@ -217,10 +217,13 @@ def _cells(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _cell_means(ix: np.ndarray, iy: np.ndarray, shape: tuple[int, int], values: np.ndarray) -> np.ndarray:
-    """Mean of ``values`` in each (iy, ix) cell (NaN where empty)."""
-    flat = iy * shape[1] + ix
+    """Mean of the finite ``values`` in each (iy, ix) cell (NaN where there is none: a design not simulated has
+    no figure)."""
+    values = np.asarray(values, dtype=float)
+    finite = np.isfinite(values)
+    flat = (iy * shape[1] + ix)[finite]
     count = np.bincount(flat, minlength=shape[0] * shape[1])
-    total = np.bincount(flat, weights=np.asarray(values, dtype=float), minlength=shape[0] * shape[1])
+    total = np.bincount(flat, weights=values[finite], minlength=shape[0] * shape[1])
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(count > 0, total / np.maximum(count, 1), np.nan).reshape(shape)
 
@@ -304,12 +307,14 @@ def sweep_map(table: Mapping[str, np.ndarray], x: str, y: str, value: str = "fin
     ax.set_xlabel(label(x))
     ax.set_ylabel(label(y))
     v = np.asarray(part[value], dtype=float) * shown.scale
-    share = 100.0 * float(np.mean(np.asarray(part["full_penetration"], dtype=float)))
+    ran = np.isfinite(np.asarray(part["final_depth_mm"], dtype=float))  # designs not simulated have no figures
+    share = 100.0 * float(np.mean(np.asarray(part["full_penetration"], dtype=float)[ran])) if ran.any() else 0.0
     caption = (f"{shown.name} over {quantity(x).name} and {quantity(y).name}: {np.nanmin(v):.4g}–{np.nanmax(v):.4g}"
-               f"{(' ' + shown.unit) if shown.unit else ''} over {v.size} designs"
+               f"{(' ' + shown.unit) if shown.unit else ''} over {int(ran.sum())} designs"
                + (f" ({xs.size} × {ys.size} cells of means)" if binned else "")
                + (f" ({said})" if said else "")
-               + f"; {share:.0f} % reach full depth"
+               + (f", {int((~ran).sum())} more not simulated (blank)" if not ran.all() else "")
+               + f"; {share:.0f} % of those simulated reach full depth"
                + (drawn or "."))
     return fig, caption
 
@@ -344,6 +349,7 @@ def sweep_partial(table: Mapping[str, np.ndarray], keys: Sequence[str], value: s
         stats = np.full((centres.size, 3), np.nan)
         for c in range(centres.size):
             part = v[order[bounds[c]:bounds[c + 1]]]
+            part = part[np.isfinite(part)]  # designs not simulated have no figure
             if part.size:
                 stats[c] = np.quantile(part, [0.1, 0.5, 0.9])
         spread[key] = float(np.nanmax(stats[:, 1]) - np.nanmin(stats[:, 1]))

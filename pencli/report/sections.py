@@ -211,7 +211,7 @@ def sweep_section(ws, record: Mapping[str, Any]) -> Section:
     sweep_id = record["sweep_id"]
     variables = json.loads(record["variables"])
     keys = list(variables)
-    wanted = list(dict.fromkeys([*keys, *SWEEP_FIGURES, "full_penetration"]))  # only what the figures need
+    wanted = list(dict.fromkeys([*keys, *SWEEP_FIGURES, "full_penetration", "end"]))  # what the figures need
     arrow = ws.read_table(record["path"], f"sweep {sweep_id}'s table", columns=wanted)
     table = {name: arrow.column(name).to_numpy(zero_copy_only=False) for name in wanted}
     base = json.loads((arrow.schema.metadata or {}).get(b"pen:base", b"null"))
@@ -224,8 +224,13 @@ def sweep_section(ws, record: Mapping[str, Any]) -> Section:
                              v["points"] if grid else f"sampled ({record['n_designs']} designs)", k]
                             for k, v in variables.items()]))
     section.tables.append(("figures over the sweep", ["figure", "min", "max", "unit"],
-                           [[quantity(f).name, float(np.min(table[f])) * quantity(f).scale,
-                             float(np.max(table[f])) * quantity(f).scale, quantity(f).unit] for f in SWEEP_FIGURES]))
+                           [[quantity(f).name, *_finite_range(table[f], quantity(f).scale), quantity(f).unit]
+                            for f in SWEEP_FIGURES]))
+    skipped = {end: int(n) for end, n in zip(*np.unique(np.asarray(table["end"]), return_counts=True))
+               if end in ("no_contact", "invalid", "overflow")}
+    if skipped:
+        section.text = ("Designs not simulated (no figures; left out of every map and range): "
+                        + ", ".join(f"{n} {end}" for end, n in skipped.items()) + ".")
     pairs = [(a, b) for i, a in enumerate(keys) for b in keys[i + 1:]]
     for n, (x, y) in enumerate(pairs):  # final depth for every pair; energy left and time for the first
         others = [k for k in keys if k not in (x, y)]
@@ -237,6 +242,13 @@ def sweep_section(ws, record: Mapping[str, Any]) -> Section:
         section.add_figure(*figures.sweep_scatter(table, keys), paper="Fig. 15")
     section.add_figure(*figures.sweep_partial(table, keys))
     return section
+
+
+def _finite_range(values: np.ndarray, scale: float) -> list[float | None]:
+    """(min, max) × ``scale`` of a sweep figure over the designs that have one (None, None when none has)."""
+    finite = np.asarray(values, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    return [float(finite.min()) * scale, float(finite.max()) * scale] if finite.size else [None, None]
 
 
 def sweep_boundary(table: Mapping[str, np.ndarray], base: Mapping[str, float] | None, x: str, y: str,
@@ -263,7 +275,11 @@ def sweep_boundary(table: Mapping[str, np.ndarray], base: Mapping[str, float] | 
         return None
     full = np.zeros((ys.size, xs.size), dtype=bool)
     full[np.searchsorted(ys, py), np.searchsorted(xs, px)] = np.asarray(table["full_penetration"], dtype=bool)[keep]
-    return boundary_roots(base, x, y, xs, ys, full, held)
+    ran = np.ones_like(full)
+    if "end" in table:
+        ran[np.searchsorted(ys, py), np.searchsorted(xs, px)] = np.isfinite(
+            np.asarray(table["final_depth_mm"], dtype=float))[keep]  # designs not simulated have no figures
+    return boundary_roots(base, x, y, xs, ys, full, held, simulated=ran)
 
 
 def diagnosis_section(result) -> Section:
