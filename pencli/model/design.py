@@ -103,7 +103,7 @@ CREEP_DISTANCE_M = 1e-6
 the slow mode; both simulators use this rule (docs/guide/sweeps.md, "Creep"). [m]"""
 
 def creep_point(m, kd, xk, mg, a0, a1, b, depth):
-    """(x* − δ [m], speed limit ω0·δ [m/s], x* [m]) of a design that can creep, else (nan, nan, nan).
+    """(x* − δ [m], speed limit ω0·δ [m/s], x* [m], k [N/m]) of a design that can creep, else four nans.
 
     The rest depth x* is where drive and weight equal strength and friction,
     kd·max(xk − x, 0) + mg = a0 + a1·x (``xk``: depth where the springs reach free length).  With damping
@@ -113,7 +113,7 @@ def creep_point(m, kd, xk, mg, a0, a1, b, depth):
     a faster approach is on the fast mode and overshoots x*, then arrests).  The final depth is x*.
     Plain arithmetic on floats: both simulators use this one rule (the batch's compiled kernel as it is).
     """
-    nothing = (math.nan, math.nan, math.nan)
+    nothing = (math.nan, math.nan, math.nan, math.nan)
     if not b > 0.0:
         return nothing
     if xk > 0.0 and mg - a0 - a1 * xk <= 0.0:
@@ -126,7 +126,15 @@ def creep_point(m, kd, xk, mg, a0, a1, b, depth):
         return nothing
     if not (CREEP_DISTANCE_M < rest < depth) or b * b < 4.0 * m * k:
         return nothing
-    return rest - CREEP_DISTANCE_M, math.sqrt(k / m) * CREEP_DISTANCE_M * (1.0 + 1e-9), rest
+    return rest - CREEP_DISTANCE_M, math.sqrt(k / m) * CREEP_DISTANCE_M * (1.0 + 1e-9), rest, k
+
+
+def creep_time_constant(m, b, k):
+    """The slow mode's time constant at the rest depth, τ = 2m / (b − √(b² − 4mk)): on it the distance left to
+    x* falls e-fold every τ, so a creep's penetration time (to within :data:`CREEP_DISTANCE_M`) grows by
+    τ·ln 10 for each tenfold-closer end.  ``m`` [kg], ``b`` the damping force per speed [N·s/m], ``k`` the
+    net force's slope at x* [N/m] (overdamped: b² ≥ 4mk). [s]"""
+    return 2.0 * m / (b - math.sqrt(max(b * b - 4.0 * m * k, 0.0)))
 
 
 def static_work(x0, x1, xk, kd, mg, a0, a1):

@@ -215,7 +215,7 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
     if v <= 0.0 and start <= 0.0:
         return t, x, v, e_damp, e_inert, peak, peak_x, ARREST
     h = min(max(t_est, 1e-9), 10.0) / STEPS
-    creep_at, creep_speed, creep_rest = _creep_point(m, kd, xk, mg, a0, a1, b, depth)  # nan: cannot creep
+    creep_at, creep_speed, creep_rest, _ = _creep_point(m, kd, xk, mg, a0, a1, b, depth)  # nan: cannot creep
 
     # ---- 1. RK4 until the design ends or reaches the linear regime
     linear = _linear_ready(x, v, m, kd, xk, mg, a0, a1, b, d)

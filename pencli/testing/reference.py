@@ -13,8 +13,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 
-def reference_run(p: dict, m: dict, e: dict, speed_at_contact: float | None = None, rtol: float = 1e-12) -> dict:
-    """p, m, e: parameter mappings in CONTRACT §1 units (coefficients nested)."""
+def reference_run(p: dict, m: dict, e: dict, speed_at_contact: float | None = None, rtol: float = 1e-12,
+                  creep_distance_m: float = 1e-6) -> dict:
+    """p, m, e: parameter mappings in CONTRACT §1 units (coefficients nested); a creep ends within
+    ``creep_distance_m`` of the rest depth (pen's convention: 1 µm)."""
     w = p["blade_width_mm"] / 1000
     T = p["blade_thickness_mm"] / 1000
     theta = math.radians(p["tip_angle_deg"])
@@ -64,9 +66,9 @@ def reference_run(p: dict, m: dict, e: dict, speed_at_contact: float | None = No
     arrest = lambda t, y: y[1]  # noqa: E731
     arrest.terminal, arrest.direction = True, -1
     events = [full, arrest]
-    creep = _creep(lambda x: accel(x, 0.0, True), depth, w * T * C, mass) if C > 0 else None
-    if creep is not None:  # README "Creep": within 1 µm of the rest depth, on the slow mode
-        near = lambda t, y: y[0] - (creep[0] - 1e-6)  # noqa: E731
+    creep = _creep(lambda x: accel(x, 0.0, True), depth, w * T * C, mass, creep_distance_m) if C > 0 else None
+    if creep is not None:  # docs "Creep": within 1 µm of the rest depth, on the slow mode
+        near = lambda t, y: y[0] - (creep[0] - creep_distance_m)  # noqa: E731
         near.terminal, near.direction = True, 1
         events.append(near)
     rhs = lambda t, y: [y[1], accel(y[0], y[1], True)]  # noqa: E731
@@ -110,7 +112,7 @@ def reference_run(p: dict, m: dict, e: dict, speed_at_contact: float | None = No
     }
 
 
-def _creep(force_at_rest, depth: float, b: float, mass: float):
+def _creep(force_at_rest, depth: float, b: float, mass: float, distance: float):
     """(rest depth, speed limit) when the motion is overdamped where the net force at rest vanishes, else None."""
     from scipy.optimize import brentq
 
@@ -121,4 +123,4 @@ def _creep(force_at_rest, depth: float, b: float, mass: float):
     k = -mass * (force_at_rest(rest + h) - force_at_rest(rest - h)) / (2 * h)  # slope of the net force there
     if k <= 0 or b * b < 4 * mass * k:
         return None
-    return rest, math.sqrt(k / mass) * 1e-6 * (1 + 1e-9)
+    return rest, math.sqrt(k / mass) * distance * (1 + 1e-9)
