@@ -826,7 +826,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     target = Path(out) if out is not None else (ws.sweep_path() if ws is not None else None)
     started = _time.perf_counter()
     stats = {"full_penetration": 0, "penetration_time_s": [np.inf, -np.inf], "peak_resistance_n": [np.inf, -np.inf],
-             "final_depth_mm": [np.inf, -np.inf]}
+             "final_depth_mm": [np.inf, -np.inf], "near_critical": 0}
     not_simulated: dict[str, int] = {}
     meta = {"pen:version": __import__("pencli").__version__, "pen:base": json.dumps(base),
             "pen:variables": json.dumps([v.key for v in variables])}
@@ -838,6 +838,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
             if table is not None:
                 table.write({**{k: np.asarray(v, dtype=float) for k, v in chunk.items()}, **result})
             stats["full_penetration"] += int(np.sum(result["full_penetration"]))
+            stats["near_critical"] += int(np.sum(result["near_critical"]))
             codes, counts = np.unique(np.asarray(result["end"]), return_counts=True)  # codes into ENDS
             for code, count in zip(codes.tolist(), counts.tolist()):
                 if code >= NOT_SIMULATED:
@@ -858,6 +859,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     summary = {"n_designs": total, "full_penetration_share": stats["full_penetration"] / total,
                "penetration_time_s": stats["penetration_time_s"], "peak_resistance_n": stats["peak_resistance_n"],
                "final_depth_mm": stats["final_depth_mm"], "not_simulated": not_simulated,
+               "near_critical": stats["near_critical"],
                "designs_per_s": total / seconds if seconds else None}
     return SweepOutcome(total, varied, summary, path, sweep_id, seconds)
 

@@ -408,3 +408,40 @@ def test_a_creep_states_its_convention_and_the_time_constant_that_moves_it():
     assert times[1e-7] - times[1e-6] == pytest.approx(step, rel=2e-3)
     assert times[1e-6] - times[1e-5] == pytest.approx(step, rel=2e-3)
     assert predicted.result.summary.to_dict()["creep_time_constant_s"] == summary.creep_time_constant_s
+
+
+def test_an_arrest_damped_within_a_hair_of_critical_says_its_time_is_round_off():
+    """At ζ = 0.999 at the rest depth (Appendix C blade, grill brick, stand-off 10 mm) the tip overshoots the rest
+    depth by e⁻⁷⁰ of its approach: pen predict, the batch and the Radau oracle gave 0.62, 0.75 and 0.68 s.  Both
+    simulators now say the time is round-off; at ζ = 0.99 (an overshoot of 2.5·10⁻¹⁰, resolved) the three agree
+    within the batch's 10⁻⁴ and nothing is said, and at ζ = 1.001 the run creeps in a well-defined time."""
+    from pencli import api
+    from pencli.model.design import damping_ratio_at_rest
+    from pencli.model.resistance import resistance_law
+    from pencli.predict.batch import design_arrays, simulate_batch
+
+    def predicted(c_kpa_s_m):
+        return api.predict("appendix_c", "grill_brick", "appendix_c", output_rate_hz=100.0,
+                           overrides=["surface_offset_mm=10", f"coefficients.damping_kpa_s_m={c_kpa_s_m}"]).result
+
+    design = predicted(1000.0).design
+    law = resistance_law(design)
+    m = design.effective_mass_kg
+    zeta_per_c = float(damping_ratio_at_rest(m, design.drive_stiffness_n_m, design.stroke_m - design.surface_offset_m,
+                                             m * design.gravity_m_s2, law.strength_n, law.friction_n_m,
+                                             law.damping_n_s_m, design.penetration_depth_m)) / 1000.0
+    p, mat, e = (load_preset(name, kind).to_mapping() for name, kind in
+                 (("appendix_c", "penetrator"), ("grill_brick", "material"), ("appendix_c", "energizing")))
+    e["surface_offset_mm"] = 10.0
+    for zeta, flagged, end in ((0.999, True, "arrest"), (0.99, False, "arrest"), (1.001, False, "creep")):
+        c = zeta / zeta_per_c
+        result = predicted(c)
+        batch = simulate_batch(design_arrays(result.design))
+        assert result.summary.end == batch.end[0] == end, zeta
+        assert result.summary.near_critical is flagged and bool(batch.near_critical[0]) is flagged, zeta
+        assert ("round-off" in result.message) is flagged, zeta
+        if not flagged:
+            mat["coefficients"] = {**mat["coefficients"], "damping_kpa_s_m": c}
+            oracle = reference_run(p, mat, e)["penetration_time_s"]
+            assert result.summary.penetration_time_s == pytest.approx(oracle, rel=1e-4), zeta
+            assert batch.figures["penetration_time_s"][0] == pytest.approx(oracle, rel=1e-4), zeta

@@ -112,6 +112,9 @@ def sweep(
     s = outcome.summary
     console.print(f"{outcome.n_designs} designs in {outcome.seconds:.2f} s ({s['designs_per_s']:.0f} designs/s); "
                   f"{100 * s['full_penetration_share']:.1f} % reach full depth")
+    if s["near_critical"]:
+        console.print(f"{s['near_critical']} arrests damped within a hair of critical: their penetration time is "
+                      f"round-off (column near_critical)")
     if s["not_simulated"]:
         console.print("not simulated (NaN figures in the table): " + ", ".join(
             f"{count} {end}" for end, count in s["not_simulated"].items()))

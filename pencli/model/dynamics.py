@@ -41,7 +41,8 @@ from scipy.optimize import minimize_scalar
 
 from pencli.errors import ModelError
 from pencli.model.design import (CREEP_DISTANCE_M, FORCE_LIMIT_N, Design, beyond_limit, creep_point,
-                                 creep_time_constant, force_scales, static_work)
+                                 creep_time_constant, damping_ratio_at_rest, force_scales,
+                                 near_critical, static_work)
 from pencli.model.drive import SPRINGS, Drive, Flight, FlightPath, flight_of
 from pencli.model.geometry import BLADE, Geometry
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, term_keys
@@ -136,6 +137,9 @@ class Summary:
     energy_other_j: float = 0.0
     """Dissipated by resistance outside Eq. 9's four terms: a diagnosis effect's, or a geometry's that does
     not reduce to Eq. 9 (:mod:`pencli.model.geometry`). [J]"""
+    near_critical: bool = False
+    """An arrest whose time is round-off: damped within a hair of critical at the rest depth, the tip passes it by
+    less than float64 resolves (:func:`~pencli.model.design.near_critical`); depth and energies stand."""
     creep_time_constant_s: float | None = None
     """With ``end: creep``, the slow mode's time constant at the rest depth: the penetration time is to within
     :data:`~pencli.model.design.CREEP_DISTANCE_M` of it, and each tenfold-closer end would add τ·ln 10
@@ -455,6 +459,17 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
 
     notes = []
     tau = None
+    m_eff = float(design.effective_mass_kg)
+    at_rest = (m_eff, float(design.drive_stiffness_n_m), float(design.stroke_m - design.surface_offset_m),
+               m_eff * float(design.gravity_m_s2), law.strength_n, law.friction_n_m, law.damping_n_s_m,
+               float(design.penetration_depth_m))
+    near = end == "arrest" and bool(near_critical(*at_rest))
+    if near:
+        gap = 1.0 - float(damping_ratio_at_rest(*at_rest))
+        notes.append(f"ill-conditioned: the motion is damped within {100 * gap:.2g} % of "
+                     f"critical at the rest depth {x_end * 1e3:.6g} mm and passes it by less than float64 "
+                     f"resolves, so the penetration time ({t_end - t_contact:.3g} s) is round-off; the depth and "
+                     f"energies stand (slightly more damping makes it creep, within 1 µm, in a well-defined time)")
     if end == "creep":
         creep = creep_target(design, law)
         tau = creep_time_constant(mass, law.damping_n_s_m, creep[3])
@@ -487,6 +502,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         energy_balance_error_j=balance,
         energy_other_j=e_extra,
         creep_time_constant_s=tau,
+        near_critical=near,
     )
     energy_in = initial_ke + abs(spring_j) + abs(gravity_j)
     if abs(balance) > ENERGY_TOLERANCE * max(energy_in, 1.0):

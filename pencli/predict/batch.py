@@ -24,7 +24,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numba import njit, types
 
-from pencli.model.design import Design
+from pencli.model.design import Design, near_critical
 from pencli.model.resistance import eq9_coefficients
 from pencli.predict import closed_form, damped
 from pencli.predict.damped import ARREST, FULL_DEPTH
@@ -61,6 +61,9 @@ class BatchResult:
     figures: dict[str, np.ndarray]
     code: np.ndarray
     """Index into :data:`ENDS` per design (int8)."""
+    near_critical: np.ndarray | None = None
+    """Per design: an arrest whose time is round-off, the motion at its rest depth damped within a hair of
+    critical (:func:`pencli.model.design.near_critical`); its figures other than the time stand."""
 
     @property
     def end(self) -> np.ndarray:
@@ -136,7 +139,10 @@ def simulate_batch(d: dict[str, np.ndarray], *, speed_at_contact_m_s: np.ndarray
                   speed is not None, skip, out, code)  # compiled; releases the GIL
     figures = dict(zip(_ROWS, out))
     figures["full_penetration"] = code == _CODE["full_depth"]
-    return BatchResult({name: figures[name] for name in FIGURES}, code)
+    with np.errstate(over="ignore", invalid="ignore"):
+        near = near_critical(m, kd, stroke - s0, m * g, a0, a1, b, design.penetration_depth_m)
+    near = np.broadcast_to(near, (n,)) & (code == _CODE["arrest"])
+    return BatchResult({name: figures[name] for name in FIGURES}, code, near)
 
 
 _IN = types.Array(types.float64, 1, "A", readonly=True)

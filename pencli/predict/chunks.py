@@ -17,13 +17,14 @@ CHUNK = 100_000
 
 def run_chunk(base: dict, columns: dict) -> dict:
     """One chunk (varied columns, file units) through the batch simulator: CONTRACT §5 figures, with ``end``
-    as codes into :data:`pencli.predict.batch.ENDS` (int8).  Top level, so dask can ship it."""
+    as codes into :data:`pencli.predict.batch.ENDS` (int8) and ``near_critical`` (an arrest whose time is
+    round-off).  Top level, so dask can ship it."""
     from pencli.predict.batch import simulate_batch
     from pencli.predict.sweep import si_designs
 
     designs, speed = si_designs(base, columns)
     result = simulate_batch(designs, speed_at_contact_m_s=speed)
-    return {**result.figures, "end": result.code}
+    return {**result.figures, "end": result.code, "near_critical": result.near_critical}
 
 
 def _take_and_run(base: dict, columns, start: int, stop: int) -> tuple[dict, dict]:
