@@ -43,6 +43,22 @@ def test_the_request_is_checked_before_any_work(runs):
     assert only.drive_effect is None and only.rest_effect is None
 
 
+def test_runs_of_two_materials_are_refused_in_one_line_before_any_work(tmp_path, runner):
+    """The baseline shares P, C and K among the runs: the example's grill brick and MPACS C runs diagnosed
+    together read the other material as an effect ('plug_growth with velocity_friction')."""
+    import shutil
+
+    from tests.conftest import invoke
+
+    with pytest.raises(FitError, match=r"2 materials: grill_brick \(6 runs\), mpacs_c \(6 runs\)"):
+        engine.check_materials(api.load_campaign(EXAMPLE, ["all"]))
+    engine.check_materials(api.load_campaign(EXAMPLE, ["mc-*"]))  # one material: nothing to say
+    shutil.copytree(EXAMPLE.parent, tmp_path / "ws")
+    r = invoke(runner, "diagnose", "all", "--db", tmp_path / "ws" / "runs.duckdb")
+    assert r.exit_code == 1 and "diagnose one material's runs at a time" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.output
+
+
 def test_the_baseline_stage_recovers_the_materials_coefficients(runs):
     """Grill Brick's runs were made with Table 1's coefficients (Cs 0.6 … per block, P 31.6 kPa… as the preset
     holds them); the baseline fit on the measured data must come back close, one strength factor per run."""

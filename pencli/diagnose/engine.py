@@ -923,6 +923,7 @@ def diagnose(runs: Sequence[Run], *, effects: Sequence[str] | None = None,
     """
     started = time.perf_counter()
     say = progress or (lambda stage, fraction: None)
+    check_materials(runs)
     runs = views(runs)
     request = check_request(runs, effects, false_alarm, bootstrap, seed, workers)
     say("baseline", PROGRESS["baseline"])
@@ -949,6 +950,19 @@ MIN_RUNS = 3
 """A run is held out and the rest must still fit the baseline's four shared terms and one factor per run."""
 MIN_BOOTSTRAP = 20
 """Fewer null replicates cannot place a family-wise tail quantile at all. [–]"""
+
+
+def check_materials(runs: Sequence[Run]) -> None:
+    """One line when the runs were recorded in more than one material: the baseline shares P, C and K among the
+    runs (only the strength factor is each run's), so another material's runs read as an effect (the example's
+    grill brick and MPACS C runs together gave 'plug_growth with velocity_friction')."""
+    counts: dict[str, int] = {}
+    for run in runs:
+        counts[run.material.name] = counts.get(run.material.name, 0) + 1
+    if len(counts) > 1:
+        listed = ", ".join(f"{name} ({n} runs)" for name, n in sorted(counts.items()))
+        raise FitError(f"the runs are of {len(counts)} materials: {listed}; the diagnosis shares P, C and K among "
+                       f"its runs, so diagnose one material's runs at a time (pen runs --material NAME lists them)")
 
 
 def check_request(runs: Sequence[_RunView], effects: Sequence[str] | None, false_alarm: float, bootstrap: int,
