@@ -321,11 +321,17 @@ def creep_target(design: Design, law: ResistanceLaw):
     """(x* − δ [m], speed limit ω0·δ [m/s], x* [m], the net force's slope there k [N/m]) of a design that can
     creep, else ``None``: the rule of :func:`pencli.model.design.creep_point`, which the batch simulator uses
     too."""
-    m = float(design.effective_mass_kg)
-    point = creep_point(m, float(design.drive_stiffness_n_m), float(design.stroke_m - design.surface_offset_m),
-                        m * float(design.gravity_m_s2), law.strength_n, law.friction_n_m, law.damping_n_s_m,
-                        float(design.penetration_depth_m))
+    point = creep_point(*_at_rest(design, law))
     return None if math.isnan(point[0]) else point
+
+
+def _at_rest(design: Design, law: ResistanceLaw) -> tuple[float, ...]:
+    """(m, kd, xk, m·g, a0, a1, b, depth): what the rest-depth rules of :mod:`pencli.model.design` read (SI;
+    ``xk`` the depth where the springs reach free length)."""
+    m = float(design.effective_mass_kg)
+    return (m, float(design.drive_stiffness_n_m), float(design.stroke_m - design.surface_offset_m),
+            m * float(design.gravity_m_s2), law.strength_n, law.friction_n_m, law.damping_n_s_m,
+            float(design.penetration_depth_m))
 
 
 def _work(design: Design, law: ResistanceLaw, x0: float, x1: float) -> float:
@@ -459,10 +465,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
 
     notes = []
     tau = None
-    m_eff = float(design.effective_mass_kg)
-    at_rest = (m_eff, float(design.drive_stiffness_n_m), float(design.stroke_m - design.surface_offset_m),
-               m_eff * float(design.gravity_m_s2), law.strength_n, law.friction_n_m, law.damping_n_s_m,
-               float(design.penetration_depth_m))
+    at_rest = _at_rest(design, law)
     near = end == "arrest" and bool(near_critical(*at_rest))
     if near:
         gap = 1.0 - float(damping_ratio_at_rest(*at_rest))
