@@ -206,6 +206,7 @@ def sweep_section(ws, record: Mapping[str, Any]) -> Section:
     """A sweep (its catalogue row): variables, ranges of the figures, heat maps with the full-penetration
     boundary (Fig. 14), 4-D scatter (Fig. 15), partial dependence."""
     from pencli.labels import quantity
+    from pencli.predict.batch import ENDS, NOT_SIMULATED
     from pencli.report import figures
 
     sweep_id = record["sweep_id"]
@@ -227,7 +228,7 @@ def sweep_section(ws, record: Mapping[str, Any]) -> Section:
                            [[quantity(f).name, *_finite_range(table[f], quantity(f).scale), quantity(f).unit]
                             for f in SWEEP_FIGURES]))
     skipped = {end: int(n) for end, n in zip(*np.unique(np.asarray(table["end"]), return_counts=True))
-               if end in ("no_contact", "invalid", "overflow")}
+               if end in ENDS[NOT_SIMULATED:]}
     if skipped:
         section.text = ("Designs not simulated (no figures; left out of every map and range): "
                         + ", ".join(f"{n} {end}" for end, n in skipped.items()) + ".")
@@ -275,10 +276,9 @@ def sweep_boundary(table: Mapping[str, np.ndarray], base: Mapping[str, float] | 
         return None
     full = np.zeros((ys.size, xs.size), dtype=bool)
     full[np.searchsorted(ys, py), np.searchsorted(xs, px)] = np.asarray(table["full_penetration"], dtype=bool)[keep]
-    ran = np.ones_like(full)
-    if "end" in table:
-        ran[np.searchsorted(ys, py), np.searchsorted(xs, px)] = np.isfinite(
-            np.asarray(table["final_depth_mm"], dtype=float))[keep]  # designs not simulated have no figures
+    ran = np.zeros_like(full)  # designs not simulated have no figures
+    ran[np.searchsorted(ys, py), np.searchsorted(xs, px)] = np.isfinite(
+        np.asarray(table["final_depth_mm"], dtype=float))[keep]
     return boundary_roots(base, x, y, xs, ys, full, held, simulated=ran)
 
 
