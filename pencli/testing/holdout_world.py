@@ -39,6 +39,12 @@ CATALOGUE = ("strength_layer", "strength_gradient", "plug_growth", "sidewall_pre
              "rate_strength", "load_cell_mass_error", "sensor_lag", "rig_ringing", "force_drift", "propulsion_loss")
 OUTSIDE = "periodic_crushing"
 """An effect outside the catalogue: strength oscillating sinusoidally with depth (crushing cycles)."""
+OUTSIDE_KINDS = (OUTSIDE, "fragment_impacts", "strength_relaxation", "gauge_nonlinearity", "blade_wander")
+"""Effects outside the catalogue, one of each kind of misfit the catalogue has no term for: periodic in depth
+(crushing cycles); intermittent, one-sided and different in every run (fragments struck at random depths);
+following the time in the material (the crushed zone weakens as it ages); following the measured force itself
+(a load cell whose gain rises with load); and differing from run to run (the blade enters at a random tilt, so
+each run's sidewall pressure is its own)."""
 PAIRS = (("strength_layer", "load_cell_mass_error"), ("rig_ringing", "sidewall_pressure_growth"),
          ("propulsion_loss", "strength_gradient"), ("force_drift", "velocity_friction"))
 """The hold-out bench's two-effect campaigns."""
@@ -105,7 +111,26 @@ def draw_effect(name: str, rng: np.random.Generator, intensity: float = 1.0) -> 
         return dict(name=name, loss=float(rng.uniform(0.1, 0.25)) * s)
     if name == OUTSIDE:
         return dict(name=name, period_mm=float(rng.uniform(8, 20)), amplitude=0.35 * s)
+    if name == "fragment_impacts":  # the depths are each run's own (_per_run)
+        return dict(name=name, per_100mm=float(rng.uniform(3, 8)), width_mm=float(rng.uniform(1, 4)),
+                    amplitude=float(rng.uniform(0.5, 1.0)) * s)
+    if name == "strength_relaxation":
+        return dict(name=name, drop=float(rng.uniform(0.3, 0.5)) * s, time_constant_ms=float(rng.uniform(5, 40)))
+    if name == "gauge_nonlinearity":  # measured = F·(1 + gain·F/1 kN), either sign
+        return dict(name=name, gain_per_kn=float(rng.choice([-1.0, 1.0])) * float(rng.uniform(0.08, 0.2)) * s)
+    if name == "blade_wander":  # the tilts are each run's own (_per_run)
+        return dict(name=name, spread=float(rng.uniform(0.3, 0.6)) * s)
     raise ValueError(name)
+
+
+def _per_run(effect: dict, rng: np.random.Generator, depth_m: float) -> dict:
+    """One run's draw of an effect whose form differs from run to run (the others pass unchanged)."""
+    if effect["name"] == "fragment_impacts":
+        count = int(rng.poisson(effect["per_100mm"] * depth_m / 0.1))
+        return {**effect, "depths_mm": sorted(float(d) for d in rng.uniform(0, depth_m * 1e3, count))}
+    if effect["name"] == "blade_wander":
+        return {**effect, "pressure_factor": 1.0 + effect["spread"] * float(rng.uniform(-1.0, 1.0))}
+    return effect
 
 
 @dataclass
@@ -151,8 +176,12 @@ def _resistance(shot: Shot):
     press, vf, rate = shot.effect("sidewall_pressure_growth"), shot.effect("velocity_friction"), \
         shot.effect("rate_strength")
     crush = shot.effect(OUTSIDE)
+    fragments, relax = shot.effect("fragment_impacts"), shot.effect("strength_relaxation")
+    wander = shot.effect("blade_wander")
+    if wander:
+        P *= wander["pressure_factor"]
 
-    def strength(x, v):
+    def strength(x, v, t_in):
         f = 1.0
         if layer:
             top, ramp = layer["depth_mm"] * 1e-3, max(layer["ramp_mm"], 1e-3) * 1e-3
@@ -171,6 +200,12 @@ def _resistance(shot: Shot):
                                          else (1 - math.exp(-u)) / (1 - math.exp(-5 / rate["speed_m_s"])))
         if crush:
             f *= 1.0 + crush["amplitude"] * math.sin(2 * math.pi * x / (crush["period_mm"] * 1e-3))
+        if fragments:
+            width = fragments["width_mm"] * 1e-3
+            f *= 1.0 + fragments["amplitude"] * sum(math.exp(-0.5 * ((x - d * 1e-3) / width) ** 2)
+                                                    for d in fragments["depths_mm"])
+        if relax:
+            f *= 1.0 - relax["drop"] * -math.expm1(-t_in / (relax["time_constant_ms"] * 1e-3))
         return S * f
 
     def mu(v):
@@ -192,10 +227,11 @@ def _resistance(shot: Shot):
         L, g = plug["length_mm"] * 1e-3, plug["growth_mm"] * 1e-3
         return T + g * (min(x / L, 1.0) if plug["form"] == "ramp" else math.sqrt(x / (x + L)))
 
-    def resistance(x, v):
+    def resistance(x, v, t_in=0.0):
+        """Resistance at depth x [m], speed v [m/s] and t_in [s] after contact. [N]"""
         x, v = max(x, 0.0), max(v, 0.0)
         mv = mu(v)
-        return (w * thickness(x) * (Cs * strength(x, v) * (math.sin(th) + mv * math.cos(th)) + C * v + K * rho * v * v)
+        return (w * thickness(x) * (Cs * strength(x, v, max(t_in, 0.0)) * (math.sin(th) + mv * math.cos(th)) + C * v + K * rho * v * v)
                 + 2 * mv * w * sidewall(x))
 
     return resistance
@@ -213,9 +249,9 @@ def motion(shot: Shot):
     R = _resistance(shot)
     s0 = shot.standoff_m
 
-    def accel(u, v, inside):
+    def accel(u, v, inside, t=0.0):
         spring = eta * n * k * (stroke - u) if u < stroke else 0.0
-        return (spring + m_eff * G - (R(u - s0, v) if inside else 0.0)) / m_eff
+        return (spring + m_eff * G - (R(u - s0, v, t - t_c) if inside else 0.0)) / m_eff
 
     def flight(t, y):
         return [y[1], accel(y[0], y[1], False)]
@@ -230,7 +266,7 @@ def motion(shot: Shot):
     v_c = float(first.y_events[0][0][1])
 
     def pen(t, y):
-        return [y[1], accel(y[0], y[1], True)]
+        return [y[1], accel(y[0], y[1], True, t)]
 
     def arrest(t, y):
         return y[1]
@@ -257,8 +293,8 @@ def motion(shot: Shot):
         elif ti <= t_s:
             u[i], v[i] = second.sol(ti)
             v[i] = max(v[i], 0.0)
-            a[i] = accel(u[i], v[i], True)
-            res[i] = R(u[i] - s0, v[i])
+            a[i] = accel(u[i], v[i], True, ti)
+            res[i] = R(u[i] - s0, v[i], ti - t_c)
         else:
             u[i], v[i] = second.y[0, -1], 0.0
             if end == "arrest":  # the material holds the springs (CONTRACT §2)
@@ -280,6 +316,9 @@ def measure(shot: Shot, rng: np.random.Generator, pre_s: float = 0.15) -> dict[s
     mass = shot.effect("load_cell_mass_error")
     m_lc = shot.load_cell_kg * (mass["ratio"] if mass else 1.0)
     force = resist + m_lc * (acc - G)
+    gauge = shot.effect("gauge_nonlinearity")
+    if gauge:  # the load cell's gain rises (or falls) with the force it carries
+        force = force * (1.0 + gauge["gain_per_kn"] * force / 1e3)
     ring = shot.effect("rig_ringing")
     if ring:
         tc = time - t_c
@@ -385,7 +424,8 @@ def make_campaign(folder: Path, seed: int, effects=(), *, intensity: float = 1.0
                     material=material,
                     strength_pa=material["microstructure_strength_kpa"] * 1e3 * (1 + float(rng.normal(0, scatter))),
                     rate_hz=run_rate, noise_n=noise, noise_colour=colour, encoder_m=encoder,
-                    cutoff_hz=float(rng.uniform(0.15, 0.4)) * run_rate, effects=drawn)
+                    cutoff_hz=float(rng.uniform(0.15, 0.4)) * run_rate,
+                    effects=[_per_run(e, np.random.default_rng([seed, 11, i]), 0.133) for e in drawn])
         columns = measure(shot, np.random.default_rng([seed, i]))
         folders.append(write_run(folder / f"h{seed}-{i}", shot, columns, f"h{seed}-{i}", material_name))
     nuisances = dict(material=material_name, runs=n_runs, rate_hz=float(rate) or "mixed", block_scatter=scatter,
