@@ -1313,3 +1313,27 @@ def test_one_records_corner_read_scatters_by_about_the_spread_the_replicates_fal
         errors.append(math.log(found.corner / 0.117))
     rms = math.sqrt(float(np.mean(np.square(errors))))
     assert 0.5 < rms / math.hypot(CORNER_READ_SPREAD, CORNER_GRID_SPREAD) < 2.0, errors
+
+
+def test_the_run_axis_reads_a_misfit_the_runs_do_not_share_and_only_that():
+    """``axes["run"]``: the share of the misfit that differs from run to run.  Six runs whose misfit grows with
+    depth in opposite directions (±40 N at 133 mm) share almost nothing, so the depth axis takes little of it
+    and the run axis most; the same profile in every run is all depth and nothing of the runs."""
+    from types import SimpleNamespace
+
+    from pencli.diagnose.engine import _axes
+
+    rng = np.random.default_rng(5)
+    x = np.linspace(0.0, 0.133, 4000)
+    t, v, a = x / 5.0, np.full_like(x, 5.0), np.zeros_like(x)
+    run = SimpleNamespace(contact_s=0.0)
+
+    def series(shapes):
+        return [(run, t, x, v, a, shape + rng.normal(0.0, 2.0, x.size)) for shape in shapes]
+
+    apart = _axes(series([(-1) ** k * 40.0 * x / 0.133 for k in range(6)]))
+    alike = _axes(series([40.0 * (x / 0.133) ** 2 for _ in range(6)]))
+    # each run's ±40·x/L has mean square 533 N² over 4 N² of noise: 99 % of the misfit, none of it shared;
+    # a profile in 4 bins a run takes all of a straight line's square but its spread within a bin, 1/64 of it
+    assert apart["run"] > 0.95 and apart["depth"] < 0.02, apart
+    assert alike["depth"] > 0.95 and alike["run"] < 0.01, alike

@@ -75,7 +75,11 @@ from pencli.model.dynamics import flight_of, simulate
 from pencli.run import Run
 
 EXPLAIN_SHARE = 0.5
-"""An effect explains a gap when it removes at least this share of the gap's excess over the null floor."""
+"""An effect (or a pair) explains a misfit when it removes at least this share of the misfit's excess over the
+null floor; one that removes less and leaves a gap its own null would not is no explanation, whatever the
+misfit's shape (shared by the runs, different in each, intermittent or one-sided)."""
+CANDIDATES = 3
+"""An ``unexplained`` verdict's notes name this many of the best catalogue candidates with their shares."""
 AMBIGUITY_Z = 1.96
 """Effects whose held-out improvements differ by less than this many null standard deviations are alike."""
 
@@ -101,6 +105,9 @@ MIN_PHASE_SHARE = 0.05
 """A phase holding less than this share of the misfit's excess over the null floor is not listed in ``where``."""
 AXIS_BINS = 20
 """Quantile bins of each axis the misfit is read along (``axes``); at least two samples a bin. [–]"""
+RUN_DEPTH_BINS = 4
+"""Quantile bins of each run's own depth profile in the ``run`` axis: coarse, so that a profile fitted to one
+run's noise takes little (4 bins a run over thousands of samples). [–]"""
 MIN_TRAJECTORY_SAMPLES = 4
 """A simulated trajectory with fewer samples cannot be interpolated onto a run's clock. [–]"""
 
@@ -588,33 +595,50 @@ def _where(series, floor_sq: float) -> list[dict]:
     return out
 
 
+def _quantile_bins(values: np.ndarray, bins: int) -> np.ndarray:
+    """Each value's bin among ``bins`` quantile bins of ``values`` (fewer where values repeat)."""
+    edges = np.unique(np.quantile(values, np.linspace(0, 1, bins + 1)))
+    return np.clip(np.searchsorted(edges, values, side="right") - 1, 0, max(edges.size - 2, 0))
+
+
+def _binned_means(bins: np.ndarray, res: np.ndarray) -> np.ndarray:
+    """The mean of ``res`` in each sample's bin."""
+    counts = np.bincount(bins)
+    return (np.bincount(bins, weights=res) / np.maximum(counts, 1))[bins]
+
+
 def _axes(series) -> dict:
-    """Share of the baseline's held-out misfit explained by its mean along each axis (20 quantile bins).
+    """Share of the baseline's held-out misfit explained by its mean along each axis (20 quantile bins), and
+    ``run``: the share that differs from run to run (each run's own depth profile, in :data:`RUN_DEPTH_BINS`
+    quantile bins, of what the runs' shared depth profile leaves).
 
     Computed over the penetration samples (flight vs penetration is its own
     entry): the axis with the largest share is what the misfit follows.
     """
-    parts = {"depth": [], "speed": [], "time_since_contact": [], "acceleration": [], "residual": []}
+    parts = {"depth": [], "speed": [], "time_since_contact": [], "acceleration": [], "residual": [], "run": []}
     flight_ss = pen_ss = 0.0
-    for run, t, x, v, a, res in series:
+    for k, (run, t, x, v, a, res) in enumerate(series):
         inside = t >= run.contact_s
         flight_ss += float(np.sum(res[~inside] ** 2))
         pen_ss += float(np.sum(res[inside] ** 2))
         for key, values in (("depth", x), ("speed", v), ("time_since_contact", t - run.contact_s),
                             ("acceleration", a), ("residual", res)):
             parts[key].append(values[inside])
+        parts["run"].append(np.full(int(np.count_nonzero(inside)), k))
     res = np.concatenate(parts.pop("residual"))
+    run = np.concatenate(parts.pop("run"))
     out = {"flight_share": round(flight_ss / max(flight_ss + pen_ss, 1e-300), 3)}
     ss = float(np.sum(res ** 2))
+    if res.size < AXIS_BINS * 2 or ss <= 0:
+        return out
     for key, chunks in parts.items():
-        values = np.concatenate(chunks)
-        if values.size < AXIS_BINS * 2 or ss <= 0:
-            continue
-        edges = np.unique(np.quantile(values, np.linspace(0, 1, AXIS_BINS + 1)))
-        bins = np.clip(np.searchsorted(edges, values, side="right") - 1, 0, max(edges.size - 2, 0))
-        counts = np.bincount(bins)
-        means = np.bincount(bins, weights=res) / np.maximum(counts, 1)
-        out[key] = round(float(np.sum(counts * means ** 2)) / ss, 3)
+        means = _binned_means(_quantile_bins(np.concatenate(chunks), AXIS_BINS), res)
+        out[key] = round(float(np.sum(means ** 2)) / ss, 3)
+    depth = np.concatenate(parts["depth"])
+    left = res - _binned_means(_quantile_bins(depth, AXIS_BINS), res)
+    cells = run * RUN_DEPTH_BINS + np.concatenate([_quantile_bins(depth[run == k], RUN_DEPTH_BINS)
+                                                   for k in np.unique(run)])
+    out["run"] = round(float(np.sum(_binned_means(cells, left) ** 2)) / ss, 3)
     return out
 
 
@@ -1155,7 +1179,7 @@ def report_effects(baseline: Baseline, scan: FamilyScan, drive: DriveView, reque
 def decide(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, drive: DriveView,
            reports: dict[str, EffectReport], request: Request) -> Decision:
     """The verdict: the effect (and second) that explains the resistance view's misfit, ``unexplained`` when a
-    shared misfit stays that no catalogue effect or pair removes :data:`EXPLAIN_SHARE` of, the rest's drift
+    misfit stays that no catalogue effect or pair removes :data:`EXPLAIN_SHARE` of, the rest's drift
     and the drive effect beside it, ``none`` otherwise; with the notes a user needs to read it."""
     reports = dict(reports)
     verdict, verdict_effects, notes, pair, naming, top = "none", [], [], None, None, None
@@ -1180,7 +1204,9 @@ def decide(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, d
 def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], request: Request, notes: list[str],
                         base_spec: Spec):
     """The resistance view's verdict once an effect passed the family-wise test: the effect named first and a
-    significant second, or ``unexplained`` when neither it nor the pair explains a shared misfit."""
+    significant second, or ``unexplained`` when neither it nor the pair removes :data:`EXPLAIN_SHARE` of the
+    misfit's excess over the null floor while a gap stays (the runs share a misfit, or the first effect's
+    held-out error stands above its own null replicates')."""
     S0, excess = scan.S0, scan.excess
     gate, top = _named_first(reports, scan.tested, S0)
     naming = {"familywise_first": gate.name, "named_first": top.name}
@@ -1193,12 +1219,19 @@ def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], requ
     pair = _best_second(scan.stats, {e.name: scan.candidates[e.name] for e in scan.law_effects}, scan.tested,
                         top.name, base_spec, S0, request.alpha)
     top_share = reports[top.name].explained_share
-    explains = not scan.resistance_gap or top_share is None or top_share >= EXPLAIN_SHARE
+    left_z = _standardise(np.log(np.maximum(scan.tested[top.name].family.heldout, LOG_FLOOR)), GAP_Z_FLOOR)[0]
+    leaves_gap = scan.resistance_gap or left_z > normal_quantile(request.alpha)
+    explains = not leaves_gap or top_share is None or top_share >= EXPLAIN_SHARE
     pair_share = (S0[0] - pair["heldout"]) / excess if pair and excess > 0 else None
     if not (explains or (pair and pair["significant"] and pair_share is not None and pair_share >= EXPLAIN_SHARE)):
         best = f"{top.name} + {pair['effect']}" if pair else top.name
-        notes.append(f"the runs share a misfit (probe z {scan.z_probe:.1f}); the best catalogue explanation "
-                     f"({best}) removes only {PERCENT * max(pair_share or 0, top_share or 0):.0f} % of its excess")
+        shares = sorted(((r.explained_share, r.name) for r in reports.values()
+                         if r.view == "resistance" and r.explained_share is not None), reverse=True)
+        notes.append(f"a misfit stays that no catalogue effect explains: the best explanation ({best}) removes "
+                     f"only {PERCENT * max(pair_share or 0, top_share or 0):.0f} % of its excess over the null "
+                     f"floor and leaves a gap (z {left_z:.1f}); candidates: "
+                     + ", ".join(f"{name} {PERCENT * max(share, 0.0):.0f} %" for share, name in shares[:CANDIDATES])
+                     + "; see where and axes for what the misfit follows")
         return "unexplained", [], top, pair, naming
     verdict_effects = [top.name]
     if pair and pair["significant"]:
@@ -1238,7 +1271,8 @@ UM_PER_M = 1e6
 
 def _context_notes(runs: Sequence[_RunView], verdict: str, reports: Mapping[str, EffectReport],
                    rest: dict | None, false_alarm: float) -> list[str]:
-    """Notes that help read the verdict: runs whose force rises late, and what a ``none`` could have seen."""
+    """Notes that help read the verdict: runs whose force rises late, what a ``none`` could have seen, and a
+    drift the rest shows beside a ``none`` or an ``unexplained``."""
     notes = []
     late = _late_rises(runs)
     if late:
@@ -1255,6 +1289,10 @@ def _context_notes(runs: Sequence[_RunView], verdict: str, reports: Mapping[str,
             notes.append(f"the force drifts in the rest after the stop (z {rest['z']:.1f} against "
                          f"{rest['threshold']:.1f}; {rest['rms_n']:.2g} N RMS of change), too little within the "
                          f"windows to matter to the resistance model")
+    if verdict == "unexplained" and rest is not None and rest["significant"]:
+        notes.append(f"the force also drifts in the rest after the stop (z {rest['z']:.1f} against "
+                     f"{rest['threshold']:.1f}; {rest['rms_n']:.2g} N RMS of change): a drift is present, but one "
+                     f"shared by the runs does not explain the misfit in the material")
     return notes
 
 
