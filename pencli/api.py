@@ -750,9 +750,10 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
 
 # ---------------------------------------------------------------------------- diagnosis
 def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | None = None,
-             false_alarm: float | None = None, bootstrap: int | None = None, seed: int = 0,
+             false_alarm: float | None = None, bootstrap: int | None = None, seed: int = 0, suggest: int = 0,
              progress: Callable[[str, float], None] | None = None):
-    """``pen diagnose``: where the model and the runs part, which effect, how far it closes.
+    """``pen diagnose``: where the model and the runs part, which effect, how far it closes; with ``suggest``,
+    the next runs that would best tell the leading candidates apart.
 
     ``false_alarm`` and ``bootstrap`` default to the engine's (1 %, 200 replicates).
     """
@@ -761,7 +762,7 @@ def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | No
     return engine.diagnose(load_campaign(db, refs), effects=effects,
                            false_alarm=engine.FALSE_ALARM if false_alarm is None else false_alarm,
                            bootstrap=engine.BOOTSTRAP if bootstrap is None else bootstrap, seed=seed,
-                           progress=progress)
+                           suggest=suggest, progress=progress)
 
 
 # ---------------------------------------------------------------------------- sweeps

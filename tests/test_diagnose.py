@@ -181,6 +181,38 @@ def test_a_misfit_that_differs_from_run_to_run_is_unexplained_not_a_small_catalo
     assert result.axes["run"] > 0.0 and set(result.axes) >= {"depth", "speed", "time_since_contact", "run"}
 
 
+def test_a_campaign_that_cannot_tell_two_effects_apart_says_so_and_one_that_can_does_not(tmp_path):
+    """A weak velocity friction (6 % drop) in six runs of one blade and one spring count: each run's speed is
+    the same function of depth, so a strength gradient fits as well (their held-out improvements 1.4 null
+    standard deviations apart).  The same friction in runs of three blades and three spring counts is told
+    apart.  The verdict stays one effect name (CONTRACT §4); the notes, the JSON's ``ambiguities`` and the
+    command's verdict line say which others fit as well."""
+    friction = [{"name": "velocity_friction", "drop": 0.06}]
+    alike = api.diagnose(conditioned(make_campaign(tmp_path / "alike", "mpacs_c", seed=61, shots=[("1.5", 4)] * 6,
+                                                   effects=friction, block_kpa=BLOCKS)), ["all"], suggest=2)
+    apart = api.diagnose(conditioned(make_campaign(tmp_path / "apart", "mpacs_c", seed=61, shots=SIX,
+                                                   effects=friction, block_kpa=BLOCKS)), ["all"])
+    assert alike.verdict == apart.verdict == "velocity_friction"
+    assert [a["effects"][0] for a in alike.ambiguities] == ["velocity_friction"] * len(alike.ambiguities) != []
+    other = alike.ambiguities[0]["effects"][1]
+    assert abs(alike.ambiguities[0]["difference_z"]) <= 1.96
+    assert alike.notes[0].startswith(f"velocity_friction or {other}: this campaign cannot tell them apart")
+    assert not apart.ambiguities and not any("cannot tell them apart" in n for n in apart.notes)
+    from pencli.report.diagnosis import diagnosis_caption
+
+    assert f"(velocity_friction or {other}: these runs cannot tell them apart)" in diagnosis_caption(alike)
+    assert "cannot tell" not in diagnosis_caption(apart)
+    # the next runs that would tell them apart: of another blade or launcher than every run so far, each
+    # putting the two further apart than any run like the campaign's own
+    plan = alike.suggestions
+    assert plan["candidates"] == ["velocity_friction", other] and len(plan["runs"]) == 2
+    for run in plan["runs"]:
+        assert (run["blade_thickness_mm"], run["spring_count"]) != (1.5, 4)
+        assert run["candidates"] == ["velocity_friction", other]
+        assert run["separation_sigma"] > plan["own_runs_separation_sigma"] > 0
+    assert not apart.suggestions  # asked for only where wanted
+
+
 def test_two_effects_are_both_found(tmp_path):
     effects = [{"name": "strength_layer", "depth_mm": 50, "ratio": 0.5, "thickness_mm": 300},
                {"name": "load_cell_mass_error", "ratio": 1.5}]

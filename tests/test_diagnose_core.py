@@ -1337,3 +1337,35 @@ def test_the_run_axis_reads_a_misfit_the_runs_do_not_share_and_only_that():
     # a profile in 4 bins a run takes all of a straight line's square but its spread within a bin, 1/64 of it
     assert apart["run"] > 0.95 and apart["depth"] < 0.02, apart
     assert alike["depth"] > 0.95 and alike["run"] < 0.01, alike
+
+
+def test_a_planned_runs_separation_is_the_noise_scaled_root_sum_of_what_a_refit_cannot_absorb():
+    """pencli.diagnose.plan: two candidates whose resistances differ by a constant are not separated at all (the
+    new run's own strength factor absorbs it); by c·x, the separation is √Σ(c·x − mean)²/σ along the first's
+    motion, here computed from the simulator's own trajectory sampled at the same rate, and it scales as c/σ."""
+    from pencli.diagnose.plan import Candidate, designs, separation
+    from pencli.fit.resistance import with_coefficients
+    from pencli.model.dynamics import simulate
+    from pencli.model.design import design_from_sets
+    from pencli.params.load import load_preset
+
+    design = design_from_sets(load_preset("al6061_1.5mm", "penetrator"), load_preset("grill_brick", "material"),
+                         load_preset("springs_4", "energizing"))
+    values = {"strength_factor": 1.08, "sidewall_pressure_kpa": 7.93, "damping_kpa_s_m": 0.0,
+              "inertia_coefficient": 46.5}
+    plain = Candidate("baseline", values, None)
+    offset = Candidate("offset", values, lambda d: (lambda x, v: 40.0))
+    sloped = Candidate("sloped", values, lambda d: (lambda x, v: 2000.0 * x))  # 2 kN/m: 0.27 kN at 133 mm
+    rate = 30_000.0
+    assert separation(design, plain, offset, rate, 2.0) < 1e-9 * separation(design, plain, sloped, rate, 2.0)
+
+    result = simulate(with_coefficients(design, values), rtol=1e-8, output_rate_hz=rate)
+    tr, s = result.trajectory, result.summary
+    inside = (tr.time_s >= s.contact_time_s) & (tr.time_s <= s.contact_time_s + s.penetration_time_s)
+    extra = 2000.0 * tr.depth_m[inside]
+    expected = math.sqrt(float(np.sum((extra - extra.mean()) ** 2))) / 2.0
+    assert separation(design, plain, sloped, rate, 2.0) == pytest.approx(expected, rel=1e-6)
+    assert separation(design, plain, sloped, rate, 4.0) == pytest.approx(expected / 2, rel=1e-6)
+
+    spans = {(d.spring_count, round(d.blade_thickness_m * 1e3, 3)) for d in designs(design, [design])}
+    assert spans == {(n, t) for n in (2, 4, 6) for t in (1.0, 1.5, 2.0)}

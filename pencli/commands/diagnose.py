@@ -11,7 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli.lazy import lazy
-from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, progress_bar
+from pencli.commands.common import DbOption, PenTyper, console, db_path, progress_bar
 from pencli.diagnose.effects import EFFECTS
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM
 
@@ -41,6 +41,11 @@ def diagnose(
     bootstrap: int = typer.Option(BOOTSTRAP, "--bootstrap", min=20, max=2000,
                                   help="Null replicates of the campaign that calibrate every decision."),
     seed: int = typer.Option(0, "--seed", help="Seed of the null replicates (the same seed, the same verdict)."),
+    suggest: int = typer.Option(0, "--suggest", min=0, max=3,
+                                help="Propose this many next runs (spring count, blade thickness and width, "
+                                     "sampling rate, among those the runs span) that best tell the verdict's "
+                                     "effect from those that fit as well, with the separation each would give "
+                                     "in units of the force noise [–]."),
     db: Optional[Path] = DbOption,
 ) -> None:
     """Diagnose the sim-to-real gap: where it lies, which effect causes it, how far it shrinks.
@@ -52,7 +57,7 @@ def diagnose(
     derivative chain) at the stated false-alarm rate. Verdict: an effect,
     'none' (nothing beyond what the null makes) or 'unexplained' (a gap no
     effect or pair removes half of).
-    Example: pen diagnose 'mc-*' --json diagnosis.json --false-alarm 0.01
+    Example: pen diagnose 'mc-*' --json diagnosis.json --false-alarm 0.01 --suggest 2
     """
     if json_file is not None and str(json_file) != "-":
         api.check_output(json_file, db_path(db), "--json")
@@ -63,7 +68,7 @@ def diagnose(
     chosen = [e.strip() for e in effects.split(",")] if effects else None
     with progress_bar("diagnosing") as progress:
         result = api.diagnose(db_path(db), runs, effects=chosen, false_alarm=false_alarm, bootstrap=bootstrap,
-                              seed=seed, progress=lambda stage, done: progress(stage, done, 1))
+                              seed=seed, suggest=suggest, progress=lambda stage, done: progress(stage, done, 1))
     if plot is not None:
         from pencli.report.diagnosis import plot_diagnosis
 
@@ -79,7 +84,9 @@ def diagnose(
         write_atomic(json_file, lambda tmp: tmp.write_text(text + "\n", encoding="utf-8"))
     base = report["baseline"]
     colour = {"none": "green", "unexplained": "red"}.get(result.verdict, "yellow")
-    console.print(f"[bold]verdict: [{colour}]{result.verdict}[/{colour}][/bold]"
+    alike = "".join(f" or {a['effects'][1]}" for a in result.ambiguities)
+    console.print(f"[bold]verdict: [{colour}]{result.verdict}{alike}[/{colour}][/bold]"
+                  + (": this campaign cannot tell them apart (see the notes)" if alike else "")
                   + (f"  (with {', '.join(result.verdict_effects[1:])})" if len(result.verdict_effects) > 1 else "")
                   + f"   over {len(result.runs)} runs")
     decision = result.decision
@@ -114,14 +121,26 @@ def diagnose(
         table.add_row(e.name, f"{e.heldout_rms_n:.1f}", f"{e.shrink_pct:.0f} %", f"{e.z:.1f}", "yes" if e.significant else "",
                       escape(_fmt_params(e.params)), text)
     console.print(table)
-    for amb in result.ambiguities:
-        err_console.print(f"[yellow]cannot tell apart:[/yellow] {amb['effects'][0]} and {amb['effects'][1]}; "
-                          f"to separate them: {escape(amb['separate_with'])}", highlight=False, soft_wrap=True)
     for note in result.notes:
         console.print(f"note: {escape(note)}", highlight=False)
+    _print_suggestions(result.suggestions)
     if json_file is not None:
         console.print(f"report written to {json_file}")
     if plot is not None:
         from pencli.report.diagnosis import diagnosis_caption
 
         console.print(f"figure written to {plot}: {diagnosis_caption(result)}")
+
+
+def _print_suggestions(plan: dict) -> None:
+    """The proposed next runs, one line each, best first."""
+    if not plan:
+        return
+    if plan.get("note"):
+        console.print(f"plan: {escape(plan['note'])}", highlight=False)
+    for k, run in enumerate(plan["runs"], 1):
+        console.print(f"next run {k}: {run['spring_count']} springs, blade {run['blade_thickness_mm']:g} × "
+                      f"{run['blade_width_mm']:g} mm, {run['sampling_rate_hz'] / 1e3:g} kHz: "
+                      f"{run['candidates'][0]} and {run['candidates'][1]} predicted "
+                      f"{run['separation_sigma']:.1f} noise units apart (the campaign's own runs: at most "
+                      f"{plan['own_runs_separation_sigma']:.1f})", highlight=False)

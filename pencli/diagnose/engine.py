@@ -64,6 +64,7 @@ from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the l
 from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, Effect, Member, _RunView, basis_of,
                                      column_strength_factor, surfaces, views)
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals, heldout_residuals_every
+from pencli.diagnose import plan
 from pencli.diagnose.rest import rest_drift
 from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, corner_spreads, fit_noise, gev_quantile,
                                   gumbel_quantile, normal_quantile, read_noise_chain, replicate_campaign,
@@ -496,6 +497,10 @@ class Diagnosis:
     baseline and of the verdict's first effect; where the run rests after its stop, that span's time since
     contact and force less what holds the blade (``rest_time_since_contact_s``, ``rest_residual_n``; not in the
     JSON)."""
+    suggestions: dict = field(default_factory=dict)
+    """The next runs that would best tell the leading candidates apart (``diagnose(suggest=N)``;
+    :mod:`pencli.diagnose.plan`): ``candidates``, ``runs`` (each a :class:`~pencli.diagnose.plan.Suggestion`),
+    ``own_runs_separation_sigma`` and ``note``; empty when not asked for."""
     profiles: dict = field(default_factory=dict)
     """For figures, along ``depth_mm`` and ``time_since_contact_ms``: bin centres, samples per bin, the data's
     binned held-out residual under the baseline (``baseline_n``) and with the verdict's effect (``effect_n``),
@@ -518,6 +523,7 @@ class Diagnosis:
             "detection_limits_rms_n": {e.name: e.detectable_rms_n for e in self.effects
                                        if e.detectable_rms_n is not None},
             "notes": list(self.notes),
+            **({"suggestions": self.suggestions} if self.suggestions else {}),
         }
 
 
@@ -825,6 +831,8 @@ class Request:
     bootstrap: int
     seed: int
     workers: int
+    suggest: int = 0
+    """How many next runs to propose (0: none)."""
 
     @property
     def alpha(self) -> float:
@@ -922,11 +930,13 @@ class Decision:
     pair: dict | None
     naming: dict | None
     rest: dict | None
+    ambiguities: tuple[dict, ...] = ()
+    """The effects the verdict's first cannot be told from with these runs (:func:`_ambiguities`)."""
 
 
 def diagnose(runs: Sequence[Run], *, effects: Sequence[str] | None = None,
              false_alarm: float = FALSE_ALARM, bootstrap: int = BOOTSTRAP, seed: int = 0, workers: int = 2,
-             progress: Progress | None = None) -> Diagnosis:
+             suggest: int = 0, progress: Progress | None = None) -> Diagnosis:
     """Locate, explain and size the gap between the reference model and ``runs``.
 
     A pipeline of named stages, each taking and returning small frozen records: the request is checked, the
@@ -943,13 +953,15 @@ def diagnose(runs: Sequence[Run], *, effects: Sequence[str] | None = None,
     bootstrap : null replicates of the campaign (≥ :data:`MIN_BOOTSTRAP`).
     seed : seed of the replicates (the verdict is reproducible).
     workers : processes that make replicates.
+    suggest : how many next runs to propose that would best tell the leading candidates apart
+        (:func:`suggest_runs`; 0: none).
     progress : called with (stage, fraction done).
     """
     started = time.perf_counter()
     say = progress or (lambda stage, fraction: None)
     check_materials(runs)
     runs = views(runs)
-    request = check_request(runs, effects, false_alarm, bootstrap, seed, workers)
+    request = check_request(runs, effects, false_alarm, bootstrap, seed, workers, suggest)
     say("baseline", PROGRESS["baseline"])
     baseline = fit_baseline(runs)
     say("null replicates", PROGRESS["null replicates"])
@@ -963,12 +975,15 @@ def diagnose(runs: Sequence[Run], *, effects: Sequence[str] | None = None,
     decision = decide(baseline, nulls, scan, drive, reports, request)
     say("trajectories", PROGRESS["trajectories"])
     result = locate(baseline, nulls, scan, drive, decision, request, started)
+    if request.suggest:
+        say("suggesting runs", PROGRESS["suggesting runs"])
+        result = replace(result, suggestions=suggest_runs(baseline, nulls, scan, decision, request))
     say("done", PROGRESS["done"])
     return result
 
 
 PROGRESS = {"baseline": 0.0, "null replicates": 0.05, "scoring effects": 0.5, "probes": 0.85, "pairs": 0.88,
-            "trajectories": 0.94, "done": 1.0}
+            "trajectories": 0.94, "suggesting runs": 0.97, "done": 1.0}
 """The share of a diagnosis's time done when each stage starts (for a progress bar). [–]"""
 MIN_RUNS = 3
 """A run is held out and the rest must still fit the baseline's four shared terms and one factor per run."""
@@ -990,7 +1005,7 @@ def check_materials(runs: Sequence[Run]) -> None:
 
 
 def check_request(runs: Sequence[_RunView], effects: Sequence[str] | None, false_alarm: float, bootstrap: int,
-                  seed: int, workers: int) -> Request:
+                  seed: int, workers: int, suggest: int = 0) -> Request:
     """The request as a :class:`Request`, or one line saying what is wrong (and a notice when the replicates
     are too few to see the threshold the false-alarm rate asks for)."""
     if len(runs) < MIN_RUNS:
@@ -1005,12 +1020,16 @@ def check_request(runs: Sequence[_RunView], effects: Sequence[str] | None, false
     unknown = [n for n in names if n not in EFFECTS]
     if unknown:
         raise FitError(f"unknown effect {unknown[0]!r}; the catalogue: {', '.join(EFFECTS)}")
+    if not 0 <= suggest <= MAX_SUGGESTED:
+        raise FitError(f"--suggest {suggest}: expected 0 to {MAX_SUGGESTED} runs")
     notice = tail_reach_notice(false_alarm, bootstrap)
     if notice:
         warnings.warn(PenNotice(notice), stacklevel=3)
-    return Request(names, false_alarm, bootstrap, seed, workers)
+    return Request(names, false_alarm, bootstrap, seed, workers, suggest)
 
 
+MAX_SUGGESTED = 3
+"""At most this many next runs are proposed: beyond three, the forecast of each rests on runs not yet made."""
 MAX_FALSE_ALARM = 0.5
 """A campaign-wise false-alarm rate of a half or more says nothing. [–]"""
 TERMS = ("strength", "friction", "damping", "inertia")
@@ -1197,8 +1216,13 @@ def decide(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, d
             verdict, verdict_effects = request.drive_effect, [request.drive_effect]
         else:
             verdict_effects.append(request.drive_effect)
+    alike = _ambiguities(reports[verdict_effects[0]], [r for n, r in reports.items() if n not in verdict_effects],
+                         scan.tested, scan.S0) if verdict_effects else []
+    notes[:0] = [f"{a['effects'][0]} or {a['effects'][1]}: this campaign cannot tell them apart (their held-out "
+                 f"improvements differ by {abs(a['difference_z']):.1f} null standard deviations); to separate "
+                 f"them: {a['separate_with']}" for a in alike]
     notes += _context_notes(baseline.runs, verdict, reports, rest, request.false_alarm)
-    return Decision(verdict, tuple(verdict_effects), reports, tuple(notes), top, pair, naming, rest)
+    return Decision(verdict, tuple(verdict_effects), reports, tuple(notes), top, pair, naming, rest, tuple(alike))
 
 
 def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], request: Request, notes: list[str],
@@ -1313,12 +1337,11 @@ def _late_rises(runs: Sequence[_RunView]) -> dict[str, float]:
 
 def locate(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, drive: DriveView, decision: Decision,
            request: Request, started: float) -> Diagnosis:
-    """How far each reported effect changes the trajectory, which effects cannot be told apart, where the gap
-    lies and along what, and the result assembled."""
-    runs, S0 = baseline.runs, scan.S0
+    """How far each reported effect changes the trajectory, where the gap lies and along what, and the result
+    assembled."""
+    runs = baseline.runs
     final = sorted((_with_trajectory(r, baseline, scan, decision) for r in decision.reports.values()),
                    key=lambda r: (-int(r.significant), -r.shrink_pct))
-    ambiguities = _ambiguities(final, scan.tested, S0)
     series_data = _residual_series(runs, baseline.uses, _residuals(scan.stats, scan.matrices, baseline.ys,
                                                                    baseline.spec))
     where = _where(series_data, scan.floor_sq)
@@ -1337,9 +1360,46 @@ def locate(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, d
     noise_floor = math.sqrt(float(np.mean([r.noise_n ** 2 for r in runs])))
     profiles = _profiles(series_data, after, scan, baseline, calibration)
     return Diagnosis(tuple(r.run_id for r in runs), _baseline_record(baseline, scan, drive, decision), tuple(where),
-                     tuple(final), decision.verdict, decision.verdict_effects, tuple(ambiguities), noise_floor,
+                     tuple(final), decision.verdict, decision.verdict_effects, decision.ambiguities, noise_floor,
                      decision.notes, decision=_decision_record(calibration, scan, drive, request, runs, started),
                      axes=_axes(series_data), series=tuple(series), profiles=profiles)
+
+
+def _law_candidate(name: str, baseline: Baseline, scan: FamilyScan) -> plan.Candidate:
+    """A law effect as the diagnosis fitted it, for :mod:`pencli.diagnose.plan`."""
+    t = scan.tested[name]
+    member = scan.candidates[name][t.family.best].member
+    coefficients, own = t.fit["coefficients"][SHARED_TERMS:, 0], _own_values(t.fit)
+    at = dict(own, strength_factor_of_columns=column_strength_factor(baseline.values["strength_factor"]))
+    return plan.Candidate(name, own, lambda design: member.force(coefficients, design, at))
+
+
+def suggest_runs(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, decision: Decision,
+                 request: Request) -> dict:
+    """The ``request.suggest`` next runs that best tell the verdict's first effect from the effects that fit as
+    well (:data:`AMBIGUITY_Z`), or, with none, from the baseline (how firmly a run would confirm it); with no
+    verdict effect, the best-fitting law effect against the baseline (:func:`pencli.diagnose.plan.plan`)."""
+    laws = [e.name for e in scan.law_effects if e.side == "law"]
+    lead = next((n for n in decision.verdict_effects if n in laws), None)
+    notes = []
+    if lead is None:
+        if not laws:
+            return {"runs": [], "note": "no law effect among those asked for: nothing a new run's resistance decides"}
+        lead = min(laws, key=lambda n: float(scan.tested[n].family.heldout[0]))
+        notes.append(f"the verdict names no law effect: the runs that would best show the best-fitting one, {lead}, "
+                     f"if it is there")
+    rivals = [a["effects"][1] for a in decision.ambiguities if a["effects"][1] in laws]
+    skipped = [a["effects"][1] for a in decision.ambiguities if a["effects"][1] not in laws]
+    candidates = [_law_candidate(lead, baseline, scan)]
+    candidates += ([_law_candidate(n, baseline, scan) for n in rivals] if rivals
+                   else [plan.Candidate("baseline", baseline.values, None)])
+    noise = math.sqrt(float(np.mean([n.noise.level_n ** 2 for n in calibration.nulls])))
+    rate = max(r.rate_hz for r in baseline.runs)
+    runs, own = plan.plan(candidates, [r.design for r in baseline.runs], rate, noise, request.suggest)
+    notes += [f"{name} is a measurement effect: a run's resistance does not tell it from {lead}" for name in skipped]
+    return {"candidates": [c.name for c in candidates], "runs": [r.to_dict() for r in runs],
+            "own_runs_separation_sigma": own, "noise_n": round(noise, 3),
+            **({"note": "; ".join(notes)} if notes else {})}
 
 
 PROFILE_BINS = 24
@@ -1590,15 +1650,17 @@ def _over_own_pair(stats: Statistics, own_pair: _Candidate, cands: Sequence[_Can
             "adds": bool(z > threshold and share >= EXPLAIN_SHARE)}
 
 
-def _ambiguities(reports: Sequence[EffectReport], tested: Mapping[str, _Tested], S0) -> list[dict]:
-    """Significant effects whose held-out improvement is within null noise of the best one's."""
-    significant = [e for e in reports if e.significant and e.view == "resistance"]
-    if len(significant) < 2:
+def _ambiguities(lead: EffectReport, others: Sequence[EffectReport], tested: Mapping[str, _Tested], S0
+                 ) -> list[dict]:
+    """The significant resistance-view effects among ``others`` (those the verdict does not name) whose held-out
+    improvement is within :data:`AMBIGUITY_Z` null standard deviations of ``lead``'s (the verdict's first
+    effect): with these runs, either explains the misfit as well as the other."""
+    if lead.view != "resistance" or lead.name not in tested:
         return []
-    top = significant[0]
+    top = lead
     d_top = S0 - tested[top.name].family.heldout
     out = []
-    for other in significant[1:]:
+    for other in (r for r in others if r.significant and r.view == "resistance"):
         diff = d_top - (S0 - tested[other.name].family.heldout)
         sd = float(np.std(diff[1:], ddof=1))
         if abs(float(diff[0])) > AMBIGUITY_Z * max(sd, LOG_FLOOR):

@@ -132,5 +132,7 @@ def diagnosis_caption(diagnosis) -> str:
     shrink = f"; it shrinks the held-out RMS by {first.shrink_pct:.0f} %" if first is not None else ""
     after = _bands_sentence(diagnosis, "effect_n")
     bands = f"; before it {before}, after it {after.split(' depth bins')[0]}" if before and after else ""
-    return (f"Verdict {' + '.join(diagnosis.verdict_effects)}: held-out RMS {rms:.1f} N (noise alone {floor:.1f} N)"
-            f"{shrink}{bands}; shaded: where the gap lies.")
+    alike = "".join(f" or {a['effects'][1]}" for a in diagnosis.ambiguities)
+    alike = f" ({diagnosis.verdict_effects[0]}{alike}: these runs cannot tell them apart)" if alike else ""
+    return (f"Verdict {' + '.join(diagnosis.verdict_effects)}{alike}: held-out RMS {rms:.1f} N (noise alone "
+            f"{floor:.1f} N){shrink}{bands}; shaded: where the gap lies.")
