@@ -612,9 +612,10 @@ def test_an_effect_the_dynamic_model_cannot_finish_is_a_note_not_a_crash(monkeyp
     effect = EFFECTS["sidewall_pressure_growth"]
     member = effect.members[0]
     coefficients = np.full(len(member.profiles), 0.1)  # a law member: one coefficient per profile
-    monkeypatch.setattr(dyn, "MAX_EVALUATIONS", 50)
+    monkeypatch.setattr(engine, "TRAJECTORY_EVALUATIONS", 50)
     change = engine._trajectory_change(effect, member, coefficients, runs, values)
-    assert "did not finish" in change["note"] and "integration steps" in change["note"]
+    assert "did not finish" in change["note"] and "more than 50 integration steps" in change["note"]
+    assert dyn.MAX_EVALUATIONS > 50  # the side note's budget is its own
 
 
 def test_a_family_held_at_its_bound_on_most_replicates_does_not_blind_the_threshold():

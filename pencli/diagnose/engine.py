@@ -668,6 +668,15 @@ def _dense_band(values: np.ndarray, weight: np.ndarray, share: float = 0.8) -> t
     return best
 
 
+TRAJECTORY_RTOL = 1e-8
+"""Tolerance of the trajectory-change simulations: their figures are reported to 0.1 % and 0.1 mm. [–]"""
+TRAJECTORY_EVALUATIONS = 20_000
+"""Evaluations a trajectory-change simulation may take: a run's penetration takes a few hundred, and a fitted
+force that holds the blade creeping towards a rest depth (the model's creep rule does not apply with an effect's
+force) took the whole default budget (2·10⁶ evaluations, four minutes of a 4.5-minute diagnosis) for a side
+note. [–]"""
+
+
 def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs: Sequence[_RunView],
                        values: Mapping[str, float], loss: float = 0.0,
                        own_values: Mapping[str, float] | None = None) -> dict:
@@ -682,15 +691,16 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
         return {"note": "a measurement effect: the trajectory does not change"}
     run = sorted(runs, key=lambda r: r.contact_speed_m_s)[len(runs) // 2]
     base_design = with_coefficients(run.design, values)
+    budget = dict(rtol=TRAJECTORY_RTOL, max_evaluations=TRAJECTORY_EVALUATIONS)
     try:
-        before = simulate(base_design, rtol=1e-8).summary
+        before = simulate(base_design, **budget).summary
         if effect.side == "drive":
-            after = simulate(replace(base_design, efficiency=base_design.efficiency * (1 - loss)), rtol=1e-8).summary
+            after = simulate(replace(base_design, efficiency=base_design.efficiency * (1 - loss)), **budget).summary
         else:
             own = values if own_values is None else own_values
             columns_at = column_strength_factor(values["strength_factor"])
             force = member.force(coefficients, run.design, dict(own, strength_factor_of_columns=columns_at))
-            after = simulate(with_coefficients(run.design, own), rtol=1e-8, extra_resistance=force).summary
+            after = simulate(with_coefficients(run.design, own), extra_resistance=force, **budget).summary
     except ModelError as exc:  # the effect's fitted force can make the motion one the model cannot finish
         return {"run": run.run_id, "note": f"the dynamic model with this effect did not finish: {exc}"}
     return {

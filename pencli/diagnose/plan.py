@@ -28,6 +28,9 @@ from pencli.model.resistance import parse_terms
 
 PLAN_RTOL = 1e-8
 """Tolerance of the planning simulations: their differences are read at the noise level, far above it. [–]"""
+PLAN_EVALUATIONS = 20_000
+"""Evaluations a planning simulation may take (a run takes a few hundred); a design whose motion creeps past it
+gets no forecast. [–]"""
 NOISE_FLOOR_N = 1e-12
 """A campaign's force noise is kept above this before it divides (a noiseless simulated record). [N]"""
 
@@ -65,7 +68,7 @@ def _motion(design, candidate: Candidate, rate_hz: float) -> tuple[np.ndarray, n
     ``rate_hz``."""
     extra = candidate.force(design) if candidate.force is not None else None
     result = simulate(with_coefficients(design, candidate.values), rtol=PLAN_RTOL, extra_resistance=extra,
-                      output_rate_hz=rate_hz)
+                      output_rate_hz=rate_hz, max_evaluations=PLAN_EVALUATIONS)
     tr, contact = result.trajectory, result.summary.contact_time_s
     inside = (tr.time_s >= contact) & (tr.time_s <= contact + result.summary.penetration_time_s)
     return tr.depth_m[inside], np.maximum(tr.velocity_m_s[inside], 0.0)

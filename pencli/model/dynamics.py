@@ -214,16 +214,17 @@ class SimulationResult:
 
 
 # --------------------------------------------------------------------------- penetration
-def _make_rhs(law: ResistanceLaw, mass: float, push, offset: float, gravity: float, extra=None):
-    """``push(u)``: the drive's force at travel u from release (floats). [N]"""
+def _make_rhs(law: ResistanceLaw, mass: float, push, offset: float, gravity: float, extra=None,
+              budget: int = MAX_EVALUATIONS):
+    """``push(u)``: the drive's force at travel u from release (floats). [N]; ``budget``: evaluations allowed."""
     a0, a1, b, d = law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2
     weight = mass * gravity
     calls = [0]
 
     def rhs(_t, y):
         calls[0] += 1
-        if calls[0] > MAX_EVALUATIONS:
-            raise SimulationLimit(f"the penetration took more than {MAX_EVALUATIONS:,} integration steps (the "
+        if calls[0] > budget:
+            raise SimulationLimit(f"the penetration took more than {budget:,} integration steps (the "
                                   f"design's time scales are too far apart: check stiffness, masses and the "
                                   f"Eq. 9 coefficients)")
         x, v = y[0], y[1]
@@ -254,12 +255,12 @@ def _root(fn, lo: float, hi: float) -> float:
 
 
 def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float, rtol: float = _RTOL,
-                           extra=None, drive: Drive = SPRINGS):
+                           extra=None, drive: Drive = SPRINGS, budget: int = MAX_EVALUATIONS):
     """Integrate from contact; returns (segments, end, t_end, y_end)."""
     mass = design.effective_mass_kg
     offset = design.surface_offset_m
     depth = design.penetration_depth_m
-    rhs = _make_rhs(law, mass, lambda u: drive.force(design, u), offset, design.gravity_m_s2, extra)
+    rhs = _make_rhs(law, mass, lambda u: drive.force(design, u), offset, design.gravity_m_s2, extra, budget)
     y = np.array([0.0, v0, 0.0, 0.0] + ([0.0] if extra is not None else []))
     t = t0
     segments = []
@@ -391,7 +392,7 @@ def check_contact_speed(speed_m_s, what: str = "speed at contact") -> None:
 def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
              speed_at_contact_m_s: float | None = None, output_rate_hz: float = 50_000.0,
              rtol: float = _RTOL, extra_resistance=None, geometry: Geometry = BLADE,
-             drive: Drive = SPRINGS) -> SimulationResult:
+             drive: Drive = SPRINGS, max_evaluations: int = MAX_EVALUATIONS) -> SimulationResult:
     """Simulate one shot of the rig (CONTRACT §2).
 
     Parameters
@@ -414,6 +415,9 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         The penetrator (default: CONTRACT §2's blade, Eq. 9); see :mod:`pencli.model.geometry`.
     drive
         What pushes the body (default: CONTRACT §2's springs); see :mod:`pencli.model.drive`.
+    max_evaluations
+        Right-hand-side evaluations the penetration may take before it ends with :class:`SimulationLimit`
+        (default :data:`MAX_EVALUATIONS`; a caller for whom the figure is a side note gives less).
 
     Returns
     -------
@@ -442,7 +446,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
 
     _check_scales(design, law, v_contact, drive, other)
     segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact, rtol, extra_resistance,
-                                                         drive)
+                                                         drive, max_evaluations)
     x_end, v_end = float(y_end[0]), float(y_end[1])
     full = end == "full_depth"
 
