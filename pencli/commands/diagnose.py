@@ -43,7 +43,8 @@ def diagnose(
     seed: int = typer.Option(0, "--seed", help="Seed of the null replicates (the same seed, the same verdict)."),
     suggest: int = typer.Option(0, "--suggest", min=0, max=3,
                                 help="Propose this many next runs (spring count, blade thickness and width, "
-                                     "sampling rate, among those the runs span) that best tell the verdict's "
+                                     "sampling rate: the rig's bundled blades and launchers and the runs' own) "
+                                     "that best tell the verdict's "
                                      "effect from those that fit as well, with the separation each would give "
                                      "in units of the force noise [–]."),
     db: Optional[Path] = DbOption,

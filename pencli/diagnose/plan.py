@@ -7,9 +7,10 @@ dynamic model is run under the first and the resistances the candidates predict 
 are compared: the separation is the root of the summed squared difference over the samples (its mean taken out,
 which the new run's own strength factor would absorb), in units of the campaign's force noise. It is a forecast
 before any refit, and not zero on the runs the candidates were fitted to (they fit those alike only as far as the
-diagnosis can tell), so it is read against the same figure for the best of those runs, given beside it. A lone verdict is compared with the baseline
-(no effect), which says how firmly a new run would confirm it. Measurement effects (the force chain) and the drive
-do not change the resistance the model predicts: the plan compares law effects only and says so.
+diagnosis can tell), so it is read against the same figure for the best of those runs, given beside it. A lone
+verdict is compared with the baseline (no effect), which says how firmly a new run would confirm it. Measurement
+effects (the force chain) and the drive do not change the resistance the model predicts: the plan compares law
+effects only and says so.
 """
 
 from __future__ import annotations
@@ -120,19 +121,17 @@ def plan(candidates: Sequence[Candidate], runs_designs: Sequence, rate_hz: float
     like the campaign's own gives, for comparison. [noise units]"""
     lead, others = candidates[0], candidates[1:]
 
-    def worst(design) -> tuple[float, str]:
-        out = []
-        for other in others:
-            try:
-                out.append((separation(design, lead, other, rate_hz, noise_n), other.name))
-            except ModelError:  # a candidate's force the model cannot finish on this design: no forecast
-                return -1.0, other.name
-        return min(out)
+    def worst(design) -> tuple[float, str] | None:
+        """The pair this design separates least, or None where the model cannot finish a candidate's run."""
+        try:
+            return min((separation(design, lead, other, rate_hz, noise_n), other.name) for other in others)
+        except ModelError:
+            return None
 
-    scored = sorted(((worst(d), d) for d in designs(runs_designs[0], runs_designs)),
-                    key=lambda item: -item[0][0])
+    forecasts = [(w, d) for d in designs(runs_designs[0], runs_designs) if (w := worst(d)) is not None]
+    forecasts.sort(key=lambda item: -item[0][0])
     chosen = [Suggestion(int(d.spring_count), round(d.blade_thickness_m * 1e3, 6), round(d.blade_width_m * 1e3, 6),
                          float(rate_hz), (lead.name, name), round(sep, 2))
-              for (sep, name), d in scored[:count] if sep >= 0.0]
-    own = max((worst(d)[0] for d in runs_designs), default=0.0)
+              for (sep, name), d in forecasts[:count]]
+    own = max((w[0] for w in map(worst, runs_designs) if w is not None), default=0.0)
     return chosen, round(own, 2)
