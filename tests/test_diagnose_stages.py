@@ -36,6 +36,8 @@ def test_the_request_is_checked_before_any_work(runs):
         engine.check_request(runs, None, 0.01, 10, 0, 1)
     with pytest.raises(FitError, match="unknown effect 'gremlins'"):
         engine.check_request(runs, ["gremlins"], 0.01, 200, 0, 1)
+    with pytest.raises(FitError, match=r"--suggest 4: expected 0 to 3 runs"):
+        engine.check_request(runs, None, 0.01, 200, 0, 1, 4)
     request = engine.check_request(runs, None, 0.03, 200, 0, 1)
     assert request.alpha == pytest.approx(0.01)
     assert EFFECTS[request.drive_effect].side == "drive" and EFFECTS[request.rest_effect].rest_evidence
