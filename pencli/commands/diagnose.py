@@ -105,9 +105,12 @@ def diagnose(
         console.print(f"where: {item['phase']}{depth}, t {item['time_ms'][0]:g}–{item['time_ms'][1]:g} ms{share}"
                       + ("" if item.get("above_noise") else " (within noise)"))
     if result.axes:
-        follows = ", ".join(f"{k.replace('_', ' ')} {v:.2f}" for k, v in result.axes.items() if k != "flight_share")
-        console.print(f"the baseline's misfit follows (share explained by its mean along each axis): {follows}; "
-                      f"flight holds {100 * result.axes['flight_share']:.0f} % of it")
+        follows = ", ".join(f"{k.replace('_', ' ')} {v:.2f}" for k, v in result.axes.items()
+                            if k not in ("flight_share", "run"))
+        runs_apart = (f"; {100 * result.axes['run']:.0f} % of it differs from run to run"
+                      if "run" in result.axes else "")
+        console.print(f"the baseline's misfit follows (share explained by its mean along each axis): {follows}"
+                      f"{runs_apart}; flight holds {100 * result.axes['flight_share']:.0f} % of it")
     table = Table(header_style="bold", title="effects, best first")
     for col in ("effect", "held-out RMS [N]", "shrink", "z", "significant", "parameters", "trajectory change"):
         table.add_column(escape(col), justify="right" if col in ("held-out RMS [N]", "shrink", "z") else "left")

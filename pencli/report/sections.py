@@ -301,7 +301,8 @@ def diagnosis_section(result) -> Section:
                                [[w["phase"], w.get("depth_mm"), w.get("time_ms"), w.get("share_of_gap")]
                                 for w in result.where if w.get("above_noise")]))
     section.tables.append(("what the misfit follows (share of the baseline's held-out misfit explained by its "
-                           "mean along each axis, in the material)", list(result.axes), [list(result.axes.values())]))
+                           "mean along each axis, in the material; run: the share that differs from run to run)",
+                           list(result.axes), [list(result.axes.values())]))
     section.add_figure(diagnosis_figure(result), diagnosis_caption(result))
     return section
 
