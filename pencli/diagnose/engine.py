@@ -668,6 +668,14 @@ def _dense_band(values: np.ndarray, weight: np.ndarray, share: float = 0.8) -> t
     return best
 
 
+def _effect_force(member: Member, coefficients, own: Mapping[str, float], values: Mapping[str, float]):
+    """``design -> f(x [m], v [m/s]) [N]``: a law effect's fitted force on any design, on the Eq. 9 coefficients
+    ``own`` of the fit with it in; its strength columns were built at the baseline's (``values``) strength
+    factor (:func:`~pencli.diagnose.effects.column_strength_factor`)."""
+    at = dict(own, strength_factor_of_columns=column_strength_factor(values["strength_factor"]))
+    return lambda design: member.force(coefficients, design, at)
+
+
 TRAJECTORY_RTOL = 1e-8
 """Tolerance of the trajectory-change simulations: their figures are reported to 0.1 % and 0.1 mm. [–]"""
 TRAJECTORY_EVALUATIONS = 20_000
@@ -698,8 +706,7 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
             after = simulate(replace(base_design, efficiency=base_design.efficiency * (1 - loss)), **budget).summary
         else:
             own = values if own_values is None else own_values
-            columns_at = column_strength_factor(values["strength_factor"])
-            force = member.force(coefficients, run.design, dict(own, strength_factor_of_columns=columns_at))
+            force = _effect_force(member, coefficients, own, values)(run.design)
             after = simulate(with_coefficients(run.design, own), extra_resistance=force, **budget).summary
     except ModelError as exc:  # the effect's fitted force can make the motion one the model cannot finish
         return {"run": run.run_id, "note": f"the dynamic model with this effect did not finish: {exc}"}
@@ -1253,7 +1260,7 @@ def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], requ
     pair = _best_second(scan.stats, {e.name: scan.candidates[e.name] for e in scan.law_effects}, scan.tested,
                         top.name, base_spec, S0, request.alpha)
     top_share = reports[top.name].explained_share
-    left_z = _standardise(np.log(np.maximum(scan.tested[top.name].family.heldout, LOG_FLOOR)), GAP_Z_FLOOR)[0]
+    left_z = _left_z(scan.tested[top.name].family.heldout)
     leaves_gap = scan.resistance_gap or left_z > normal_quantile(request.alpha)
     explains = not leaves_gap or top_share is None or top_share >= EXPLAIN_SHARE
     pair_share = (S0[0] - pair["heldout"]) / excess if pair and excess > 0 else None
@@ -1378,10 +1385,9 @@ def locate(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, d
 def _law_candidate(name: str, baseline: Baseline, scan: FamilyScan) -> plan.Candidate:
     """A law effect as the diagnosis fitted it, for :mod:`pencli.diagnose.plan`."""
     t = scan.tested[name]
-    member = scan.candidates[name][t.family.best].member
-    coefficients, own = t.fit["coefficients"][SHARED_TERMS:, 0], _own_values(t.fit)
-    at = dict(own, strength_factor_of_columns=column_strength_factor(baseline.values["strength_factor"]))
-    return plan.Candidate(name, own, lambda design: member.force(coefficients, design, at))
+    own = _own_values(t.fit)
+    return plan.Candidate(name, own, _effect_force(scan.candidates[name][t.family.best].member,
+                                                   t.fit["coefficients"][SHARED_TERMS:, 0], own, baseline.values))
 
 
 def suggest_runs(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, decision: Decision,
@@ -1583,6 +1589,12 @@ def _named_first(reports: Mapping[str, EffectReport], tested: Mapping[str, _Test
     return max((r for r in resistance if r.significant), key=improvement), max(eligible, key=improvement)
 
 
+def _left_z(heldout: np.ndarray) -> float:
+    """How far the misfit a fit leaves (held-out mean squares, data then null replicates) stands above what it
+    leaves on its own null replicates: the data's log mean square in their standard deviations."""
+    return _standardise(np.log(np.maximum(heldout, LOG_FLOOR)), GAP_Z_FLOOR)[0]
+
+
 def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], tested: Mapping[str, _Tested],
                  top: str, base_spec: Spec, S0: np.ndarray, alpha: float) -> dict | None:
     """The effect that adds most on top of ``top`` (its best member held), tested against the null.
@@ -1602,7 +1614,7 @@ def _best_second(stats: Statistics, candidates: Mapping[str, list[_Candidate]], 
     """
     lead = candidates[top][tested[top].family.best]
     S_top = tested[top].family.heldout
-    if _standardise(np.log(np.maximum(S_top, LOG_FLOOR)), GAP_Z_FLOOR)[0] <= normal_quantile(alpha):
+    if _left_z(S_top) <= normal_quantile(alpha):
         return None  # the first effect leaves no gap its own null would not
     combined = {}
     for name, cands in candidates.items():
@@ -1667,17 +1679,16 @@ def _ambiguities(lead: EffectReport, others: Sequence[EffectReport], tested: Map
     effect): with these runs, either explains the misfit as well as the other."""
     if lead.view != "resistance" or lead.name not in tested:
         return []
-    top = lead
-    d_top = S0 - tested[top.name].family.heldout
+    d_lead = S0 - tested[lead.name].family.heldout
     out = []
     for other in (r for r in others if r.significant and r.view == "resistance"):
-        diff = d_top - (S0 - tested[other.name].family.heldout)
+        diff = d_lead - (S0 - tested[other.name].family.heldout)
         sd = float(np.std(diff[1:], ddof=1))
         if abs(float(diff[0])) > AMBIGUITY_Z * max(sd, LOG_FLOOR):
             continue
-        advice = INDISTINGUISHABLE.get(frozenset({top.name, other.name}),
+        advice = INDISTINGUISHABLE.get(frozenset({lead.name, other.name}),
                                        "runs that vary blade thickness, contact speed and depth")
-        out.append({"effects": [top.name, other.name], "shrink_pct": [top.shrink_pct, other.shrink_pct],
+        out.append({"effects": [lead.name, other.name], "shrink_pct": [lead.shrink_pct, other.shrink_pct],
                     "difference_z": round(float(diff[0]) / max(sd, LOG_FLOOR), 2), "separate_with": advice})
     return out
 
