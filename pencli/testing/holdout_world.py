@@ -391,11 +391,12 @@ def write_run(folder: Path, shot: Shot, columns: dict, run_id: str, material_nam
 
 
 
-def make_campaign(folder: Path, seed: int, effects=(), *, intensity: float = 1.0) -> Campaign:
-    """A campaign of 4–8 runs with random nuisances and the named effects in random forms.
+def make_campaign(folder: Path, seed: int, effects=(), *, intensity: float = 1.0, runs: int | None = None
+                  ) -> Campaign:
+    """A campaign of 4–8 runs (``runs`` when given) with random nuisances and the named effects in random forms.
 
     Nuisances come from ``seed`` alone and the effects' forms from a second stream, so a campaign with and
-    without its effects shares every nuisance and noise draw.
+    without its effects shares every nuisance and noise draw; ``runs`` changes no other draw.
     """
     rng = np.random.default_rng(seed)
     effect_rng = np.random.default_rng([seed, 7])
@@ -404,6 +405,7 @@ def make_campaign(folder: Path, seed: int, effects=(), *, intensity: float = 1.0
     if material_name == "unknown":
         material_name = f"simulant_{seed}"
     n_runs = int(rng.integers(4, 9))
+    n_runs = n_runs if runs is None else int(runs)
     rate = rng.choice([30000.0, 60000.0, 0.0])  # 0: mixed rates
     scatter = float(rng.uniform(0.03, 0.06))
     standoff_sigma = float(rng.uniform(0.3e-3, 1.5e-3))
