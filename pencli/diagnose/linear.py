@@ -17,10 +17,11 @@ over runs of each run's mean squared residual. [N²]
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 N_BOUNDED = 3
 """P, C, K: the shared Eq. 9 coefficients, bounded below by 0 (after the per-run strength factor)."""
@@ -201,19 +202,18 @@ class Statistics:
         ttr = tt - c[:, :, 0, :] ** 2 / d00
         A_all, b_all, t_all = Dr.sum(0), cr.sum(0), ttr.sum(0)
         bounded = np.column_stack([np.ones((len(specs), N_BOUNDED), dtype=bool), self.nonnegative[J[:, 1 + N_BOUNDED:]]])
-        R = self.n_runs
-        heldout = np.empty((len(specs), R, C.shape[2]))
-        train = np.empty((len(specs), R, 1))
-        folds = np.empty((len(specs), R, J.shape[1] - 1))
-        for k in range(R):
-            theta = bounded_solve(A_all - Dr[k], b_all - cr[k], bounded)
-            folds[:, k, :] = theta[:, :, 0]
-            if keep is not None:
-                keep.append(theta)
-            heldout[:, k, :] = _quadratic(Dr[k], cr[k], ttr[k], theta)
-            data = slice(0, 1)  # the measured data's target
-            train[:, k, :] = _quadratic(A_all - Dr[k], b_all[..., data] - cr[k][..., data],
-                                        t_all[..., data] - ttr[k][..., data], theta[..., data]) / (R - 1)
+        R, M, q, T = self.n_runs, len(specs), J.shape[1] - 1, C.shape[2]
+        # every fold (leave run k out) of every model in one batch, then the all-runs fit
+        A_fold, b_fold = A_all[None] - Dr, b_all[None] - cr  # (R, M, q, q), (R, M, q, T)
+        theta_fold = bounded_solve(A_fold.reshape(R * M, q, q), b_fold.reshape(R * M, q, T),
+                                   np.tile(bounded, (R, 1))).reshape(R, M, q, T)
+        if keep is not None:
+            keep.extend(theta_fold)
+        folds = np.moveaxis(theta_fold[..., 0], 0, 1)  # (M, R, q): the measured data's target
+        heldout = np.moveaxis(_quadratic(Dr, cr, ttr, theta_fold), 0, 1)
+        data = slice(0, 1)  # the measured data's target
+        train = np.moveaxis(_quadratic(A_fold, b_fold[..., data], t_all[None, :, data] - ttr[..., data],
+                                       theta_fold[..., data]), 0, 1) / (R - 1)
         theta = bounded_solve(A_all, b_all, bounded)
         total = _quadratic(A_all, b_all, t_all, theta) / R
         # strength factors: cs_i = (c_i0 − D_i0,rest · θ) / D_i00
@@ -290,8 +290,29 @@ def heldout_residuals_every(matrices: list[np.ndarray], targets: list[np.ndarray
 
 
 def _quadratic(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray) -> np.ndarray:
-    """|t − Xθ|² from Gram pieces: tt − 2 θ·b + θᵀAθ, per model and target."""
-    return tt - np.einsum("mqt,mqt->mt", theta, 2 * b - np.matmul(A, theta))
+    """|t − Xθ|² from Gram pieces: tt − 2 θ·b + θᵀAθ, per model (any leading axes: A (..., q, q), b and θ
+    (..., q, T), tt (..., T)) and target."""
+    q, T = theta.shape[-2:]
+    out = np.empty(tt.shape)
+    _quadratics(np.ascontiguousarray(A).reshape(-1, q, q), np.ascontiguousarray(b).reshape(-1, q, T),
+                np.ascontiguousarray(tt).reshape(-1, T), np.ascontiguousarray(theta).reshape(-1, q, T),
+                out.reshape(-1, T))
+    return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def _quadratics(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray, out: np.ndarray) -> None:
+    """:func:`_quadratic` compiled, one model per thread (no (models, q, targets) temporaries)."""
+    M, q, T = theta.shape
+    for m in prange(M):
+        for t in range(T):
+            acc = tt[m, t]
+            for i in range(q):
+                Ax = 0.0
+                for j in range(q):
+                    Ax += A[m, i, j] * theta[m, j, t]
+                acc -= theta[m, i, t] * (2.0 * b[m, i, t] - Ax)
+            out[m, t] = acc
 
 
 def bounded_solve(A: np.ndarray, b: np.ndarray, bounded: np.ndarray | None = None) -> np.ndarray:
@@ -300,34 +321,29 @@ def bounded_solve(A: np.ndarray, b: np.ndarray, bounded: np.ndarray | None = Non
 
     Columns are scaled to unit diagonal and a tiny ridge keeps empty columns
     (a layer below every run's depth) at zero, so each system is positive
-    definite and its optimum unique.  The unconstrained solutions come from
-    one batched solve; where a bounded coefficient comes out negative,
-    :func:`_bounded_optimum` finishes that system compiled: it fixes the
-    negatives at 0 and refits the rest until none is negative, then, as
-    Lawson and Hanson's active set, frees a coefficient held at 0 whose
-    gradient says the objective falls if it rises, until none does.  (The
-    first stage alone ends above the optimum in 306 of 2,317 random systems,
-    on a vertex that follows the last bits of near-collinear columns, so
-    verdicts would move with the BLAS kernel.)
+    definite and its optimum unique.  :func:`_bounded_optima` finds it,
+    compiled, one system per thread: fix the negative bounded coefficients
+    at 0 and refit the rest until none is negative, then, as Lawson and
+    Hanson's active set, free a coefficient held at 0 whose gradient says
+    the objective falls if it rises, until none does.  (The first stage
+    alone ends above the optimum in 306 of 2,317 random systems, on a vertex
+    that follows the last bits of near-collinear columns, so verdicts would
+    move with the BLAS kernel.)
     """
     M, q, _ = A.shape
     if bounded is None:
         bounded = np.zeros((M, q), dtype=bool)
         bounded[:, :N_BOUNDED] = True
-    scale = np.sqrt(np.maximum(np.einsum("mii->mi", A), 0.0))
-    scale[scale == 0] = 1.0
-    As = A / scale[:, :, None] / scale[:, None, :] + 1e-10 * np.eye(q)
-    bs = b / scale[:, :, None]
-    theta = np.linalg.solve(As, bs)
-    _bounded_optimum(As, bs, theta, np.ascontiguousarray(bounded))
-    return theta / scale[:, :, None]
+    theta = np.empty(b.shape)
+    _bounded_optima(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float), theta,
+                    np.ascontiguousarray(bounded))
+    return theta
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _solve_on(A: np.ndarray, b: np.ndarray, passive: np.ndarray, work: np.ndarray, rhs: np.ndarray,
-              index: np.ndarray, out: np.ndarray) -> None:
-    """``out`` = the solution of A θ = b over the coefficients ``passive`` marks, 0 elsewhere (Gaussian
-    elimination of those rows and columns with partial pivoting; ``work``, ``rhs``, ``index`` are scratch)."""
+def _factor(A: np.ndarray, passive: np.ndarray, lu: np.ndarray, pivots: np.ndarray, index: np.ndarray) -> int:
+    """LU factors (partial pivoting) of A's rows and columns that ``passive`` marks, in place in ``lu`` with the
+    row swaps in ``pivots`` and the coefficients' positions in ``index``; returns their number."""
     q = A.shape[0]
     n = 0
     for i in range(q):
@@ -335,76 +351,114 @@ def _solve_on(A: np.ndarray, b: np.ndarray, passive: np.ndarray, work: np.ndarra
             index[n] = i
             n += 1
     for a in range(n):
-        rhs[a] = b[index[a]]
         for c in range(n):
-            work[a, c] = A[index[a], index[c]]
-    for col in range(n):  # forward elimination
+            lu[a, c] = A[index[a], index[c]]
+    for col in range(n):
         pivot = col
         for r in range(col + 1, n):
-            if abs(work[r, col]) > abs(work[pivot, col]):
+            if abs(lu[r, col]) > abs(lu[pivot, col]):
                 pivot = r
+        pivots[col] = pivot
         if pivot != col:
-            for c in range(col, n):
-                work[col, c], work[pivot, c] = work[pivot, c], work[col, c]
-            rhs[col], rhs[pivot] = rhs[pivot], rhs[col]
+            for c in range(n):
+                lu[col, c], lu[pivot, c] = lu[pivot, c], lu[col, c]
         for r in range(col + 1, n):
-            factor = work[r, col] / work[col, col]
-            for c in range(col, n):
-                work[r, c] -= factor * work[col, c]
-            rhs[r] -= factor * rhs[col]
-    for col in range(n - 1, -1, -1):  # back substitution
-        acc = rhs[col]
-        for c in range(col + 1, n):
-            acc -= work[col, c] * rhs[c]
-        rhs[col] = acc / work[col, col]
-    for i in range(q):
+            lu[r, col] /= lu[col, col]
+            factor = lu[r, col]
+            for c in range(col + 1, n):
+                lu[r, c] -= factor * lu[col, c]
+    return n
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _substitute(lu: np.ndarray, pivots: np.ndarray, index: np.ndarray, n: int, b: np.ndarray, rhs: np.ndarray,
+                out: np.ndarray) -> None:
+    """``out`` = the solution over the factored coefficients (:func:`_factor`) of A θ = b, 0 elsewhere."""
+    for a in range(n):
+        rhs[a] = b[index[a]]
+    for col in range(n):
+        pivot = pivots[col]
+        if pivot != col:
+            rhs[col], rhs[pivot] = rhs[pivot], rhs[col]
+    for r in range(n):  # unit lower triangle
+        acc = rhs[r]
+        for c in range(r):
+            acc -= lu[r, c] * rhs[c]
+        rhs[r] = acc
+    for r in range(n - 1, -1, -1):
+        acc = rhs[r]
+        for c in range(r + 1, n):
+            acc -= lu[r, c] * rhs[c]
+        rhs[r] = acc / lu[r, r]
+    for i in range(out.shape[0]):
         out[i] = 0.0
     for a in range(n):
         out[index[a]] = rhs[a]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _bounded_optimum(As: np.ndarray, bs: np.ndarray, theta: np.ndarray, bounded: np.ndarray) -> None:
-    """In place on ``theta`` (M, q, T), the unconstrained solutions of ``As`` θ = ``bs``: each system's minimiser
-    of ½ θᵀAθ − bᵀθ with θ ≥ 0 where ``bounded``.
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _solve_on(A: np.ndarray, b: np.ndarray, passive: np.ndarray, factored: np.ndarray, lu: np.ndarray,
+              pivots: np.ndarray, index: np.ndarray, count: np.ndarray, rhs: np.ndarray, out: np.ndarray) -> None:
+    """``out`` = the solution of A θ = b over the coefficients ``passive`` marks, 0 elsewhere; the factors are
+    kept (``factored`` marks their set, ``count[0]`` their number, −1 none) and reused while the set holds."""
+    same = count[0] >= 0
+    for i in range(A.shape[0]):
+        if factored[i] != passive[i]:
+            same = False
+    if not same:
+        count[0] = _factor(A, passive, lu, pivots, index)
+        for i in range(A.shape[0]):
+            factored[i] = passive[i]
+    _substitute(lu, pivots, index, count[0], b, rhs, out)
 
-    A system with no bounded coefficient negative is done.  Else: fix the
-    negative ones at 0 and solve the rest again, until none is negative (a
-    feasible point, optimal on its free set); then Lawson–Hanson from there:
-    the held coefficient whose gradient b − Aθ is most positive joins the
-    free set, which is solved; if a bounded member comes out ≤ 0, step from
-    the last feasible point toward that solution as far as the bounds allow
-    and hold the member the step brings to 0; repeat until no held
-    coefficient's gradient is positive (relative 10⁻¹²: the KKT conditions).
-    At most 3q coefficients enter and 3q steps follow each, a guard against
-    cycling on degenerate ties (a system stopped short by it would fail the
+
+@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def _bounded_optima(A_all: np.ndarray, b_all: np.ndarray, theta: np.ndarray, bounded: np.ndarray) -> None:
+    """``theta`` (M, q, T) = each system's minimiser of ½ θᵀAθ − bᵀθ with θ ≥ 0 where ``bounded``, found in the
+    system's unit-diagonal coordinates with a ridge of 10⁻¹⁰ (:func:`bounded_solve`).
+
+    The systems are shared among threads; within one, the targets (the
+    data, then its replicates) are taken in turn, each starting from the
+    set of coefficients the previous one ended with free: solve on that
+    set; fix the negative bounded coefficients at 0 and solve again, until
+    none is negative (a feasible point, optimal on its free set); then
+    Lawson–Hanson from there: the held coefficient whose gradient b − Aθ is
+    most positive joins the free set, which is solved; if a bounded member
+    comes out ≤ 0, step from the last feasible point toward that solution
+    as far as the bounds allow and hold the member the step brings to 0;
+    repeat until no held coefficient's gradient is positive (relative
+    10⁻¹²: the KKT conditions).  The optimum is unique (the ridge), so the
+    starting set changes the path, not the answer; targets of one system
+    mostly end on one set, whose factors are then computed once.  At most
+    3q coefficients enter and 3q steps follow each, a guard against cycling
+    on degenerate ties (a system stopped short by it would fail the
     optimality-conditions test; none of that test's systems does).
-    In numpy the first stage solved one batch per distinct active set, and a
-    strong effect's pair search meets thousands of them: 122 of a plug
-    campaign's 143 s.  The two helpers are inlined (numba's ``inline="always"``):
-    a call passes seven arrays, whose reference counts cost more than a 6 × 6
-    elimination (a layer campaign's 15.6 million systems: 1.6× faster, the
-    same bits)."""
+    """
     M, q, T = theta.shape
-    work = np.empty((q, q))
-    rhs = np.empty(q)
-    index = np.empty(q, dtype=np.int64)
-    passive = np.empty(q, dtype=np.bool_)
-    x = np.empty(q)
-    s = np.empty(q)
-    for m in range(M):
-        A = As[m]
+    for m in prange(M):
+        scale = np.empty(q)
+        for i in range(q):
+            scale[i] = math.sqrt(max(A_all[m, i, i], 0.0))
+            if scale[i] == 0.0:
+                scale[i] = 1.0
+        A = np.empty((q, q))
+        for i in range(q):
+            for j in range(q):
+                A[i, j] = A_all[m, i, j] / scale[i] / scale[j] + (1e-10 if i == j else 0.0)
+        b = np.empty(q)
+        lu = np.empty((q, q))
+        pivots = np.empty(q, dtype=np.int64)
+        index = np.empty(q, dtype=np.int64)
+        count = np.full(1, -1, dtype=np.int64)
+        factored = np.zeros(q, dtype=np.bool_)
+        passive = np.ones(q, dtype=np.bool_)
+        rhs = np.empty(q)
+        x = np.empty(q)
+        s = np.empty(q)
         for t in range(T):
-            feasible = True
             for i in range(q):
-                if bounded[m, i] and theta[m, i, t] < 0.0:
-                    feasible = False
-            if feasible:
-                continue
-            b = bs[m, :, t]
-            for i in range(q):
-                x[i] = theta[m, i, t]
-            passive[:] = True
+                b[i] = b_all[m, i, t] / scale[i]
+            _solve_on(A, b, passive, factored, lu, pivots, index, count, rhs, x)
             for _ in range(q):  # fix the negatives at 0 until none is negative
                 grew = False
                 for i in range(q):
@@ -413,15 +467,16 @@ def _bounded_optimum(As: np.ndarray, bs: np.ndarray, theta: np.ndarray, bounded:
                         grew = True
                 if not grew:
                     break
-                _solve_on(A, b, passive, work, rhs, index, x)
-            _lawson_hanson(A, b, bounded[m], passive, x, s, work, rhs, index)
+                _solve_on(A, b, passive, factored, lu, pivots, index, count, rhs, x)
+            _lawson_hanson(A, b, bounded[m], passive, x, s, factored, lu, pivots, index, count, rhs)
             for i in range(q):
-                theta[m, i, t] = x[i]
+                theta[m, i, t] = x[i] / scale[i]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _lawson_hanson(A: np.ndarray, b: np.ndarray, bounded: np.ndarray, passive: np.ndarray, x: np.ndarray,
-                   s: np.ndarray, work: np.ndarray, rhs: np.ndarray, index: np.ndarray) -> None:
+                   s: np.ndarray, factored: np.ndarray, lu: np.ndarray, pivots: np.ndarray, index: np.ndarray,
+                   count: np.ndarray, rhs: np.ndarray) -> None:
     """From the feasible point ``x`` (optimal on its free set ``passive``), in place: free the held coefficient
     whose gradient b − Aθ is most positive, solve, step back to the bounds where a member comes out ≤ 0, until
     no held coefficient's gradient is positive (relative 10⁻¹²); at most 3q entries of 3q steps each."""
@@ -443,7 +498,7 @@ def _lawson_hanson(A: np.ndarray, b: np.ndarray, bounded: np.ndarray, passive: n
             break
         passive[enter] = True
         for _inner in range(3 * q):
-            _solve_on(A, b, passive, work, rhs, index, s)
+            _solve_on(A, b, passive, factored, lu, pivots, index, count, rhs, s)
             alpha, leave = 1.0, -1
             for i in range(q):
                 if bounded[i] and passive[i] and s[i] <= 0.0:
