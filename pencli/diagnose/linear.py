@@ -182,27 +182,22 @@ class Statistics:
         only on a first, unscaled pass over the measured data (``profile``): the second pass's are not used."""
         J = np.array([s.columns for s in specs])  # (M, p)
         off = np.array([s.offset for s in specs])  # (M,)
-        # per-run Gram of [columns], cross with the target t = y − w_off, and |t|²
-        D = G[:, J[:, :, None], J[:, None, :]]  # (R, M, p, p)
-        c = C[:, J, :] - G[:, J, off[:, None]][..., None]  # (R, M, p, T)
         mask = np.zeros(J.shape, dtype=bool)  # (M, p): the strength-law columns
         for m, spec in enumerate(specs):
             mask[m, list(spec.scaled)] = True
         scale = np.ones((self.n_runs, len(specs)))
         if run_scale is not None and mask.any():
             scale = np.asarray(run_scale, dtype=float).T  # (R, M)
-            s = np.where(mask[None], scale[:, :, None], 1.0)  # (R, M, p)
-            D = D * s[..., :, None] * s[..., None, :]
-            c = c * s[..., None]
-        tt = S[:, None, :] - 2 * C[:, off, :] + G[:, off, off][..., None]  # (R, M, T)
-        # profile out each run's strength factor (column 0)
+        s = np.where(mask[None], scale[:, :, None], 1.0)  # (R, M, p)
+        R, M, p, T = self.n_runs, len(specs), J.shape[1], C.shape[2]
+        D, Dr = np.empty((R, M, p, p)), np.empty((R, M, p - 1, p - 1))
+        cr, ttr, c0, c_data = np.empty((R, M, p - 1, T)), np.empty((R, M, T)), np.empty((R, M, T)), np.empty((R, M, p))
+        _profiled_pieces(np.ascontiguousarray(G), np.ascontiguousarray(C), np.ascontiguousarray(S), J, off, s,
+                         D, Dr, cr, ttr, c0, c_data)
         d00 = np.maximum(D[:, :, 0, 0], 1e-300)[..., None]  # (R, M, 1)
-        Dr = D[:, :, 1:, 1:] - D[:, :, 1:, :1] * D[:, :, :1, 1:] / d00[..., None]
-        cr = c[:, :, 1:, :] - D[:, :, 1:, :1] * c[:, :, :1, :] / d00[..., None]
-        ttr = tt - c[:, :, 0, :] ** 2 / d00
         A_all, b_all, t_all = Dr.sum(0), cr.sum(0), ttr.sum(0)
         bounded = np.column_stack([np.ones((len(specs), N_BOUNDED), dtype=bool), self.nonnegative[J[:, 1 + N_BOUNDED:]]])
-        R, M, q, T = self.n_runs, len(specs), J.shape[1] - 1, C.shape[2]
+        q = p - 1
         # every fold (leave run k out) of every model in one batch, then the all-runs fit
         A_fold, b_fold = A_all[None] - Dr, b_all[None] - cr  # (R, M, q, q), (R, M, q, T)
         theta_fold = bounded_solve(A_fold.reshape(R * M, q, q), b_fold.reshape(R * M, q, T),
@@ -217,10 +212,44 @@ class Statistics:
         theta = bounded_solve(A_all, b_all, bounded)
         total = _quadratic(A_all, b_all, t_all, theta) / R
         # strength factors: cs_i = (c_i0 − D_i0,rest · θ) / D_i00
-        strength = (c[:, :, 0, :] - np.einsum("rmq,mqt->rmt", D[:, :, 0, 1:], theta)) / d00
-        profiled = (_profiled_scale(D, c[..., 0], theta[..., 0], strength[..., 0], mask)
+        strength = (c0 - np.einsum("rmq,mqt->rmt", D[:, :, 0, 1:], theta)) / d00
+        profiled = (_profiled_scale(D, c_data, theta[..., 0], strength[..., 0], mask)
                     if profile and run_scale is None else np.ones((len(specs), self.n_runs)))
         return Scores(heldout, train, total, theta, np.moveaxis(strength, 0, 1), folds, scale.T, profiled)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def _profiled_pieces(G: np.ndarray, C: np.ndarray, S: np.ndarray, J: np.ndarray, off: np.ndarray, s: np.ndarray,
+                     D: np.ndarray, Dr: np.ndarray, cr: np.ndarray, ttr: np.ndarray, c0: np.ndarray,
+                     c_data: np.ndarray) -> None:
+    """Per run r and model m (columns ``J[m]``, offset ``off[m]``, column factors ``s[r, m]``), from the run's
+    Gram ``G`` (R, Q, Q), cross products ``C`` (R, Q, T) and squares ``S`` (R, T), in place: the model's Gram
+    ``D`` (R, M, p, p) and, with the run's own strength factor (column 0) profiled out by a Schur complement,
+    the reduced Gram ``Dr``, cross products ``cr`` with the target t = y − w_off, and |t|² ``ttr``; ``c0`` (R, M, T)
+    is column 0's cross product, ``c_data`` (R, M, p) every column's on the measured data (target 0)."""
+    R, M, p, _ = D.shape
+    T = C.shape[2]
+    for index in prange(R * M):
+        r, m = index // M, index % M
+        o = off[m]
+        for a in range(p):
+            for b in range(p):
+                D[r, m, a, b] = G[r, J[m, a], J[m, b]] * s[r, m, a] * s[r, m, b]
+        d00 = max(D[r, m, 0, 0], 1e-300)
+        for a in range(1, p):
+            for b in range(1, p):
+                Dr[r, m, a - 1, b - 1] = D[r, m, a, b] - D[r, m, a, 0] * D[r, m, 0, b] / d00
+        g_off = G[r, o, o]
+        for t in range(T):
+            first = (C[r, J[m, 0], t] - G[r, J[m, 0], o]) * s[r, m, 0]
+            for a in range(1, p):
+                ca = (C[r, J[m, a], t] - G[r, J[m, a], o]) * s[r, m, a]
+                cr[r, m, a - 1, t] = ca - D[r, m, a, 0] * first / d00
+                if t == 0:
+                    c_data[r, m, a] = ca
+            ttr[r, m, t] = (S[r, t] - 2 * C[r, o, t] + g_off) - first ** 2 / d00
+            c0[r, m, t] = first
+        c_data[r, m, 0] = c0[r, m, 0]
 
 
 _DATA_ONLY = {"train", "folds", "run_scale", "profiled_scale"}
