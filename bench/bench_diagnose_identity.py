@@ -82,7 +82,7 @@ def main() -> None:
             row = future.result()
             rows.append(row)
             print(f"{row[0]:14s} {row[1]:40s} truth={row[2]:32s} verdict={row[3]:26s} effects={row[4]:40s} "
-                  f"report={row[5]}", flush=True)
+                  f"report={row[5]} {row[6]:5.1f} s", flush=True)
     print(f"median diagnosis time {statistics.median(r[6] for r in rows):.1f} s over {len(rows)} campaigns, "
           f"{jobs} at a time")
 

@@ -56,6 +56,7 @@ import math
 import time
 import warnings
 from dataclasses import asdict, dataclass, field, replace
+from functools import cached_property
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
@@ -66,8 +67,8 @@ from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, 
 from pencli.diagnose.linear import Spec, Statistics, heldout_residuals, heldout_residuals_every
 from pencli.diagnose import plan
 from pencli.diagnose.rest import rest_drift
-from pencli.diagnose.null import (ModelMotion, NoiseModel, RunNull, corner_spreads, fit_noise, gev_quantile,
-                                  gumbel_quantile, normal_quantile, read_noise_chain, replicate_campaign,
+from pencli.diagnose.null import (ModelMotion, NoiseModel, PendingReplicates, RunNull, corner_spreads, fit_noise,
+                                  gev_quantile, gumbel_quantile, normal_quantile, read_noise_chain, start_replicates,
                                   student_quantile)
 from pencli.errors import FitError, ModelError, PenNotice
 from pencli.filter.tare import Events
@@ -895,10 +896,18 @@ class Baseline:
 
 @dataclass(frozen=True)
 class NullCalibration:
-    """The campaign's null replicates: the baseline re-measured through each run's own sensor chain."""
+    """The campaign's null replicates: the baseline re-measured through each run's own sensor chain; and the
+    rest after the stops against the campaign's own noise (:func:`_rest_evidence`; None without a rest effect
+    or a run resting long enough)."""
 
     nulls: tuple[RunNull, ...]
-    replicates: tuple
+    pending: PendingReplicates
+    rest: dict | None = None
+
+    @cached_property
+    def replicates(self) -> tuple:
+        """Each run's replicates (waits for the processes making them)."""
+        return tuple(self.pending.result())
 
 
 @dataclass(frozen=True)
@@ -984,7 +993,10 @@ def diagnose(runs: Sequence[Run], *, effects: Sequence[str] | None = None,
     say("null replicates", PROGRESS["null replicates"])
     nulls = calibrate_nulls(baseline, request)
     say("scoring effects", PROGRESS["scoring effects"])
-    scan = scan_families(baseline, nulls, request)
+    try:
+        scan = scan_families(baseline, nulls, request)
+    finally:
+        nulls.pending.cancel()  # done by now, unless the scan failed
     say("scoring effects", PROGRESS["probes"])
     drive = read_drive(baseline, nulls, request)
     reports, drive = report_effects(baseline, scan, drive, request)
@@ -1099,8 +1111,15 @@ def calibrate_nulls(baseline: Baseline, request: Request) -> NullCalibration:
     spreads = corner_spreads([r.rate_hz for r in b.runs], [n.anti_alias for n in nulls])
     nulls = [replace(n, anti_alias=replace(n.anti_alias, spread=s)) if n.anti_alias is not None else n
              for n, s in zip(nulls, spreads)]
-    return NullCalibration(tuple(nulls), tuple(replicate_campaign(nulls, request.bootstrap, request.seed,
-                                                                  workers=request.workers)))
+    pending = start_replicates(nulls, request.bootstrap, request.seed, workers=request.workers)
+    try:  # while the processes make the replicates
+        name = request.rest_effect
+        rest = None if name is None else _rest_evidence(b.runs, nulls, EFFECTS[name], request.bootstrap,
+                                                        request.seed, request.alpha)
+    except BaseException:
+        pending.cancel()
+        raise
+    return NullCalibration(tuple(nulls), pending, rest)
 
 
 LOG_FLOOR = 1e-300
@@ -1114,14 +1133,18 @@ def scan_families(baseline: Baseline, calibration: NullCalibration, request: Req
     data and on every replicate; the family-wise thresholds of the effects and of the probes."""
     b = baseline
     law_effects = tuple(EFFECTS[n] for n in request.names if EFFECTS[n].side not in ("drive",))
-    measured = [_measured_acceleration(basis, rep.acceleration_m_s2)
-                for basis, rep in zip(b.bases, calibration.replicates)]
     varying: dict[int, list[np.ndarray]] = {}
     reach = _fold_reach(b.bases, b.uses)
+    members = {e.name: [m for m in e.members if m.reach_m <= reach] for e in (*law_effects, *PROBES.values())}
+    # the members that do not read the acceleration first, while the replicates may still be being made
+    built = {(name, i): _register(b.columns, b.bases, b.runs, b.uses, m, b.spec, (), varying)
+             for name, ms in members.items() for i, m in enumerate(ms) if not m.reads_acceleration}
+    measured = [_measured_acceleration(basis, rep.acceleration_m_s2)
+                for basis, rep in zip(b.bases, calibration.replicates)]
     candidates: dict[str, list[_Candidate]] = {
-        e.name: [_register(b.columns, b.bases, b.runs, b.uses, m, b.spec, measured, varying)
-                 for m in e.members if m.reach_m <= reach]
-        for e in (*law_effects, *PROBES.values())}
+        name: [built[name, i] if (name, i) in built else
+               _register(b.columns, b.bases, b.runs, b.uses, m, b.spec, measured, varying) for i, m in enumerate(ms)]
+        for name, ms in members.items()}
     matrices = b.columns.matrices()
     stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(b.ys, calibration.replicates)],
                        np.array(b.columns.nonnegative), varying,
@@ -1289,12 +1312,9 @@ def _rest_beside(baseline: Baseline, calibration: NullCalibration, request: Requ
     """The rest effect (a force drift) as the rest after the stops shows it; it joins a verdict that names
     another effect when significant there, where no speed or depth law acts."""
     name = request.rest_effect
-    if name is None:
+    if name is None or calibration.rest is None:
         return None
-    rest = _rest_evidence(baseline.runs, calibration.nulls, EFFECTS[name], request.bootstrap, request.seed,
-                          request.alpha)
-    if rest is None:
-        return None
+    rest = dict(calibration.rest)
     rest["beside_first_z"] = pair["beside"].get(name) if pair else None
     if rest["significant"] and verdict not in ("none", "unexplained") and name not in verdict_effects:
         verdict_effects.append(name)

@@ -99,12 +99,14 @@ class NoiseModel:
         """``count`` independent noise records of ``n`` samples (n, count), stationary from the start (made
         circularly on twice the length, the first half kept); ``psd``: one spectrum per record (bins, count) on
         this model's frequencies instead of its own. [N]"""
+        from scipy import fft  # numpy's transforms to the bit, records split among the machine's cores
+
         size = 2 * max(n, 2 * (self.frequency.size - 1))
         at = np.fft.rfftfreq(size)
         spectra = self.psd[:, None] if psd is None else psd
         gain = np.sqrt(0.5 * np.column_stack([np.interp(at, self.frequency, p) for p in spectra.T]))  # σ²: psd 2σ²
-        white = np.fft.rfft(rng.normal(0.0, 1.0, (size, count)), axis=0)
-        return np.fft.irfft(white * gain, n=size, axis=0)[:n]
+        white = fft.rfft(rng.normal(0.0, 1.0, (size, count)), axis=0, workers=-1)
+        return fft.irfft(white * gain, n=size, axis=0, workers=-1)[:n]
 
     def spectra(self, count: int, rng: np.random.Generator) -> np.ndarray | None:
         """``count`` spectra (bins, count) the noise may have, given that this one was read from a record of
@@ -771,6 +773,43 @@ def _replicate_job(args) -> Replicates:
     return replicate_run(*args)
 
 
+class PendingReplicates:
+    """A campaign's replicates being made by a pool of processes (:func:`start_replicates`): the caller works on
+    meanwhile, and :meth:`result` waits for them (then shuts the pool down)."""
+
+    def __init__(self, pool, futures, done: list | None = None):
+        self._pool, self._futures, self._done = pool, futures, done
+
+    def result(self) -> list[Replicates]:
+        if self._done is None:
+            try:
+                self._done = [f.result() for f in self._futures]
+            finally:
+                self.cancel()
+        return self._done
+
+    def cancel(self) -> None:
+        """Shut the pool down without waiting for replicates not yet started (their work is discarded)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+
+def start_replicates(nulls: list[RunNull], count: int, seed: int, *, workers: int = 2) -> PendingReplicates:
+    """:func:`replicate_campaign`, begun: with more than one worker the runs' replicates are made by a pool of
+    processes while the caller goes on; in one process they are made here, before it returns."""
+    phases = np.random.default_rng(seed).uniform(0.0, 1.0, count)
+    jobs = [(null, count, seed * 1000 + i, phases) for i, null in enumerate(nulls)]
+    if workers <= 1 or len(jobs) < 2:
+        return PendingReplicates(None, [], [replicate_run(*job) for job in jobs])
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    context = multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
+    return PendingReplicates(pool, [pool.submit(_replicate_job, job) for job in jobs])
+
+
 def replicate_campaign(nulls: list[RunNull], count: int, seed: int, *, workers: int = 2) -> list[Replicates]:
     """Replicates of every run, runs spread over ``workers`` processes (one process when 1).
 
@@ -782,16 +821,7 @@ def replicate_campaign(nulls: list[RunNull], count: int, seed: int, *, workers: 
     anywhere reads each run through its own phase, and one phase shared by the replicates' runs would add
     up errors that the data's runs do not share.
     """
-    phases = np.random.default_rng(seed).uniform(0.0, 1.0, count)
-    jobs = [(null, count, seed * 1000 + i, phases) for i, null in enumerate(nulls)]
-    if workers <= 1 or len(jobs) < 2:
-        return [replicate_run(*job) for job in jobs]
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    context = multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        return list(pool.map(_replicate_job, jobs))
+    return start_replicates(nulls, count, seed, workers=workers).result()
 
 
 # ----------------------------------------------------------------------------- tails
