@@ -807,7 +807,10 @@ def start_replicates(nulls: list[RunNull], count: int, seed: int, *, workers: in
 
     context = multiprocessing.get_context("fork") if "fork" in multiprocessing.get_all_start_methods() else None
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=context)
-    return PendingReplicates(pool, [pool.submit(_replicate_job, job) for job in jobs])
+    # the longest runs first, so that the workers finish together; the results in the runs' order
+    order = sorted(range(len(jobs)), key=lambda i: -nulls[i].time_s.size)
+    futures = dict(zip(order, (pool.submit(_replicate_job, jobs[i]) for i in order)))
+    return PendingReplicates(pool, [futures[i] for i in range(len(jobs))])
 
 
 def replicate_campaign(nulls: list[RunNull], count: int, seed: int, *, workers: int = 2) -> list[Replicates]:
