@@ -1370,3 +1370,19 @@ def test_a_planned_runs_separation_is_the_noise_scaled_root_sum_of_what_a_refit_
 
     spans = {(d.spring_count, round(d.blade_thickness_m * 1e3, 3)) for d in designs(design, [design])}
     assert spans == {(n, t) for n in (2, 4, 6) for t in (1.0, 1.5, 2.0)}
+
+
+def test_the_noise_spectrum_is_welchs_estimate():
+    """The null's own Welch estimate (periodic Hann segments overlapping by half, no detrending) is scipy's, on
+    one record and on many, with even and odd segments (an odd one has no Nyquist bin to leave single)."""
+    from scipy import signal
+
+    from pencli.diagnose.null import welch
+
+    rng = np.random.default_rng(5)
+    for n, segment, shape in ((4000, 1000, (4000, 7)), (3001, 751, (3001,)), (500, 64, (500, 3))):
+        x = np.cumsum(rng.normal(size=shape), axis=0) * 0.1 + rng.normal(size=shape)  # red and white
+        expected_f, expected = signal.welch(x, fs=1.0, nperseg=segment, detrend=False, axis=0)
+        frequency, psd = welch(x, segment)
+        assert np.array_equal(frequency, expected_f)
+        np.testing.assert_allclose(psd, expected, rtol=1e-12)
