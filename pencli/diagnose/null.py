@@ -817,8 +817,17 @@ class PendingReplicates:
 
 
 def start_replicates(nulls: list[RunNull], count: int, seed: int, *, workers: int = 2) -> PendingReplicates:
-    """:func:`replicate_campaign`, begun: with more than one worker the runs' replicates are made by a pool of
-    processes while the caller goes on; in one process they are made here, before it returns."""
+    """Replicates of every run (:func:`replicate_run`), begun: with more than one worker the runs are spread over
+    a pool of ``workers`` processes while the caller goes on; in one process they are made here, before it returns.
+
+    Replicate b reads every run at that run's own encoder phase, as read from its record, shifted by one
+    amount common to the campaign (a fraction of a count): the runs' phases keep the relation they have in
+    the data.  A rig whose blade rests at the same place before every shot reads every run through one phase,
+    so its runs' derivative errors agree in sign where their motions agree, and phases drawn independently
+    per run would average that out of every replicate but not out of the data; a rig whose blade rests
+    anywhere reads each run through its own phase, and one phase shared by the replicates' runs would add
+    up errors that the data's runs do not share.
+    """
     phases = np.random.default_rng(seed).uniform(0.0, 1.0, count)
     jobs = [(null, count, seed * 1000 + i, phases) for i, null in enumerate(nulls)]
     if workers <= 1 or len(jobs) < 2:
@@ -832,20 +841,6 @@ def start_replicates(nulls: list[RunNull], count: int, seed: int, *, workers: in
     order = sorted(range(len(jobs)), key=lambda i: -nulls[i].time_s.size)
     futures = dict(zip(order, (pool.submit(_replicate_job, jobs[i]) for i in order)))
     return PendingReplicates(pool, [futures[i] for i in range(len(jobs))])
-
-
-def replicate_campaign(nulls: list[RunNull], count: int, seed: int, *, workers: int = 2) -> list[Replicates]:
-    """Replicates of every run, runs spread over ``workers`` processes (one process when 1).
-
-    Replicate b reads every run at that run's own encoder phase, as read from its record, shifted by one
-    amount common to the campaign (a fraction of a count): the runs' phases keep the relation they have in
-    the data.  A rig whose blade rests at the same place before every shot reads every run through one phase,
-    so its runs' derivative errors agree in sign where their motions agree, and phases drawn independently
-    per run would average that out of every replicate but not out of the data; a rig whose blade rests
-    anywhere reads each run through its own phase, and one phase shared by the replicates' runs would add
-    up errors that the data's runs do not share.
-    """
-    return start_replicates(nulls, count, seed, workers=workers).result()
 
 
 # ----------------------------------------------------------------------------- tails
