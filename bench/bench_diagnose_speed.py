@@ -69,8 +69,11 @@ def main() -> None:
         trees = [("this tree", ROOT)]
         if against:
             reference = tmp / "reference"
-            subprocess.run(["git", "worktree", "add", "--detach", "-f", str(reference), against], cwd=ROOT,
-                           check=True, capture_output=True)
+            added = subprocess.run(["git", "worktree", "add", "--detach", "-f", str(reference), against], cwd=ROOT,
+                                   capture_output=True, text=True)
+            if added.returncode != 0:
+                raise SystemExit(f"bench_diagnose_speed: --against {against}: git could not check it out "
+                                 f"({added.stderr.strip().splitlines()[-1] if added.stderr.strip() else 'no reason given'})")
             trees.append((against, reference))
         try:
             warm = _campaign(tmp / "warm", seed - 1, [], 3)

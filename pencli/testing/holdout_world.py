@@ -396,7 +396,8 @@ def make_campaign(folder: Path, seed: int, effects=(), *, intensity: float = 1.0
     """A campaign of 4–8 runs (``runs`` when given) with random nuisances and the named effects in random forms.
 
     Nuisances come from ``seed`` alone and the effects' forms from a second stream, so a campaign with and
-    without its effects shares every nuisance and noise draw; ``runs`` changes no other draw.
+    without its effects shares every nuisance and noise draw.  ``runs`` changes none of the campaign's own draws,
+    and the runs it shares with the campaign of the drawn size are the same runs.
     """
     rng = np.random.default_rng(seed)
     effect_rng = np.random.default_rng([seed, 7])
