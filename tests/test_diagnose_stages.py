@@ -137,3 +137,18 @@ def test_the_engine_names_no_catalogue_effect():
     strings = {n.value for n in ast.walk(ast.parse((DIAGNOSE / "engine.py").read_text()))
                if isinstance(n, ast.Constant) and isinstance(n.value, str)}
     assert not strings & set(EFFECTS), strings & set(EFFECTS)
+
+
+def test_a_scan_that_fails_while_the_replicates_are_made_leaves_no_process_behind(runs, monkeypatch):
+    """The replicates are made by a pool of processes while the main process builds the columns; a failure there
+    must shut the pool down (no worker left running) and reach the caller as it was raised."""
+    import multiprocessing
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("a failure while the replicates are made")
+
+    monkeypatch.setattr(engine, "_fold_reach", broken)
+    before = set(multiprocessing.active_children())
+    with pytest.raises(RuntimeError, match="while the replicates are made"):
+        engine.diagnose(api.load_campaign(EXAMPLE, ["gb-*"]), bootstrap=60, workers=2)
+    assert set(multiprocessing.active_children()) <= before
