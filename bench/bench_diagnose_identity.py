@@ -1,6 +1,7 @@
 """The diagnosis's whole report on a fixed set of development and hold-out campaigns, as one fingerprint each.
 
 Run: python -m bench.bench_diagnose_identity [--dev N] [--holdout N] [--seed SEED] [--jobs J] [--runs R]
+     [--reports DIR]
 
 Prints one line per campaign: its world and label, the truth, the verdict and its effects, and the SHA-256 of the
 whole report as JSON (the time it took left out, floats rounded to 9 significant digits so that a last-bit
@@ -10,7 +11,9 @@ every fingerprint must agree.  The development campaigns are ``bench_diagnose --
 and nuisances, nulls among them); the hold-out campaigns are the hold-out world's (``pencli/testing/holdout_world.py``),
 every catalogue effect in turn and a null after every effect; ``--runs R`` gives each hold-out campaign R runs
 (default: 4–8 at random).  ``--dev 0 --holdout 16 --runs 6 --jobs 1`` on a quiet machine times the diagnosis of a
-6-run campaign.
+6-run campaign.  ``--reports DIR`` also writes each campaign's whole report as JSON into DIR; a change to the solver's
+arithmetic moves the last digits of near-collinear fits and with them every fingerprint, and
+``python -m bench.compare_reports BEFORE_DIR AFTER_DIR`` then says by how much each report moved.
 """
 
 from __future__ import annotations
@@ -36,23 +39,29 @@ def _rounded(value):
     return value
 
 
-def fingerprint(result) -> str:
+def report_text(result) -> str:
+    """The whole report as JSON, the time it took left out."""
     report = result.to_dict()
     report.get("decision", {}).pop("seconds", None)
-    text = json.dumps(_rounded(report), sort_keys=True, default=str)
+    return json.dumps(report, sort_keys=True, default=str)
+
+
+def fingerprint(text: str) -> str:
+    text = json.dumps(_rounded(json.loads(text)), sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def dev_one(args) -> tuple[str, str, str, str, str, float]:
+def dev_one(args) -> tuple[str, str, str, str, str, str, float, str]:
     from bench.bench_diagnose import run_one
 
     seed, label, material, effects, truth, nuisances = args
     result, seconds = run_one(label, material, effects, seed, nuisances)
+    text = report_text(result)
     return (f"dev {seed}", label, "+".join(sorted(truth)) or "none", result.verdict,
-            "+".join(result.verdict_effects) or "-", fingerprint(result), seconds)
+            "+".join(result.verdict_effects) or "-", fingerprint(text), seconds, text)
 
 
-def holdout_one(args) -> tuple[str, str, str, str, str, float]:
+def holdout_one(args) -> tuple[str, str, str, str, str, str, float, str]:
     from pencli.testing import holdout_world
     from pencli.testing.campaigns import diagnose_folders
 
@@ -60,15 +69,19 @@ def holdout_one(args) -> tuple[str, str, str, str, str, float]:
     with tempfile.TemporaryDirectory() as tmp:
         campaign = holdout_world.make_campaign(Path(tmp), seed, effects, runs=runs)
         result, seconds, _ = diagnose_folders(campaign.folders, Path(tmp) / "runs.duckdb")
+    text = report_text(result)
     return (f"holdout {seed}", "+".join(effects) or "null", "+".join(effects) or "none", result.verdict,
-            "+".join(result.verdict_effects) or "-", fingerprint(result), seconds)
+            "+".join(result.verdict_effects) or "-", fingerprint(text), seconds, text)
 
 
 def main() -> None:
-    check_options(__doc__, ("--dev", "--holdout", "--seed", "--jobs", "--runs"))
+    check_options(__doc__, ("--dev", "--holdout", "--seed", "--jobs", "--runs", "--reports"))
     value = lambda flag, default: int(sys.argv[sys.argv.index(flag) + 1]) if flag in sys.argv else default  # noqa: E731
     n_dev, n_holdout, seed, jobs = value("--dev", 8), value("--holdout", 8), value("--seed", 700000), value("--jobs", 2)
     runs = value("--runs", 0) or None
+    reports = Path(sys.argv[sys.argv.index("--reports") + 1]) if "--reports" in sys.argv else None
+    if reports is not None:
+        reports.mkdir(parents=True, exist_ok=True)
     from pencli.testing import holdout_world
     from pencli.testing.campaigns import varied_campaigns
 
@@ -81,6 +94,8 @@ def main() -> None:
         for future in futures:
             row = future.result()
             rows.append(row)
+            if reports is not None:
+                (reports / f"{row[0].replace(' ', '-')}.json").write_text(row[7])
             print(f"{row[0]:14s} {row[1]:40s} truth={row[2]:32s} verdict={row[3]:26s} effects={row[4]:40s} "
                   f"report={row[5]} {row[6]:5.1f} s", flush=True)
     print(f"median diagnosis time {statistics.median(r[6] for r in rows):.1f} s over {len(rows)} campaigns, "
