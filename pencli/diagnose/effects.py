@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cached_property, partial
+from functools import cached_property, lru_cache, partial
 from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 from pencli.lazy import lazy
@@ -307,9 +307,9 @@ class Member:
         if self.chain is not None:
             return self.chain(run, basis)
         carrier = _carrier(self.term, basis)
-        x = np.where(basis.inside, basis.x, 0.0)
-        v = np.where(basis.inside, basis.v, 0.0)
-        return Columns(np.column_stack([carrier * np.broadcast_to(p(x, v), x.shape) for p in self.profiles]))
+        x, v = _inside_motion(basis)
+        return Columns(np.column_stack([carrier * np.broadcast_to(_profile_values(p, basis, x, v), x.shape)
+                                        for p in self.profiles]))
 
     def force(self, coefficients: Sequence[float], design: Design, values: Mapping[str, float]
               ) -> Callable[[float, float], float] | None:
@@ -380,7 +380,10 @@ def _sigmoid(z):
     return 0.5 * (1.0 + np.tanh(z))
 
 
+@lru_cache(maxsize=None)
 def _step(depth_m: float, edge_m: float) -> Profile:
+    """One profile object per edge: the members that share it share its values on a run
+    (:func:`_profile_values`)."""
     return lambda x, v: _sigmoid((x - depth_m) / edge_m)
 
 
@@ -416,8 +419,39 @@ families' effects: dev wide plug 2 of ``--varied 12 99300 --only plug_growth --w
 --s-gradients`` names a layer was such a staircase (as bands, 2 of those 3 stay layers)."""
 
 
+@dataclass(frozen=True)
+class _Signed:
+    """A profile times a sign; the profile's values on a run are computed once for every member that holds it
+    (a plateau layer's edges: 84 distinct edges in 2,106 plateaus)."""
+
+    profile: Profile
+    sign: float
+
+    def __call__(self, x, v):
+        return self.sign * self.profile(x, v)
+
+
 def _signed(profile: Profile, sign: float) -> Profile:
-    return lambda x, v: sign * profile(x, v)
+    return _Signed(profile, sign)
+
+
+def _profile_values(p: Profile, b: Basis, x: np.ndarray, v: np.ndarray):
+    """``p(x, v)`` on the run of ``b`` (``x``, ``v``: its motion inside the material, :func:`_inside_motion`); a
+    signed profile's inner values kept in the run's memo for the members that share them."""
+    if not isinstance(p, _Signed):
+        return p(x, v)
+    key = ("profile", p.profile)
+    if key not in b.memo:
+        b.memo[key] = p.profile(x, v)
+    return p.sign * b.memo[key]
+
+
+def _inside_motion(b: Basis) -> tuple[np.ndarray, np.ndarray]:
+    """(depth, speed) inside the material, 0 outside, computed once per run. [m, m/s]"""
+    key = ("inside motion",)
+    if key not in b.memo:
+        b.memo[key] = (np.where(b.inside, b.x, 0.0), np.where(b.inside, b.v, 0.0))
+    return b.memo[key]
 
 
 def _describe_layer(m: Member, c, ctx) -> dict:
