@@ -198,9 +198,10 @@ class Basis:
     """The baseline's strength factor, mean over the campaign's runs, by magnitude (:func:`column_strength_factor`;
     with ``frontal``)."""
     memo: dict = field(default_factory=dict, compare=False, repr=False)
-    """Columns that members build again and again from this run's times alone (a ringing's modes, which its
-    two-mode members share), by what they are built from; shared by the copies :func:`dataclasses.replace` makes
-    (which change the acceleration, which they do not read)."""
+    """Values that members build again and again from this run's times and motion alone (a ringing's modes, which
+    its two-mode members share; a plateau layer's edges, :func:`_profile_values`; the motion inside the material,
+    :func:`_inside_motion`), by what they are built from; shared by the copies :func:`dataclasses.replace` makes
+    (which change the acceleration or the baseline's frontal force, which they do not read)."""
 
     def matrix(self) -> np.ndarray:
         return np.column_stack([self.strength, self.friction, self.damping, self.inertia])
