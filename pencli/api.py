@@ -749,20 +749,44 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
 
 
 # ---------------------------------------------------------------------------- diagnosis
+DEFAULT_WORKERS = 2
+"""Processes a diagnosis uses unless told otherwise: this machine class's two cores. [–]"""
+MAX_WORKERS = 64
+
+
+def workers_from_environment() -> int:
+    """``PEN_WORKERS``: the processes (and compiled threads) a diagnosis may use [–] (default
+    :data:`DEFAULT_WORKERS`), or one line saying what is wrong with it.  Set it to 1 where other jobs already
+    fill the cores (a test runner's workers, a batch queue): a second process then only competes."""
+    text = os.environ.get("PEN_WORKERS")
+    if text is None or not text.strip():
+        return DEFAULT_WORKERS
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if not 1 <= value <= MAX_WORKERS:
+        raise ParameterError(f"PEN_WORKERS={text!r}: expected how many processes a diagnosis may use, a whole "
+                             f"number from 1 to {MAX_WORKERS} (default {DEFAULT_WORKERS})")
+    return value
+
+
 def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | None = None,
              false_alarm: float | None = None, bootstrap: int | None = None, seed: int = 0, suggest: int = 0,
-             progress: Callable[[str, float], None] | None = None):
+             workers: int | None = None, progress: Callable[[str, float], None] | None = None):
     """``pen diagnose``: where the model and the runs part, which effect, how far it closes; with ``suggest``,
     the next runs that would best tell the leading candidates apart.
 
-    ``false_alarm`` and ``bootstrap`` default to the engine's (1 %, 200 replicates).
+    ``false_alarm`` and ``bootstrap`` default to the engine's (1 %, 200 replicates), ``workers`` to
+    :func:`workers_from_environment`.  The verdict does not depend on ``workers``.
     """
     from pencli.diagnose import engine
 
+    workers = workers_from_environment() if workers is None else workers  # before the runs are read
     return engine.diagnose(load_campaign(db, refs), effects=effects,
                            false_alarm=engine.FALSE_ALARM if false_alarm is None else false_alarm,
                            bootstrap=engine.BOOTSTRAP if bootstrap is None else bootstrap, seed=seed,
-                           suggest=suggest, progress=progress)
+                           suggest=suggest, progress=progress, workers=workers)
 
 
 # ---------------------------------------------------------------------------- sweeps

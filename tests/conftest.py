@@ -9,6 +9,9 @@ from pathlib import Path
 # from a second thread that competes with the other worker (six diagnosis tests on two workers: 135 -> 123 s of
 # CPU, 80 -> 75 s).  Set here, before anything imports numpy, so xdist's workers inherit it; a user's own kept.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+# For the same reason one process per diagnosis (PEN_WORKERS, docs/guide/diagnosis.md): its replicate pool and
+# compiled threads would only compete with the other test worker.  Tests of the pool pass workers themselves.
+os.environ.setdefault("PEN_WORKERS", "1")
 
 import pytest
 from typer.testing import CliRunner

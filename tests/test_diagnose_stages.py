@@ -152,3 +152,14 @@ def test_a_scan_that_fails_while_the_replicates_are_made_leaves_no_process_behin
     with pytest.raises(RuntimeError, match="while the replicates are made"):
         engine.diagnose(api.load_campaign(EXAMPLE, ["gb-*"]), bootstrap=60, workers=2)
     assert set(multiprocessing.active_children()) <= before
+
+
+def test_one_process_or_two_give_the_same_report_to_the_last_digit():
+    """``workers`` (``--workers``, ``PEN_WORKERS``) changes where the replicates are made and how many threads the
+    compiled solves use, never a number of the report."""
+    campaign = api.load_campaign(EXAMPLE, ["gb-*"])[:3]
+    one, two = (engine.diagnose(campaign, effects=["strength_layer", "velocity_friction"], bootstrap=60,
+                                workers=w).to_dict() for w in (1, 2))
+    for report in (one, two):
+        report["decision"].pop("seconds")  # the time it took
+    assert one == two

@@ -47,6 +47,9 @@ def diagnose(
                                      "that best tell the verdict's "
                                      "effect from those that fit as well, with the separation each would give "
                                      "in units of the force noise [–]."),
+    workers: Optional[int] = typer.Option(None, "--workers", min=1, max=64,
+                                          help="Processes (and compiled threads) the diagnosis uses; the verdict "
+                                               "does not depend on it [default: PEN_WORKERS, else 2]."),
     db: Optional[Path] = DbOption,
 ) -> None:
     """Diagnose the sim-to-real gap: where it lies, which effect causes it, how far it shrinks.
@@ -69,7 +72,8 @@ def diagnose(
     chosen = [e.strip() for e in effects.split(",")] if effects else None
     with progress_bar("diagnosing") as progress:
         result = api.diagnose(db_path(db), runs, effects=chosen, false_alarm=false_alarm, bootstrap=bootstrap,
-                              seed=seed, suggest=suggest, progress=lambda stage, done: progress(stage, done, 1))
+                              seed=seed, suggest=suggest, workers=workers,
+                              progress=lambda stage, done: progress(stage, done, 1))
     if plot is not None:
         from pencli.report.diagnosis import plot_diagnosis
 

@@ -64,7 +64,7 @@ import numpy as np
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, Effect, Member, _RunView, basis_of,
                                      column_strength_factor, surfaces, views)
-from pencli.diagnose.linear import Spec, Statistics, heldout_residuals, heldout_residuals_every
+from pencli.diagnose.linear import Spec, Statistics, compiled_threads, heldout_residuals, heldout_residuals_every
 from pencli.diagnose import plan
 from pencli.diagnose.rest import rest_drift
 from pencli.diagnose.null import (ModelMotion, NoiseModel, PendingReplicates, RunNull, corner_spreads, fit_noise,
@@ -978,7 +978,8 @@ def diagnose(runs: Sequence[Run], *, effects: Sequence[str] | None = None,
     false_alarm : probability that a campaign without effect gets a verdict other than ``none``.
     bootstrap : null replicates of the campaign (≥ :data:`MIN_BOOTSTRAP`).
     seed : seed of the replicates (the verdict is reproducible).
-    workers : processes that make replicates.
+    workers : processes that make replicates, and threads of the compiled solves (the verdict does not depend
+        on it).
     suggest : how many next runs to propose that would best tell the leading candidates apart
         (:func:`suggest_runs`; 0: none).
     progress : called with (stage, fraction done).
@@ -988,6 +989,12 @@ def diagnose(runs: Sequence[Run], *, effects: Sequence[str] | None = None,
     check_materials(runs)
     runs = views(runs)
     request = check_request(runs, effects, false_alarm, bootstrap, seed, workers, suggest)
+    with compiled_threads(request.workers):
+        return _diagnose(runs, request, say, started)
+
+
+def _diagnose(runs: Sequence[_RunView], request: Request, say: Progress, started: float) -> Diagnosis:
+    """The stages of :func:`diagnose`, in order."""
     say("baseline", PROGRESS["baseline"])
     baseline = fit_baseline(runs)
     say("null replicates", PROGRESS["null replicates"])
@@ -1051,6 +1058,8 @@ def check_request(runs: Sequence[_RunView], effects: Sequence[str] | None, false
         raise FitError(f"unknown effect {unknown[0]!r}; the catalogue: {', '.join(EFFECTS)}")
     if not 0 <= suggest <= MAX_SUGGESTED:
         raise FitError(f"--suggest {suggest}: expected 0 to {MAX_SUGGESTED} runs")
+    if workers < 1:
+        raise FitError(f"workers {workers!r}: expected at least 1 process")
     notice = tail_reach_notice(false_alarm, bootstrap)
     if notice:
         warnings.warn(PenNotice(notice), stacklevel=3)

@@ -18,10 +18,23 @@ over runs of each run's mean squared residual. [N²]
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass, fields
 
+import numba
 import numpy as np
 from numba import njit, prange
+
+@contextmanager
+def compiled_threads(count: int):
+    """The compiled solves below run on at most ``count`` threads inside the block (numba's own limit kept)."""
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(count, numba.config.NUMBA_NUM_THREADS)))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
+
 
 N_BOUNDED = 3
 """P, C, K: the shared Eq. 9 coefficients, bounded below by 0 (after the per-run strength factor)."""
