@@ -1,12 +1,14 @@
 """The diagnosis measured on the hold-out truth world (pencli/testing/holdout_world.py), which it was never tuned on.
 
 Run: python -m bench.bench_diagnose_holdout [--quick] [--base SEED] [--no-ladder] [--out FILE.jsonl] [--world three]
-     [--ladder-only]
+     [--ladder-only] [--drive N]
 
 ``--world three`` measures on world three (pencli/testing/world_three.py) instead, written by a developer who had not worked
 on the method after it was frozen, and drawn once blind: its own pairs, three draws of every effect and three
 outside campaigns.  ``--ladder-only`` runs part 3 alone (with the two nulls it is twinned on), so that it can run
-beside parts 1-2 in a second process.
+beside parts 1-2 in a second process.  ``--drive N`` runs only launcher losses: N campaigns of a propulsion loss
+alone (seeds base + 500 + i; every other one cut to 4 runs) and N of a propulsion loss beside a resistance effect
+drawn by the seed (seeds base + 600 + i), and prints how many were found by the loss's form and the run count.
 
 Every campaign is written as CONTRACT §3 run folders and goes through
 ingest → tare → subtract-inertia → diagnose, as the README says.  Parts:
@@ -58,9 +60,10 @@ set before any twin was measured, at the lower edge of the ladder's bin where de
 SIZE_BINS = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, math.inf)
 
 
-def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
+def run(seed: int, effects=(), intensity: float = 1.0, runs: int | None = None) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
-        campaign = WORLD.make_campaign(Path(tmp), seed, effects, intensity=intensity)
+        campaign = (WORLD.make_campaign(Path(tmp), seed, effects, intensity=intensity) if runs is None
+                    else WORLD.make_campaign(Path(tmp), seed, effects, intensity=intensity, runs=runs))
         result, seconds, pipeline = diagnose_folders(campaign.folders, Path(tmp) / "runs.duckdb")
     first = result.effects[0] if result.effects else None
     drive = next((e for e in result.effects if e.name == "propulsion_loss"), None)
@@ -74,6 +77,7 @@ def run(seed: int, effects=(), intensity: float = 1.0) -> dict:
             "shrink_of_truth": next((e.shrink_pct for e in result.effects if e.name in effects), None),
             "baseline_ms_n2": result.baseline["heldout_rms_n"] ** 2, "noise_n": campaign.nuisances["noise_n"],
             "nuisances": campaign.nuisances, "forms": campaign.effects, "seconds": seconds,
+            "runs": len(campaign.folders),
             "pipeline_seconds": pipeline,
             "notes": list(result.notes), "rest_drift": result.baseline.get("rest_drift"),
             "best_pair": result.baseline.get("best_pair")}
@@ -132,7 +136,8 @@ def show(label: str, row: dict) -> None:
 
 def main() -> None:
     global OUT, WORLD, CATALOGUE, OUTSIDE
-    check_options(__doc__, ("--base", "--no-ladder", "--out", "--quick", "--summary", "--world", "--ladder-only"))
+    check_options(__doc__, ("--base", "--no-ladder", "--out", "--quick", "--summary", "--world", "--ladder-only",
+                            "--drive"))
     name = sys.argv[sys.argv.index("--world") + 1] if "--world" in sys.argv else "holdout"
     if name not in WORLDS:
         print(f"bench_diagnose_holdout: unknown world {name!r}; expected one of {', '.join(WORLDS)}", file=sys.stderr)
@@ -158,6 +163,9 @@ def main() -> None:
         print("bench_diagnose_holdout: --ladder-only runs the whole ladder; it takes neither --no-ladder nor --quick",
               file=sys.stderr)
         raise SystemExit(2)
+    if "--drive" in sys.argv:
+        drive_only(int(sys.argv[sys.argv.index("--drive") + 1]), base)
+        return
     n_nulls = 2 if ladder_only else 4 if quick else 20
     for i in range(n_nulls):
         rows["accuracy"].append(keep("accuracy", run(base + i)))
@@ -186,6 +194,37 @@ def main() -> None:
                 rows["ladder"].append(keep("ladder", row))
                 show(f"ladder {effect} x{intensity} (size {row['size']:.2f})", row)
     summarise(rows, n_nulls)
+
+
+def drive_only(n: int, base: int) -> None:
+    """``--drive N``: launcher losses alone (every other campaign of 4 runs) and beside a resistance effect."""
+    import numpy as np
+
+    resistance = [e for e in CATALOGUE if e != "propulsion_loss"]
+    rows = []
+    for i in range(n):
+        rows.append(keep("drive", run(base + 500 + i, ["propulsion_loss"], runs=4 if i % 2 else None)))
+        show(f"loss {i}", rows[-1])
+    for i in range(n):
+        other = resistance[int(np.random.default_rng([base + 600 + i, 11]).integers(len(resistance)))]
+        rows.append(keep("drive", run(base + 600 + i, ["propulsion_loss", other])))
+        show(f"loss with {other} {i}", rows[-1])
+    print()
+
+    def found(row: dict) -> bool:
+        return "propulsion_loss" in row["verdict_effects"]
+
+    def count(label: str, chosen: list[dict]) -> None:
+        also = [r for r in chosen if len(r["truth"]) == 2]
+        print(f"{label:44s} loss found {sum(map(found, chosen))}/{len(chosen)}"
+              + (f", both found {sum(right(r) for r in also)}/{len(also)}" if also else ""))
+
+    for form in ("efficiency", "guide_friction"):
+        of_form = [r for r in rows if next(f for f in r["forms"] if f["name"] == "propulsion_loss")["form"] == form]
+        count(f"{form}, alone, 4 runs", [r for r in of_form if len(r["truth"]) == 1 and r["runs"] == 4])
+        count(f"{form}, alone, 5-8 runs", [r for r in of_form if len(r["truth"]) == 1 and r["runs"] > 4])
+        count(f"{form}, beside a resistance effect", [r for r in of_form if len(r["truth"]) == 2])
+    count("all", rows)
 
 
 def size_table(rows: list[dict]) -> None:
@@ -246,13 +285,16 @@ def summarise(rows: dict, n_nulls: int) -> None:
         size_table(sized_singles)
     drive = [r for r in rows["ladder"] if r["truth"] == ["propulsion_loss"]]
     if drive:
-        def lost(row: dict) -> float:  # the share of the launcher's energy lost, as each world names it
+        def size(row: dict) -> tuple[str, float]:  # the loss as each world names it: a share, or a friction force
             form = row["forms"][0]
-            return form["loss"] if "loss" in form else form["energy_lost"]
+            if "friction_n" in form:
+                return f"a {form['friction_n']:.0f} N friction over the {form['span']}", form["friction_n"]
+            share = form["loss"] if "loss" in form else form["energy_lost"]
+            return f"{100 * share:.1f} % of the energy", share
 
-        print("propulsion_loss by energy lost (its size above is ~0: the resistance view does not see it): "
-              + ", ".join(f"{100 * lost(r):.1f} % {'found' if detected(r) else 'missed'}"
-                          for r in sorted(drive, key=lost)))
+        print("propulsion_loss by its size (its size above is ~0: the resistance view does not see it): "
+              + ", ".join(f"{size(r)[0]} {'found' if detected(r) else 'missed'}"
+                          for r in sorted(drive, key=lambda r: size(r)[::-1])))
 
 
 if __name__ == "__main__":

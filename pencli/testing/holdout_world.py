@@ -107,8 +107,11 @@ def draw_effect(name: str, rng: np.random.Generator, intensity: float = 1.0) -> 
         return dict(name=name, form=str(rng.choice(["linear", "thermal", "quadratic"])),
                     amount_n=float(rng.uniform(30, 80)) * s * float(rng.choice([-1.0, 1.0])),
                     time_constant_s=float(rng.uniform(0.03, 0.2)))
-    if name == "propulsion_loss":
-        return dict(name=name, loss=float(rng.uniform(0.1, 0.25)) * s)
+    if name == "propulsion_loss":  # a share of the springs' energy, or a friction on the carriage over a span
+        if rng.uniform() < 0.5:
+            return dict(name=name, form="efficiency", loss=float(rng.uniform(0.1, 0.25)) * s)
+        return dict(name=name, form="guide_friction", friction_n=float(np.exp(rng.uniform(np.log(25), np.log(100))))
+                    * s, span=str(rng.choice(["stroke", "flight", "whole"])))
     if name == OUTSIDE:
         return dict(name=name, period_mm=float(rng.uniform(8, 20)), amplitude=0.35 * s)
     if name == "fragment_impacts":  # the depths are each run's own (_per_run)
@@ -243,15 +246,18 @@ def motion(shot: Shot):
 
     n, k = shot.springs, shot.stiffness_n_m
     loss = shot.effect("propulsion_loss")
-    eta = shot.efficiency * (1 - (loss["loss"] if loss else 0.0))
+    eta = shot.efficiency * (1 - (loss.get("loss", 0.0) if loss else 0.0))
     m_eff = shot.sprung_kg + n * shot.spring_kg / 3
     stroke = shot.free_m - shot.compressed_m
     R = _resistance(shot)
     s0 = shot.standoff_m
+    friction = loss.get("friction_n", 0.0) if loss else 0.0  # on the carriage while it moves, over its span
+    span = {"stroke": stroke, "flight": s0, "whole": math.inf}[loss.get("span", "whole")] if friction else 0.0
 
     def accel(u, v, inside, t=0.0):
         spring = eta * n * k * (stroke - u) if u < stroke else 0.0
-        return (spring + m_eff * G - (R(u - s0, v, t - t_c) if inside else 0.0)) / m_eff
+        guide = friction if (u < span and v > 0) else 0.0
+        return (spring + m_eff * G - guide - (R(u - s0, v, t - t_c) if inside else 0.0)) / m_eff
 
     def flight(t, y):
         return [y[1], accel(y[0], y[1], False)]
