@@ -135,6 +135,9 @@ def test_a_guide_friction_is_a_propulsion_loss_though_it_reaches_the_surface_at_
     assert result.verdict == "propulsion_loss", (result.verdict, result.baseline["drive_t"])
     loss = next(e for e in result.effects if e.name == "propulsion_loss")
     assert loss.shrink_pct > 50.0  # the motion in the material, with the loss, against without it
+    # the deficits follow a friction's law (the slow runs lose most), and its force is the truth's
+    assert loss.params["law"] == "guide_friction"
+    assert loss.params["guide_friction_n"] == pytest.approx(98.64, rel=0.15)
 
 
 @pytest.mark.campaign

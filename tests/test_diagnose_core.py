@@ -1386,3 +1386,38 @@ def test_the_noise_spectrum_is_welchs_estimate():
         frequency, psd = welch(x, segment)
         assert np.array_equal(frequency, expected_f)
         np.testing.assert_allclose(psd, expected, rtol=1e-12)
+
+
+def test_a_friction_laws_deficit_is_the_energy_a_friction_takes_from_the_flight():
+    """A friction F on the carriage from release to the surface takes F·L of the launcher's work, so the contact
+    speed's deficit 1 − (v/v̂)² is F · 2L/(m·v̂²): the drive view's friction law against the flight integrated
+    with and without the friction (DOP853, the springs' push and gravity written out here)."""
+    from types import SimpleNamespace
+
+    from scipy.integrate import solve_ivp
+
+    from pencli.diagnose.engine import deficit_laws
+    from tests.test_dynamics_closed_forms import make_design
+
+    def contact_speed(design, friction_n: float) -> float:
+        m, stroke = design.effective_mass_kg, design.nominal_length_m - design.compressed_length_m
+        push = design.efficiency * design.spring_count * design.spring_stiffness_n_m
+
+        def rhs(t, y):
+            return [y[1], (push * max(stroke - y[0], 0.0) + m * design.gravity_m_s2 - friction_n) / m]
+
+        def surface(t, y):
+            return y[0] - design.surface_offset_m
+        surface.terminal = True
+        done = solve_ivp(rhs, (0.0, 5.0), [0.0, 0.0], method="DOP853", events=surface, rtol=1e-11, atol=1e-13,
+                         max_step=1e-3)
+        return float(done.y_events[0][0][1])
+
+    designs = [make_design(spring_count=n, surface_offset_m=s0) for n, s0 in ((2, 0.20), (4, 0.22), (6, 0.25))]
+    free = np.array([contact_speed(d, 0.0) for d in designs])
+    unit = deficit_laws([SimpleNamespace(design=d) for d in designs], free)
+    for friction_n in (5.0, 40.0):
+        deficit = 1.0 - (np.array([contact_speed(d, friction_n) for d in designs]) / free) ** 2
+        assert deficit == pytest.approx(friction_n * unit["guide_friction"], rel=1e-6)
+    assert np.all(unit["efficiency"] == 1.0)
+    assert unit["guide_friction"][0] > unit["guide_friction"][2]  # the slow run loses the largest share

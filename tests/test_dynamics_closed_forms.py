@@ -200,7 +200,7 @@ def test_a_creep_on_damping_alone_books_no_negative_energy():
     design = make_design(blade_width_m=0.0640534633575883, blade_thickness_m=0.00012810692671517658,
                          tip_angle_rad=math.radians(5), penetration_depth_m=0.4, sprung_mass_kg=8.88851207959959,
                          load_cell_mass_kg=0.0, density_kg_m3=20.0, strength_pa=1e4, friction_coefficient=0.0,
-                         gravity_m_s2=1.175494351e-38, strength_factor=0.0, sidewall_pressure_pa=0.0,
+                         gravity_m_s2=float(np.finfo(np.float32).tiny), strength_factor=0.0, sidewall_pressure_pa=0.0,
                          damping_pa_s_m=139656.1743785498, inertia_coefficient=0.0, spring_count=1,
                          spring_stiffness_n_m=300.0, spring_mass_kg=0.0, nominal_length_m=0.26672632685155123,
                          compressed_length_m=0.08001789805546537, surface_offset_m=0.26103787368895554,

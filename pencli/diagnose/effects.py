@@ -923,7 +923,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "material.",
            _drift_members, _describe_drift, rest_evidence=True),
     Effect("propulsion_loss", "drive", "flight",
-           "The launcher delivers less energy than modelled (efficiency × (1 − loss)). Signature: measured "
+           "The launcher delivers less energy than modelled: a share of it (efficiency × (1 − loss)) or a "
+           "friction on the moving body over its travel (the slowest runs lose most). Signature: measured "
            "contact speeds below the predicted ones; resistance with measured kinematics fits, the fully "
            "predicted run does not.",
            (), lambda m, c, ctx: {"loss": float(c[0])}),

@@ -418,10 +418,29 @@ def _predicted_contact_speed(run: _RunView, loss: float = 0.0) -> float:
     return flight_of(design).reach(design.surface_offset_m)[1]
 
 
-def _fit_loss(runs: Sequence[_RunView], measured: Sequence[float]) -> float:
-    """Launcher loss that best matches the measured contact speeds (energy ∝ v², so loss ≈ 1 − (v/v̂)²)."""
-    ratios = [m / max(_predicted_contact_speed(r), 1e-9) for r, m in zip(runs, measured)]
-    return float(1.0 - np.mean(np.square(ratios)))
+DRIVE_LAWS = ("efficiency", "guide_friction")
+"""How a launcher loses energy before contact, each a one-parameter law of the runs' contact-speed deficits
+1 − (v/v̂)² (:func:`deficit_laws`); the drive view tests each and keeps the stronger (Bonferroni over the laws)."""
+
+
+def deficit_laws(runs: Sequence[_RunView], predicted: np.ndarray) -> dict[str, np.ndarray]:
+    """Per law, the deficit 1 − (v/v̂)² each run's contact speed shows per unit of the law's parameter: a share of
+    the energy the launcher delivers ([–]: 1 in every run), or a friction force on the moving body over its travel
+    from release to the surface ([1/N]: 2·L/(m·v̂²), L the travel, m the moving mass; the slowest runs lose the
+    largest share, so a friction shows as a spread of deficits across spring counts, not as their mean)."""
+    travel = np.array([r.design.surface_offset_m for r in runs])
+    mass = np.array([r.design.effective_mass_kg for r in runs])
+    return {"efficiency": np.ones(len(runs)),
+            "guide_friction": 2.0 * travel / (mass * np.maximum(predicted, SPEED_FLOOR_M_S) ** 2)}
+
+
+def _law_t(deficits: np.ndarray, unit: np.ndarray, measurement: float) -> tuple[float, float]:
+    """(size, one-sided t) of a law: its parameter fitted by least squares to the deficits, against the
+    residuals' scatter or the deficits' measurement error (per run), whichever is larger."""
+    weight = float(unit @ unit)
+    size = float(unit @ deficits) / weight
+    scatter = math.sqrt(float(np.sum((deficits - size * unit) ** 2)) / (deficits.size - 1))
+    return size, size / (max(scatter, measurement, T_FLOOR) / math.sqrt(weight))
 
 
 def _dynamic_rms(run: _RunView, values: Mapping[str, float], loss: float = 0.0) -> tuple[float, float]:
@@ -687,7 +706,7 @@ note. [–]"""
 
 
 def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs: Sequence[_RunView],
-                       values: Mapping[str, float], loss: float = 0.0,
+                       values: Mapping[str, float], loss: float | Mapping[str, float] = 0.0,
                        own_values: Mapping[str, float] | None = None) -> dict:
     """Change of the CONTRACT §5 figures of the median-speed run from the baseline's dynamic model to the
     effect's: the fit with the effect in (``own_values``: its mean strength factor, P, C and K) and the
@@ -699,6 +718,7 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
     if effect.side == "chain":
         return {"note": "a measurement effect: the trajectory does not change"}
     run = sorted(runs, key=lambda r: r.contact_speed_m_s)[len(runs) // 2]
+    loss = loss.get(run.run_id, 0.0) if isinstance(loss, Mapping) else loss  # a drive loss: that run's share
     base_design = with_coefficients(run.design, values)
     budget = dict(rtol=TRAJECTORY_RTOL, max_evaluations=TRAJECTORY_EVALUATIONS)
     try:
@@ -940,6 +960,12 @@ class DriveView:
     t: float
     threshold: float
     gap: bool
+    law: str = DRIVE_LAWS[0]
+    """The law of :data:`DRIVE_LAWS` that the deficits follow best."""
+    losses: np.ndarray | None = None
+    """Each run's share of the launcher's energy lost before contact, by that law. [–]"""
+    size: float = 0.0
+    """The law's parameter: the share lost [–], or the friction force [N]."""
     dynamic_rms_n: float | None = None
     """The baseline's fully predicted RMS in the material, where the drive effect was scored. [N]"""
 
@@ -1181,19 +1207,24 @@ T_FLOOR = 1e-12
 
 def read_drive(baseline: Baseline, calibration: NullCalibration, request: Request) -> DriveView:
     """The drive view: how far the measured contact speeds, less the bias the replicates' detector shows, fall
-    below the launcher's prediction, against their scatter and measurement error (one-sided t)."""
+    below the launcher's prediction, as each of :data:`DRIVE_LAWS` would make them fall, against the
+    deficits' scatter about the law and their measurement error (one-sided t, the stronger law kept)."""
     runs, replicates = baseline.runs, calibration.replicates
     measured = np.array([r.contact_speed_m_s for r in runs])
     bias = np.array([float(np.nanmean(rep.contact_speed_m_s)) - rep.true_contact_speed_m_s
                      if np.isfinite(rep.contact_speed_m_s).any() else 0.0 for rep in replicates])
     predicted = np.array([_predicted_contact_speed(r) for r in runs])
     ratios = (measured - bias) / np.maximum(predicted, SPEED_FLOOR_M_S) - 1.0
-    spread = float(np.std(ratios, ddof=1)) / math.sqrt(len(runs))
-    measurement = float(np.sqrt(np.mean([np.nanvar(rep.contact_speed_m_s) for rep in replicates]))
-                        / np.mean(predicted)) / math.sqrt(len(runs))
-    t_drive = -float(np.mean(ratios)) / max(spread, measurement, T_FLOOR)
-    threshold = student_quantile(request.alpha, len(runs) - 1)
-    return DriveView(bias, ratios, t_drive, threshold, request.drive_effect is not None and t_drive > threshold)
+    deficits = 1.0 - (1.0 + ratios) ** 2
+    measurement = 2.0 * math.sqrt(float(np.mean([np.nanvar(rep.contact_speed_m_s) for rep in replicates]))) \
+        / float(np.mean(predicted))  # of one run's deficit: d(1 − r²) = −2r·dr
+    laws = deficit_laws(runs, predicted)
+    sizes = {name: _law_t(deficits, unit, measurement) for name, unit in laws.items()}
+    law = max(sizes, key=lambda name: sizes[name][1])
+    t_drive = sizes[law][1]
+    threshold = student_quantile(request.alpha / len(laws), len(runs) - 1)
+    return DriveView(bias, ratios, t_drive, threshold, request.drive_effect is not None and t_drive > threshold,
+                     law=law, losses=sizes[law][0] * laws[law], size=sizes[law][0])
 
 
 INTERVAL_Z = 1.96
@@ -1228,15 +1259,17 @@ def report_effects(baseline: Baseline, scan: FamilyScan, drive: DriveView, reque
     if name is None:
         return reports, drive
     runs = baseline.runs
-    measured = np.array([r.contact_speed_m_s for r in runs])
-    loss = _fit_loss(runs, measured - drive.bias)
+    losses = drive.losses if drive.losses is not None else np.zeros(len(runs))
     base_rms = np.square([_dynamic_rms(r, baseline.run_values(k)) for k, r in enumerate(runs)])
-    loss_rms = np.square([_dynamic_rms(r, baseline.run_values(k), loss) for k, r in enumerate(runs)])
+    loss_rms = np.square([_dynamic_rms(r, baseline.run_values(k), float(losses[k])) for k, r in enumerate(runs)])
     (dyn_base, release_base), (dyn_loss, release_loss) = (map(float, np.sqrt(a.mean(0))) for a in (base_rms, loss_rms))
     gap = drive.gap and dyn_loss < dyn_base
     reports[name] = EffectReport(
         name, "drive", "drive",
-        {"loss": loss, "contact_speed_deficit_pct": -PERCENT * float(np.mean(drive.ratios)),
+        {"loss": float(np.mean(losses)), "law": drive.law,
+         "loss_by_run": {r.run_id: round(float(x), 4) for r, x in zip(runs, losses)},
+         **({"guide_friction_n": round(drive.size, 2)} if drive.law == "guide_friction" else {}),
+         "contact_speed_deficit_pct": -PERCENT * float(np.mean(drive.ratios)),
          "dynamic_shrink_from_release_pct": round(PERCENT * (1 - release_loss / release_base), 2)
          if release_base > 0 else 0.0},
         {}, dyn_loss, round(PERCENT * (1 - dyn_loss / dyn_base), 2) if dyn_base > 0 else 0.0,
@@ -1521,7 +1554,8 @@ def _with_trajectory(report: EffectReport, baseline: Baseline, scan: FamilyScan,
     effect = EFFECTS[report.name]
     if report.significant or report.name in decision.verdict_effects:
         if effect.side == "drive":
-            change = _trajectory_change(effect, None, (), baseline.runs, baseline.values, report.params["loss"])
+            change = _trajectory_change(effect, None, (), baseline.runs, baseline.values,
+                                        report.params.get("loss_by_run", report.params["loss"]))
         else:
             t = scan.tested[report.name]
             change = _trajectory_change(effect, scan.candidates[report.name][t.family.best].member,
