@@ -2,8 +2,8 @@ r"""What the material resists: the penetrator-geometry seam of the scalar simula
 
 A geometry turns a design and a set of switched-on terms into the resistance R(x, v) of the material on
 the penetrator, for a tip inside the material (x > 0).  :func:`~pencli.model.dynamics.simulate` asks a
-geometry for nothing else (see :class:`Geometry`), so a new one (a cone, a tapered blade) is one new module
-with one class, passed as ``simulate(design, geometry=...)``.
+geometry for nothing else (see :class:`Geometry`), so a new one is one class, passed as
+``simulate(design, geometry=...)``; pen's own are registered in :data:`GEOMETRIES`.
 
 A geometry whose resistance reduces to Eq. 9's form a0 + a1·x + b·v + d·v² returns that
 :class:`~pencli.model.resistance.ResistanceLaw` from :meth:`Geometry.law`; the simulator then books each
@@ -12,15 +12,29 @@ Any other geometry returns ``None`` there and gives its force from :meth:`Geomet
 dissipated energy is integrated with the motion and reported as ``energy_other_j``.
 
 The contract's geometry is :class:`Blade` (paper Eq. 9, :mod:`pencli.model.resistance`).
+
+Every geometry here resists by one law, written once (:func:`shape_resistance`) from three of its
+properties at depth x: the frontal area A_f(x) the tip presses and the rate terms act on, the bearing area
+B(x) on which the strength acts (A_f times a tip factor, in the convention the shape states), and the side
+area S(x) on which the sidewall pressure acts:
+
+.. math::
+
+    R(x, v) = C_s S\, B(x) + \mu P\, S(x) + C\,v\,A_f(x) + K \rho\, v^2 A_f(x) \qquad (x > 0,\ v > 0
+    \text{ for the rate terms})
+
+The blade's B = w·T·(sin θ + μ cos θ), S = 2·w·x and A_f = w·T give Eq. 9 (μ·P·2·w·x = w·T·μ·P·2x/T).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable, Protocol
 
+from pencli.errors import ModelError
 from pencli.model.design import Design
-from pencli.model.resistance import ResistanceLaw, reduced, resistance_law
+from pencli.model.resistance import ResistanceLaw, parse_terms, reduced, resistance_law
 
 
 class Geometry(Protocol):
@@ -52,4 +66,135 @@ class Blade:
 BLADE = Blade()
 """The contract's geometry, the default of every simulation."""
 
-__all__ = ["BLADE", "Blade", "Geometry"]
+
+def shape_resistance(x: float, v: float, frontal_m2: float, bearing_m2: float, side_m2: float, design: Design,
+                     terms: tuple[str, ...]) -> float:
+    """R = Cs·S·B + μ·P·S_side + C·v·A_f + K·ρ·v²·A_f for a tip at depth ``x`` > 0 [m], speed ``v`` [m/s]
+    (clipped at 0 here), with the shape's frontal, bearing and side areas at that depth [m²] and the
+    material of ``design``; 0 above the surface. Only ``terms`` are on. [N]"""
+    if x <= 0.0:
+        return 0.0
+    vp = v if v > 0.0 else 0.0
+    out = 0.0
+    if "strength" in terms:
+        out += design.strength_factor * design.strength_pa * bearing_m2
+    if "friction" in terms:
+        out += design.friction_coefficient * design.sidewall_pressure_pa * side_m2
+    if "damping" in terms:
+        out += design.damping_pa_s_m * vp * frontal_m2
+    if "inertia" in terms:
+        out += design.inertia_coefficient * design.density_kg_m3 * vp * vp * frontal_m2
+    return out
+
+
+def _tip_factor(angle_rad: float, mu: float) -> float:
+    """Eq. 1's sin θ + μ·cos θ: the strength's push on a face at θ from the vertical, with friction on it, per
+    unit of its projected area. [–]"""
+    return math.sin(angle_rad) + mu * math.cos(angle_rad)
+
+
+@dataclass(frozen=True)
+class Cone:
+    """A cone tip on a cylindrical shaft, axis along the motion (a penetrometer's cone).
+
+    The tip is a cone of half-angle α, blunted to a flat of radius ``tip_radius_m`` (0: sharp), that widens to
+    the shaft's radius r_s over L_c = (r_s − r_t)/tan α; the shaft follows.  At depth x the radius in the
+    material is r(x) = min(r_t + x·tan α, r_s) and the frontal area A_f = π·r².  The sidewall pressure acts on
+    the shaft in the material, S = 2π·r_s·max(x − L_c, 0): the cone's face carries the strength.
+
+    ``area`` is the convention for the strength on the cone's face:
+
+    - ``projected``: Eq. 1's blade convention on the frontal area, B = A_f·(sin α + μ·cos α), with α taking
+      the blade's θ (for a blade's wedge, the same law);
+    - ``mantle``: the strength is a pressure normal to the face, with friction μ along it, so its axial push is
+      (sin α + μ·cos α) per unit of face area, and the face (A_f − π·r_t²)/sin α: B = π·r_t² + (A_f − π·r_t²)·
+      (1 + μ/tan α).  The flat presses with the strength alone.
+    """
+
+    half_angle_rad: float
+    shaft_radius_m: float
+    tip_radius_m: float = 0.0
+    area: str = "projected"
+    name: str = "cone"
+
+    def __post_init__(self):
+        if not 0.0 < self.half_angle_rad < math.pi / 2:
+            raise ModelError(f"cone half-angle {math.degrees(self.half_angle_rad):g}°: expected between 0 and 90°")
+        if not 0.0 <= self.tip_radius_m < self.shaft_radius_m:
+            raise ModelError(f"cone tip radius {self.tip_radius_m * 1e3:g} mm: expected from 0 to below the shaft "
+                             f"radius ({self.shaft_radius_m * 1e3:g} mm)")
+        if self.area not in CONE_AREAS:
+            raise ModelError(f"cone area convention {self.area!r}: expected one of {', '.join(CONE_AREAS)}")
+
+    @property
+    def cone_length_m(self) -> float:
+        """L_c, depth at which the shaft enters the material. [m]"""
+        return (self.shaft_radius_m - self.tip_radius_m) / math.tan(self.half_angle_rad)
+
+    def areas(self, x: float, mu: float) -> tuple[float, float, float]:
+        """(frontal A_f, bearing B, side S) at depth ``x`` [m] for friction coefficient ``mu``. [m²]"""
+        a, rt, rs = self.half_angle_rad, self.tip_radius_m, self.shaft_radius_m
+        r = min(rt + x * math.tan(a), rs)
+        frontal = math.pi * r * r
+        flat = math.pi * rt * rt
+        if self.area == "projected":
+            bearing = frontal * _tip_factor(a, mu)
+        else:
+            bearing = flat + (frontal - flat) * (1.0 + mu / math.tan(a))
+        return frontal, bearing, 2.0 * math.pi * rs * max(x - self.cone_length_m, 0.0)
+
+    def law(self, design: Design, terms: tuple[str, ...]) -> None:
+        return None  # the frontal area grows with depth: not Eq. 9's form
+
+    def resistance(self, design: Design, terms: tuple[str, ...]) -> Callable[[float, float], float]:
+        chosen, mu = parse_terms(terms), design.friction_coefficient
+
+        def r(x: float, v: float) -> float:
+            return shape_resistance(x, v, *self.areas(x, mu), design, chosen) if x > 0.0 else 0.0
+        return r
+
+
+CONE_AREAS = ("projected", "mantle")
+"""The conventions for the strength on a cone's face (:class:`Cone`)."""
+
+
+@dataclass(frozen=True)
+class TaperedBlade:
+    """A blade whose thickness grows from ``tip_thickness_m`` at the tip to the design's T over
+    ``taper_length_m`` (a sharpened or wedge-ended plate); width w and tip angle θ as the design's.
+
+    A_f(x) = w·T(x), T(x) = min(T_tip + (T − T_tip)·x/L_t, T); B = A_f·(sin θ + μ·cos θ); S = 2·w·x (both faces,
+    as Eq. 9's).  Past the taper it is Eq. 9's blade."""
+
+    tip_thickness_m: float
+    taper_length_m: float
+    name: str = "tapered_blade"
+
+    def __post_init__(self):
+        if self.tip_thickness_m < 0.0 or self.taper_length_m <= 0.0:
+            raise ModelError(f"tapered blade: tip thickness {self.tip_thickness_m * 1e3:g} mm (expected ≥ 0) and "
+                             f"taper length {self.taper_length_m * 1e3:g} mm (expected > 0)")
+
+    def areas(self, design: Design, x: float) -> tuple[float, float, float]:
+        """(frontal, bearing, side) at depth ``x`` [m]. [m²]"""
+        t = design.blade_thickness_m
+        thickness = min(self.tip_thickness_m + (t - self.tip_thickness_m) * x / self.taper_length_m, t)
+        frontal = design.blade_width_m * thickness
+        return (frontal, frontal * _tip_factor(design.tip_angle_rad, design.friction_coefficient),
+                2.0 * design.blade_width_m * x)
+
+    def law(self, design: Design, terms: tuple[str, ...]) -> None:
+        return None  # the frontal area grows over the taper
+
+    def resistance(self, design: Design, terms: tuple[str, ...]) -> Callable[[float, float], float]:
+        chosen = parse_terms(terms)
+
+        def r(x: float, v: float) -> float:
+            return shape_resistance(x, v, *self.areas(design, x), design, chosen) if x > 0.0 else 0.0
+        return r
+
+
+GEOMETRIES = {"blade": Blade, "cone": Cone, "tapered_blade": TaperedBlade}
+"""Every geometry by the name a parameter file will give it."""
+
+__all__ = ["BLADE", "Blade", "CONE_AREAS", "Cone", "GEOMETRIES", "Geometry", "TaperedBlade", "shape_resistance"]
