@@ -758,17 +758,10 @@ def workers_from_environment() -> int:
     """``PEN_WORKERS``: the processes (and compiled threads) a diagnosis may use [–] (default
     :data:`DEFAULT_WORKERS`), or one line saying what is wrong with it.  Set it to 1 where other jobs already
     fill the cores (a test runner's workers, a batch queue): a second process then only competes."""
-    text = os.environ.get("PEN_WORKERS")
-    if text is None or not text.strip():
-        return DEFAULT_WORKERS
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if not 1 <= value <= MAX_WORKERS:
-        raise ParameterError(f"PEN_WORKERS={text!r}: expected how many processes a diagnosis may use, a whole "
-                             f"number from 1 to {MAX_WORKERS} (default {DEFAULT_WORKERS})")
-    return value
+    from pencli.environment import number_from_environment
+
+    return number_from_environment("PEN_WORKERS", int, 1, MAX_WORKERS, DEFAULT_WORKERS,
+                                   "how many processes a diagnosis may use", ParameterError)
 
 
 def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | None = None,

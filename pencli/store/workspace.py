@@ -24,7 +24,6 @@ from __future__ import annotations
 import contextlib
 import datetime as dt
 import json
-import math
 import os
 import re
 import shutil
@@ -80,17 +79,10 @@ def safe_id(text: str) -> str:
 
 def lock_timeout_from_environment() -> float:
     """``PEN_LOCK_TIMEOUT_S`` [s] (default 30 s), or one line saying what is wrong with it."""
-    text = os.environ.get("PEN_LOCK_TIMEOUT_S")
-    if text is None or not text.strip():
-        return DEFAULT_LOCK_TIMEOUT_S
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (0.0 <= value <= MAX_LOCK_TIMEOUT_S):
-        raise StoreError(f"PEN_LOCK_TIMEOUT_S={text!r}: expected seconds to wait for a locked workspace, a number "
-                         f"from 0 to {MAX_LOCK_TIMEOUT_S:g} (default {DEFAULT_LOCK_TIMEOUT_S:g})")
-    return value
+    from pencli.environment import number_from_environment
+
+    return number_from_environment("PEN_LOCK_TIMEOUT_S", float, 0.0, MAX_LOCK_TIMEOUT_S, DEFAULT_LOCK_TIMEOUT_S,
+                                   "seconds to wait for a locked workspace", StoreError)
 
 
 def _pid_alive(pid: int) -> bool:
