@@ -960,11 +960,11 @@ class DriveView:
     t: float
     threshold: float
     gap: bool
-    law: str = DRIVE_LAWS[0]
+    law: str
     """The law of :data:`DRIVE_LAWS` that the deficits follow best."""
-    losses: np.ndarray | None = None
+    losses: np.ndarray
     """Each run's share of the launcher's energy lost before contact, by that law. [–]"""
-    size: float = 0.0
+    size: float
     """The law's parameter: the share lost [–], or the friction force [N]."""
     dynamic_rms_n: float | None = None
     """The baseline's fully predicted RMS in the material, where the drive effect was scored. [N]"""
@@ -1224,7 +1224,7 @@ def read_drive(baseline: Baseline, calibration: NullCalibration, request: Reques
     t_drive = sizes[law][1]
     threshold = student_quantile(request.alpha / len(laws), len(runs) - 1)
     return DriveView(bias, ratios, t_drive, threshold, request.drive_effect is not None and t_drive > threshold,
-                     law=law, losses=sizes[law][0] * laws[law], size=sizes[law][0])
+                     law, sizes[law][0] * laws[law], sizes[law][0])
 
 
 INTERVAL_Z = 1.96
@@ -1259,7 +1259,7 @@ def report_effects(baseline: Baseline, scan: FamilyScan, drive: DriveView, reque
     if name is None:
         return reports, drive
     runs = baseline.runs
-    losses = drive.losses if drive.losses is not None else np.zeros(len(runs))
+    losses = drive.losses
     base_rms = np.square([_dynamic_rms(r, baseline.run_values(k)) for k, r in enumerate(runs)])
     loss_rms = np.square([_dynamic_rms(r, baseline.run_values(k), float(losses[k])) for k, r in enumerate(runs)])
     (dyn_base, release_base), (dyn_loss, release_loss) = (map(float, np.sqrt(a.mean(0))) for a in (base_rms, loss_rms))
@@ -1555,7 +1555,7 @@ def _with_trajectory(report: EffectReport, baseline: Baseline, scan: FamilyScan,
     if report.significant or report.name in decision.verdict_effects:
         if effect.side == "drive":
             change = _trajectory_change(effect, None, (), baseline.runs, baseline.values,
-                                        report.params.get("loss_by_run", report.params["loss"]))
+                                        report.params["loss_by_run"])
         else:
             t = scan.tested[report.name]
             change = _trajectory_change(effect, scan.candidates[report.name][t.family.best].member,

@@ -25,6 +25,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+
 @contextmanager
 def compiled_threads(count: int):
     """The compiled solves below run on at most ``count`` threads inside the block (numba's own limit kept)."""
