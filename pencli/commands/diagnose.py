@@ -13,15 +13,11 @@ from rich.table import Table
 from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, db_path, progress_bar
 from pencli.diagnose.effects import EFFECTS
-from pencli.diagnose import BOOTSTRAP, FALSE_ALARM
+from pencli.diagnose import BOOTSTRAP, FALSE_ALARM, params_text
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
 app = PenTyper()
-
-
-def _fmt_params(params: dict) -> str:
-    return ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items())
 
 
 @app.command("diagnose")
@@ -127,7 +123,7 @@ def diagnose(
         elif change.get("note"):
             text = "none (measurement)"
         table.add_row(e.name, f"{e.heldout_rms_n:.1f}", f"{e.shrink_pct:.0f} %", f"{e.z:.1f}", "yes" if e.significant else "",
-                      escape(_fmt_params(e.params)), text)
+                      escape(params_text(e.params)), text)
     console.print(table)
     for note in result.notes:
         console.print(f"note: {escape(note)}", highlight=False)

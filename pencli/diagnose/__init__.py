@@ -7,3 +7,15 @@ BOOTSTRAP = 200
 rate (a third of the false-alarm rate, 0.33 %): from 60 replicates, nulls of known law with heavy tails were
 called 1.7 % (t₃) and 8.2 % (a point mass with 5 % χ²₁) of the time, from 200 0.6 % and 1.4 %
 (``python -m bench.bench_null_calibration 1500 7 --engine``, 1,500 trials each); about 1.5 × the time."""
+
+
+def params_text(params: dict) -> str:
+    """An effect's parameters on one line, numbers to three significant digits (a per-run mapping as
+    ``{run: value, …}``), as the CLI and the report print them."""
+    def value(v) -> str:
+        if isinstance(v, float):
+            return f"{v:.3g}"
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{k}: {value(x)}" for k, x in v.items()) + "}"
+        return str(v)
+    return ", ".join(f"{k}={value(v)}" for k, v in params.items())

@@ -284,6 +284,7 @@ def sweep_boundary(table: Mapping[str, np.ndarray], base: Mapping[str, float] | 
 
 def diagnosis_section(result) -> Section:
     """A diagnosis: verdict, effects best first, where the gap lies, what the misfit follows, the figure."""
+    from pencli.diagnose import params_text
     from pencli.report.diagnosis import diagnosis_caption, diagnosis_figure
 
     report = result.to_dict()
@@ -292,8 +293,7 @@ def diagnosis_section(result) -> Section:
     section.tables.append(("effects, best first", ["effect", "held-out RMS [N]", "shrink [%]", "z", "significant",
                                                    "detectable RMS [N]", "parameters"],
                            [[e.name, e.heldout_rms_n, e.shrink_pct, e.z, e.significant, e.detectable_rms_n,
-                             ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
-                                       for k, v in e.params.items())] for e in result.effects]))
+                             params_text(e.params)] for e in result.effects]))
     if result.verdict == "none":
         section.tables.append(("where the gap lies: no gap beyond the noise", ["phase"], []))
     else:
