@@ -749,18 +749,14 @@ def fit(db: str | Path, material: str, refs: Sequence[str], *, mode: str = "resi
 
 
 # ---------------------------------------------------------------------------- diagnosis
-DEFAULT_WORKERS = 2
-"""Processes a diagnosis uses unless told otherwise: this machine class's two cores. [–]"""
-MAX_WORKERS = 64
-
-
 def workers_from_environment() -> int:
     """``PEN_WORKERS``: the processes (and compiled threads) a diagnosis may use [–] (default
-    :data:`DEFAULT_WORKERS`), or one line saying what is wrong with it.  Set it to 1 where other jobs already
-    fill the cores (a test runner's workers, a batch queue): a second process then only competes."""
+    :data:`pencli.diagnose.WORKERS`), or one line saying what is wrong with it.  Set it to 1 where other jobs
+    already fill the cores (a test runner's workers, a batch queue): a second process then only competes."""
+    from pencli.diagnose import MAX_WORKERS, WORKERS
     from pencli.environment import number_from_environment
 
-    return number_from_environment("PEN_WORKERS", int, 1, MAX_WORKERS, DEFAULT_WORKERS,
+    return number_from_environment("PEN_WORKERS", int, 1, MAX_WORKERS, WORKERS,
                                    "how many processes a diagnosis may use", ParameterError)
 
 

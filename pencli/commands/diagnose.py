@@ -13,7 +13,7 @@ from rich.table import Table
 from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, db_path, progress_bar
 from pencli.diagnose.effects import EFFECTS
-from pencli.diagnose import BOOTSTRAP, FALSE_ALARM, params_text
+from pencli.diagnose import BOOTSTRAP, FALSE_ALARM, MAX_WORKERS, WORKERS, params_text
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
@@ -43,9 +43,9 @@ def diagnose(
                                      "that best tell the verdict's "
                                      "effect from those that fit as well, with the separation each would give "
                                      "in units of the force noise [–]."),
-    workers: Optional[int] = typer.Option(None, "--workers", min=1, max=64,
+    workers: Optional[int] = typer.Option(None, "--workers", min=1, max=MAX_WORKERS,
                                           help="Processes (and compiled threads) the diagnosis uses; the verdict "
-                                               "does not depend on it [default: PEN_WORKERS, else 2]."),
+                                               f"does not depend on it [default: PEN_WORKERS, else {WORKERS}]."),
     db: Optional[Path] = DbOption,
 ) -> None:
     """Diagnose the sim-to-real gap: where it lies, which effect causes it, how far it shrinks.

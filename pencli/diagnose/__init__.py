@@ -8,6 +8,11 @@ rate (a third of the false-alarm rate, 0.33 %): from 60 replicates, nulls of kno
 called 1.7 % (t₃) and 8.2 % (a point mass with 5 % χ²₁) of the time, from 200 0.6 % and 1.4 %
 (``python -m bench.bench_null_calibration 1500 7 --engine``, 1,500 trials each); about 1.5 × the time."""
 
+WORKERS = 2
+"""Default processes (and compiled threads) of a diagnosis: this machine class's two cores. [–]"""
+MAX_WORKERS = 64
+"""The most processes ``--workers`` or ``PEN_WORKERS`` may ask for. [–]"""
+
 
 def params_text(params: dict) -> str:
     """An effect's parameters on one line, numbers to three significant digits (a per-run mapping as

@@ -61,7 +61,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from pencli.diagnose import BOOTSTRAP, FALSE_ALARM  # the defaults live in the light package module (CLI)
+from pencli.diagnose import BOOTSTRAP, FALSE_ALARM, WORKERS  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, Effect, Member, _RunView, basis_of,
                                      column_strength_factor, surfaces, views)
 from pencli.diagnose.linear import Spec, Statistics, compiled_threads, heldout_residuals, heldout_residuals_every
@@ -987,7 +987,7 @@ class Decision:
 
 
 def diagnose(runs: Sequence[Run], *, effects: Sequence[str] | None = None,
-             false_alarm: float = FALSE_ALARM, bootstrap: int = BOOTSTRAP, seed: int = 0, workers: int = 2,
+             false_alarm: float = FALSE_ALARM, bootstrap: int = BOOTSTRAP, seed: int = 0, workers: int = WORKERS,
              suggest: int = 0, progress: Progress | None = None) -> Diagnosis:
     """Locate, explain and size the gap between the reference model and ``runs``.
 
