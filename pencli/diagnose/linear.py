@@ -358,6 +358,15 @@ def _quadratics(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray,
             out[m, t] = acc
 
 
+FACTOR_SLOTS = 24
+"""Factorisations kept per system (the last sets solved on): a system's targets end on a dozen or two sets."""
+
+SET_PASSES = 8
+"""Free sets tried on all of a system's remaining targets at once before the rest are solved one at a time: a
+system's replicates mostly end on a few sets (a null's noise moves a coefficient across its bound), and a
+pass costs one factorisation and a substitution per target; more passes find sets that few targets share."""
+
+
 def bounded_solve(A: np.ndarray, b: np.ndarray, bounded: np.ndarray | None = None) -> np.ndarray:
     """Minimise ½ θᵀAθ − bᵀθ per model (A: (M, q, q); b: (M, q, T)) with θ ≥ 0 where ``bounded`` (M, q) says
     so (default: θ[:3] ≥ 0, P, C, K): the bounded least-squares optimum.
@@ -374,6 +383,8 @@ def bounded_solve(A: np.ndarray, b: np.ndarray, bounded: np.ndarray | None = Non
     move with the BLAS kernel.)
     """
     M, q, _ = A.shape
+    if q > 62:
+        raise ValueError(f"a bounded solve of {q} coefficients: at most 62 (a free set is kept as the bits of an int64)")
     if bounded is None:
         bounded = np.zeros((M, q), dtype=bool)
         bounded[:, :N_BOUNDED] = True
@@ -440,19 +451,41 @@ def _substitute(lu: np.ndarray, pivots: np.ndarray, index: np.ndarray, n: int, b
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _solve_on(A: np.ndarray, b: np.ndarray, passive: np.ndarray, factored: np.ndarray, lu: np.ndarray,
-              pivots: np.ndarray, index: np.ndarray, count: np.ndarray, rhs: np.ndarray, out: np.ndarray) -> None:
-    """``out`` = the solution of A θ = b over the coefficients ``passive`` marks, 0 elsewhere; the factors are
-    kept (``factored`` marks their set, ``count[0]`` their number, −1 none) and reused while the set holds."""
-    same = count[0] >= 0
+def _solve_on(A: np.ndarray, b: np.ndarray, passive: np.ndarray, keys: np.ndarray, lus: np.ndarray,
+              pivots: np.ndarray, index: np.ndarray, sizes: np.ndarray, rhs: np.ndarray, out: np.ndarray) -> None:
+    """``out`` = the solution of A θ = b over the coefficients ``passive`` marks, 0 elsewhere.  The factors of the
+    last ``FACTOR_SLOTS`` sets are kept: ``keys`` (slots,) each slot's set as bits (−1 none), ``lus``, ``pivots``,
+    ``index`` its factors (:func:`_factor`), ``sizes`` (slots + 1,) its number of free coefficients and, last, the
+    slot the next new set overwrites."""
+    key = 0
     for i in range(A.shape[0]):
-        if factored[i] != passive[i]:
-            same = False
-    if not same:
-        count[0] = _factor(A, passive, lu, pivots, index)
-        for i in range(A.shape[0]):
-            factored[i] = passive[i]
-    _substitute(lu, pivots, index, count[0], b, rhs, out)
+        if passive[i]:
+            key |= 1 << i
+    slots = keys.shape[0]
+    k = -1
+    for j in range(slots):
+        if keys[j] == key:
+            k = j
+            break
+    if k < 0:
+        k = sizes[slots]
+        sizes[slots] = (k + 1) % slots
+        sizes[k] = _factor(A, passive, lus[k], pivots[k], index[k])
+        keys[k] = key
+    _substitute(lus[k], pivots[k], index[k], sizes[k], b, rhs, out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _slot(passive: np.ndarray, keys: np.ndarray) -> int:
+    """The slot of :func:`_solve_on`'s kept factors that holds the set ``passive`` marks (−1: none)."""
+    key = 0
+    for i in range(passive.shape[0]):
+        if passive[i]:
+            key |= 1 << i
+    for j in range(keys.shape[0]):
+        if keys[j] == key:
+            return j
+    return -1
 
 
 @njit(cache=True, nogil=True, error_model="numpy", parallel=True)
@@ -460,22 +493,20 @@ def _bounded_optima(A_all: np.ndarray, b_all: np.ndarray, theta: np.ndarray, bou
     """``theta`` (M, q, T) = each system's minimiser of ½ θᵀAθ − bᵀθ with θ ≥ 0 where ``bounded``, found in the
     system's unit-diagonal coordinates with a ridge of 10⁻¹⁰ (:func:`bounded_solve`).
 
-    The systems are shared among threads; within one, the targets (the
-    data, then its replicates) are taken in turn, each starting from the
-    set of coefficients the previous one ended with free: solve on that
-    set; fix the negative bounded coefficients at 0 and solve again, until
-    none is negative (a feasible point, optimal on its free set); then
-    Lawson–Hanson from there: the held coefficient whose gradient b − Aθ is
-    most positive joins the free set, which is solved; if a bounded member
-    comes out ≤ 0, step from the last feasible point toward that solution
-    as far as the bounds allow and hold the member the step brings to 0;
-    repeat until no held coefficient's gradient is positive (relative
-    10⁻¹²: the KKT conditions).  The optimum is unique (the ridge), so the
-    starting set changes the path, not the answer; targets of one system
-    mostly end on one set, whose factors are then computed once.  At most
-    3q coefficients enter and 3q steps follow each, a guard against cycling
-    on degenerate ties (a system stopped short by it would fail the
-    optimality-conditions test; none of that test's systems does).
+    The systems are shared among threads.  Within one, a target is solved
+    alone (:func:`_bounded_target`), and the set of coefficients it ends
+    with free is every pending target's first guess, solved for all of them
+    at once on that set's factors (:func:`_substitute_all`).  A target whose
+    solution there meets the optimality conditions (no bounded free
+    coefficient negative, no held coefficient's gradient b − Aθ positive
+    beyond 10⁻¹² of its largest |b|) has its optimum, to the last digit of
+    the one-target path from that set; the first of the others starts the
+    next pass (``SET_PASSES`` of them: a null's noise moves a coefficient
+    across its bound, and a system's replicates end on a dozen or so sets),
+    and what the passes leave is solved one target at a time, each from the
+    set the previous one ended with.  The optimum is unique (the ridge), so
+    the starting set changes the path, not the answer; the last
+    ``FACTOR_SLOTS`` sets' factors are kept (:func:`_solve_on`).
     """
     M, q, T = theta.shape
     for m in prange(M):
@@ -488,38 +519,131 @@ def _bounded_optima(A_all: np.ndarray, b_all: np.ndarray, theta: np.ndarray, bou
         for i in range(q):
             for j in range(q):
                 A[i, j] = A_all[m, i, j] / scale[i] / scale[j] + (1e-10 if i == j else 0.0)
+        B = np.empty((q, T))
+        for i in range(q):
+            for t in range(T):
+                B[i, t] = b_all[m, i, t] / scale[i]
         b = np.empty(q)
-        lu = np.empty((q, q))
-        pivots = np.empty(q, dtype=np.int64)
-        index = np.empty(q, dtype=np.int64)
-        count = np.full(1, -1, dtype=np.int64)
-        factored = np.zeros(q, dtype=np.bool_)
+        keys = np.full(FACTOR_SLOTS, -1, dtype=np.int64)
+        lus = np.empty((FACTOR_SLOTS, q, q))
+        pivots = np.empty((FACTOR_SLOTS, q), dtype=np.int64)
+        index = np.empty((FACTOR_SLOTS, q), dtype=np.int64)
+        sizes = np.zeros(FACTOR_SLOTS + 1, dtype=np.int64)
         passive = np.ones(q, dtype=np.bool_)
         rhs = np.empty(q)
         x = np.empty(q)
         s = np.empty(q)
-        for t in range(T):
+        pending = np.arange(T)
+        free = passive.copy()
+        for _ in range(SET_PASSES):
+            if pending.size == 0:
+                break
+            # the first pending target alone, from the last set; the set it ends with is every other's first guess
+            first = pending[0]
             for i in range(q):
-                b[i] = b_all[m, i, t] / scale[i]
-            _solve_on(A, b, passive, factored, lu, pivots, index, count, rhs, x)
-            for _ in range(q):  # fix the negatives at 0 until none is negative
-                grew = False
+                b[i] = B[i, first]
+            _bounded_target(A, b, bounded[m], passive, x, s, keys, lus, pivots, index, sizes, rhs)
+            for i in range(q):
+                theta[m, i, first] = x[i] / scale[i]
+                free[i] = passive[i]
+            rest = pending[1:]
+            _solve_on(A, b, free, keys, lus, pivots, index, sizes, rhs, s)  # its factors to the front
+            k = _slot(free, keys)
+            X = _substitute_all(lus[k], pivots[k], index[k], sizes[k], B, rest)
+            keep = np.zeros(rest.size, dtype=np.bool_)
+            for k in range(rest.size):
+                t = rest[k]
+                largest = 0.0
                 for i in range(q):
-                    if bounded[m, i] and passive[i] and x[i] < 0.0:
-                        passive[i] = False
-                        grew = True
-                if not grew:
-                    break
-                _solve_on(A, b, passive, factored, lu, pivots, index, count, rhs, x)
-            _lawson_hanson(A, b, bounded[m], passive, x, s, factored, lu, pivots, index, count, rhs)
+                    largest = max(largest, abs(B[i, t]))
+                tol = 1e-12 * max(largest, 1e-300)
+                optimal = True
+                for i in range(q):
+                    if bounded[m, i]:
+                        if free[i]:
+                            if X[i, k] < 0.0:
+                                optimal = False
+                        else:
+                            w = B[i, t]
+                            for c in range(q):
+                                w -= A[i, c] * X[c, k]
+                            if w > tol:
+                                optimal = False
+                if optimal:
+                    for i in range(q):
+                        theta[m, i, t] = X[i, k] / scale[i]
+                else:
+                    keep[k] = True
+            pending = rest[keep]
+        for t in pending:  # what the passes left: one at a time, each from the set the previous ended with
+            for i in range(q):
+                b[i] = B[i, t]
+            _bounded_target(A, b, bounded[m], passive, x, s, keys, lus, pivots, index, sizes, rhs)
             for i in range(q):
                 theta[m, i, t] = x[i] / scale[i]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _substitute_all(lu: np.ndarray, pivots: np.ndarray, index: np.ndarray, n: int, B: np.ndarray,
+                    columns: np.ndarray) -> np.ndarray:
+    """(q, len(columns)): :func:`_substitute` on the ``columns`` of ``B`` at once, each column's operations in the
+    same order as there (the same numbers), the targets innermost."""
+    q = B.shape[0]
+    T = columns.size
+    R = np.empty((n, T))
+    for a in range(n):
+        for k in range(T):
+            R[a, k] = B[index[a], columns[k]]
+    for col in range(n):
+        pivot = pivots[col]
+        if pivot != col:
+            for t in range(T):
+                R[col, t], R[pivot, t] = R[pivot, t], R[col, t]
+    for r in range(n):  # unit lower triangle
+        for c in range(r):
+            f = lu[r, c]
+            for t in range(T):
+                R[r, t] -= f * R[c, t]
+    for r in range(n - 1, -1, -1):
+        for c in range(r + 1, n):
+            f = lu[r, c]
+            for t in range(T):
+                R[r, t] -= f * R[c, t]
+        d = lu[r, r]
+        for t in range(T):
+            R[r, t] = R[r, t] / d
+    X = np.zeros((q, T))
+    for a in range(n):
+        for t in range(T):
+            X[index[a], t] = R[a, t]
+    return X
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _bounded_target(A: np.ndarray, b: np.ndarray, bounded: np.ndarray, passive: np.ndarray, x: np.ndarray,
+                    s: np.ndarray, keys: np.ndarray, lus: np.ndarray, pivots: np.ndarray, index: np.ndarray,
+                    sizes: np.ndarray, rhs: np.ndarray) -> None:
+    """``x`` = the optimum for one target ``b``, from the free set ``passive`` (updated in place to the optimum's):
+    solve on that set; fix the negative bounded coefficients at 0 and solve again, until none is negative (a
+    feasible point, optimal on its free set); then Lawson–Hanson from there (:func:`_lawson_hanson`)."""
+    q = A.shape[0]
+    _solve_on(A, b, passive, keys, lus, pivots, index, sizes, rhs, x)
+    for _ in range(q):  # fix the negatives at 0 until none is negative
+        grew = False
+        for i in range(q):
+            if bounded[i] and passive[i] and x[i] < 0.0:
+                passive[i] = False
+                grew = True
+        if not grew:
+            break
+        _solve_on(A, b, passive, keys, lus, pivots, index, sizes, rhs, x)
+    _lawson_hanson(A, b, bounded, passive, x, s, keys, lus, pivots, index, sizes, rhs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _lawson_hanson(A: np.ndarray, b: np.ndarray, bounded: np.ndarray, passive: np.ndarray, x: np.ndarray,
-                   s: np.ndarray, factored: np.ndarray, lu: np.ndarray, pivots: np.ndarray, index: np.ndarray,
-                   count: np.ndarray, rhs: np.ndarray) -> None:
+                   s: np.ndarray, keys: np.ndarray, lus: np.ndarray, pivots: np.ndarray, index: np.ndarray,
+                   sizes: np.ndarray, rhs: np.ndarray) -> None:
     """From the feasible point ``x`` (optimal on its free set ``passive``), in place: free the held coefficient
     whose gradient b − Aθ is most positive, solve, step back to the bounds where a member comes out ≤ 0, until
     no held coefficient's gradient is positive (relative 10⁻¹²); at most 3q entries of 3q steps each."""
@@ -541,7 +665,7 @@ def _lawson_hanson(A: np.ndarray, b: np.ndarray, bounded: np.ndarray, passive: n
             break
         passive[enter] = True
         for _inner in range(3 * q):
-            _solve_on(A, b, passive, factored, lu, pivots, index, count, rhs, s)
+            _solve_on(A, b, passive, keys, lus, pivots, index, sizes, rhs, s)
             alpha, leave = 1.0, -1
             for i in range(q):
                 if bounded[i] and passive[i] and s[i] <= 0.0:
