@@ -237,10 +237,12 @@ def test_a_ringing_between_two_grid_frequencies_is_followed(tmp_path):
     assert ring.shrink_pct > 65.0, (ring.shrink_pct, ring.params)
 
 
-def test_cli_writes_the_contract_json_and_refuses_bad_input(tmp_path, runner):
+def test_cli_writes_the_contract_json_and_a_figure_and_refuses_bad_input(tmp_path, runner):
+    from matplotlib.image import imread
+
     db = campaign(tmp_path, [{"name": "rig_ringing", "amplitude_n_per_m_s": 60}], 38)
-    out = tmp_path / "d.json"
-    r = invoke(runner, "diagnose", "all", "--db", db, "--json", out)
+    out, png = tmp_path / "d.json", tmp_path / "d.png"
+    r = invoke(runner, "diagnose", "all", "--db", db, "--json", out, "--plot", png)
     assert r.exit_code == 0, r.output
     report = json.loads(out.read_text())
     assert set(report) >= {"runs", "baseline", "where", "effects", "verdict"}
@@ -253,24 +255,14 @@ def test_cli_writes_the_contract_json_and_refuses_bad_input(tmp_path, runner):
     assert shrinks == sorted(shrinks, reverse=True)
     for item in report["where"]:
         assert item["phase"] in ("flight", "contact", "penetration", "rest")
+    pixels = imread(png)
+    assert pixels.shape[0] > 300 and np.std(pixels) > 0.05  # drawn on, not an empty canvas
     two = invoke(runner, "diagnose", "r00*", "r01*", "--db", db)
     assert two.exit_code == 1 and "at least 3 runs" in two.stderr
     bad = invoke(runner, "diagnose", "all", "--db", db, "--effects", "gremlins")
     assert bad.exit_code == 1 and "gremlins" in bad.stderr
-
-
-def test_diagnosis_figure_is_written_and_not_blank(tmp_path, runner):
-    import numpy as np
-    from matplotlib.image import imread
-
-    db = campaign(tmp_path, [{"name": "sensor_lag", "tau_ms": 0.3}], 39)
-    png = tmp_path / "d.png"
-    r = invoke(runner, "diagnose", "all", "--db", db, "--plot", png)
-    assert r.exit_code == 0, r.output
-    pixels = imread(png)
-    assert pixels.shape[0] > 300 and np.std(pixels) > 0.05  # drawn on, not an empty canvas
-    bad = invoke(runner, "diagnose", "all", "--db", db, "--plot", tmp_path / "d.gif")
-    assert bad.exit_code == 2 and not (tmp_path / "d.gif").exists()
+    gif = invoke(runner, "diagnose", "all", "--db", db, "--plot", tmp_path / "d.gif")
+    assert gif.exit_code == 2 and not (tmp_path / "d.gif").exists()
 
 
 def test_varied_null_campaign_is_none_and_says_what_it_would_have_seen(tmp_path):
