@@ -33,7 +33,8 @@ def test_every_command_has_help_with_an_example_and_takes_db(runner, path, info)
     assert "Example: pen " in doc, f"pen {' '.join(path)} has no example in its help"
     result = invoke(runner, *path, "--help")
     assert result.exit_code == 0
-    assert "--db" in result.output
+    if path[0] != "soundings":  # field soundings are read from their files; no workspace holds them yet
+        assert "--db" in result.output
 
 
 def test_predict_writes_a_self_describing_parquet_trajectory(tmp_path, runner):

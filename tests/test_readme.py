@@ -2,7 +2,8 @@
 
 The commands are read from the indented code blocks of the README and of each page of the documentation, in the
 site's order, and run through a shell in a scratch folder (one for the README, one for the documentation) laid
-out as they assume: the example workspace under ``examples/workspace``, lab folders to
+out as they assume: the example workspace under ``examples/workspace``, the field records under
+``examples/field``, lab folders to
 ingest (CONTRACT §3 folders exported from the example), a BAM-era workbook under ``old/``, ``my_blade.yaml``.
 The two set-up commands (install, test) are what CI runs; they are not re-run here.
 """
@@ -54,6 +55,7 @@ def _prepare(root: Path) -> None:
     from pencli import api
 
     shutil.copytree(REPO / "examples" / "workspace", root / "examples" / "workspace")
+    shutil.copytree(REPO / "examples" / "field", root / "examples" / "field")
     example = root / "examples" / "workspace" / "runs.duckdb"
     lab = root / "lab" / "2026-11-20"
     for run in ("mc-1.0-4", "mc-1.0-6", "mc-1.5-2", "mc-1.5-6", "mc-2.0-2", "mc-2.0-4", "gb-1.0-2"):

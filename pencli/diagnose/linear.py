@@ -358,6 +358,9 @@ def _quadratics(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray,
             out[m, t] = acc
 
 
+MAX_COEFFICIENTS = 62
+"""Coefficients a bounded solve takes at most: a free set is kept as the bits of a signed 64-bit integer."""
+
 FACTOR_SLOTS = 24
 """Factorisations kept per system (the last sets solved on): a system's targets end on a dozen or two sets."""
 
@@ -383,8 +386,8 @@ def bounded_solve(A: np.ndarray, b: np.ndarray, bounded: np.ndarray | None = Non
     move with the BLAS kernel.)
     """
     M, q, _ = A.shape
-    if q > 62:
-        raise ValueError(f"a bounded solve of {q} coefficients: at most 62 (a free set is kept as the bits of an int64)")
+    if q > MAX_COEFFICIENTS:
+        raise ValueError(f"a bounded solve of {q} coefficients: at most {MAX_COEFFICIENTS}")
     if bounded is None:
         bounded = np.zeros((M, q), dtype=bool)
         bounded[:, :N_BOUNDED] = True
@@ -547,33 +550,10 @@ def _bounded_optima(A_all: np.ndarray, b_all: np.ndarray, theta: np.ndarray, bou
                 theta[m, i, first] = x[i] / scale[i]
                 free[i] = passive[i]
             rest = pending[1:]
-            _solve_on(A, b, free, keys, lus, pivots, index, sizes, rhs, s)  # its factors to the front
+            _solve_on(A, b, free, keys, lus, pivots, index, sizes, rhs, s)  # its factors: kept, or made here
             k = _slot(free, keys)
             X = _substitute_all(lus[k], pivots[k], index[k], sizes[k], B, rest)
-            keep = np.zeros(rest.size, dtype=np.bool_)
-            for k in range(rest.size):
-                t = rest[k]
-                largest = 0.0
-                for i in range(q):
-                    largest = max(largest, abs(B[i, t]))
-                tol = 1e-12 * max(largest, 1e-300)
-                optimal = True
-                for i in range(q):
-                    if bounded[m, i]:
-                        if free[i]:
-                            if X[i, k] < 0.0:
-                                optimal = False
-                        else:
-                            w = B[i, t]
-                            for c in range(q):
-                                w -= A[i, c] * X[c, k]
-                            if w > tol:
-                                optimal = False
-                if optimal:
-                    for i in range(q):
-                        theta[m, i, t] = X[i, k] / scale[i]
-                else:
-                    keep[k] = True
+            keep = _not_optimal_on(A, B, bounded[m], free, X, rest, scale, theta[m])
             pending = rest[keep]
         for t in pending:  # what the passes left: one at a time, each from the set the previous ended with
             for i in range(q):
@@ -581,6 +561,37 @@ def _bounded_optima(A_all: np.ndarray, b_all: np.ndarray, theta: np.ndarray, bou
             _bounded_target(A, b, bounded[m], passive, x, s, keys, lus, pivots, index, sizes, rhs)
             for i in range(q):
                 theta[m, i, t] = x[i] / scale[i]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _not_optimal_on(A: np.ndarray, B: np.ndarray, bounded: np.ndarray, free: np.ndarray, X: np.ndarray,
+                    columns: np.ndarray, scale: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Of the targets ``columns`` (B's columns, X's in that order) solved on the set ``free``: which miss the
+    optimality conditions (a bounded free coefficient negative, or a held one whose gradient b − Aθ is positive
+    beyond 10⁻¹² of the target's largest |b|).  The others' solutions are written to ``theta`` (q, T), unscaled."""
+    q = A.shape[0]
+    missed = np.zeros(columns.size, dtype=np.bool_)
+    for k in range(columns.size):
+        t = columns[k]
+        largest = 0.0
+        for i in range(q):
+            largest = max(largest, abs(B[i, t]))
+        tol = 1e-12 * max(largest, 1e-300)
+        for i in range(q):
+            if bounded[i]:
+                if free[i]:
+                    if X[i, k] < 0.0:
+                        missed[k] = True
+                else:
+                    w = B[i, t]
+                    for c in range(q):
+                        w -= A[i, c] * X[c, k]
+                    if w > tol:
+                        missed[k] = True
+        if not missed[k]:
+            for i in range(q):
+                theta[i, t] = X[i, k] / scale[i]
+    return missed
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")

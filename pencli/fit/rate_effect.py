@@ -24,6 +24,10 @@ import numpy as np
 
 from pencli.errors import FitError
 
+MIN_RATE_SPAN = 0.1
+"""The least spread of log10(rate) across the soundings a rate effect is fitted on (a factor 1.26): below it the
+law's slope is fitted on the rates' noise. [decades]"""
+
 
 def qt_kpa(qc_mpa: np.ndarray, u2_kpa: np.ndarray, net_area_ratio: float) -> np.ndarray:
     """Cone resistance corrected for the pore pressure on the cone's shoulder: qt = qc + (1 − a)·u₂. [kPa]"""
@@ -111,7 +115,7 @@ def fit_rate_effect(samples: Sequence[UnitMean], reference_rate_mm_s: float = 20
     n, p = len(samples), len(units) + 1
     if n <= p:
         raise FitError(f"{n} unit means for {p} unknowns (a value per unit and the rate effect); more soundings needed")
-    if np.ptp(L) < 0.1:
+    if np.ptp(L) < MIN_RATE_SPAN:
         raise FitError(f"the rates span {np.ptp(L):.2f} decades; a rate effect needs soundings at different rates")
     X = np.zeros((n, p))
     X[np.arange(n), [column[s.unit] for s in samples]] = y

@@ -1,0 +1,129 @@
+"""``pen soundings``: field records of constant-rate pushes (CPTu, total soundings): read, fit a rate effect, diagnose."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List
+
+import typer
+from rich.markup import escape
+from rich.table import Table
+
+from pencli.commands.common import PenTyper, console, print_json
+from pencli.lazy import lazy
+
+api = lazy("pencli.api")  # loaded when a command runs, not for --help
+
+soundings_app = PenTyper(help="Field soundings (SGF files): read them, fit a rate effect across a site's soundings, "
+                              "diagnose whether the push rate matters.")
+
+QUANTITY_HELP = "qt (cone resistance corrected by u₂ on the net area ratio), qc, fs or u2; all in kPa."
+
+
+@soundings_app.command("show")
+def show(
+    files: List[Path] = typer.Argument(..., help="SGF files (.cpt, .std, .tot; plain or .gz)."),
+    json_out: bool = typer.Option(False, "--json", help='Print [{"file", "name", "kind", "rows", ...}].'),
+) -> None:
+    """One line per sounding: its kind, depth range, rows, the push rate from its clock [mm/s] and the logger's.
+
+    Example: pen soundings show examples/field/ntnu-cptu-rate/soundings/TILC5*.cpt.gz
+    """
+    import numpy as np
+
+    from pencli.filter.rate import push_rate_mm_s
+
+    records = []
+    for path in files:
+        for sounding in api.read_soundings([path]):
+            depth = sounding.columns["depth_m"]
+            logger = sounding.columns.get("rate_mm_s")
+            moving = logger[logger > 0] if logger is not None else np.array([])
+            records.append({"file": str(path), "name": sounding.name, "kind": sounding.kind, "rows": int(depth.size),
+                            "top_m": float(depth[0]), "bottom_m": float(depth[-1]),
+                            "rate_mm_s": (push_rate_mm_s(depth, sounding.time_s) if sounding.time_s is not None
+                                          else None),
+                            "logger_rate_mm_s": float(np.median(moving)) if moving.size else None,
+                            "columns": sorted(sounding.columns)})
+    if json_out:
+        print_json(records)
+        return
+    table = Table(header_style="bold")
+    for column in ("file", "sounding", "kind", "rows", "depth [m]", "rate [mm/s]", "logger's [mm/s]"):
+        table.add_column(escape(column), justify="left" if column in ("file", "sounding", "kind") else "right")
+    for r in records:
+        table.add_row(escape(Path(r["file"]).name), escape(r["name"]), r["kind"], str(r["rows"]),
+                      f"{r['top_m']:.2f}–{r['bottom_m']:.2f}",
+                      "–" if r["rate_mm_s"] is None or not np.isfinite(r["rate_mm_s"]) else f"{r['rate_mm_s']:.1f}",
+                      "–" if r["logger_rate_mm_s"] is None else f"{r['logger_rate_mm_s']:.0f}")
+    console.print(table)
+
+
+@soundings_app.command("fit")
+def fit(
+    units: Path = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps."),
+    site: str = typer.Option(..., "--site", help="The site of the units file whose soundings are fitted."),
+    quantity: str = typer.Option("qt", "--quantity", help=QUANTITY_HELP),
+    json_out: bool = typer.Option(False, "--json", help='Print {"site", "quantity", "per_decade", ...}.'),
+) -> None:
+    """Fit q = q_u·(1 + K·log10(v/v_ref)) across a site's soundings: K, the change per decade of push rate, of
+    either sign, shared by the units; q_u, each unit's value at the reference rate.
+
+    Example: pen soundings fit examples/field/ntnu-cptu-rate/units.json --site Tiller-Flotten
+    """
+    effect = api.fit_soundings(units, site, quantity)
+    record = {"site": site, "quantity": quantity, "per_decade": effect.per_decade,
+              "per_decade_se": effect.per_decade_se, "reference_rate_mm_s": effect.reference_rate_mm_s,
+              "reference_values_kpa": {str(u): v for u, v in effect.reference_values.items()},
+              "residual_sd": effect.residual_sd, "unit_means": effect.samples}
+    if json_out:
+        print_json(record)
+        return
+    console.print(f"{escape(site)}: {quantity} changes by K = {effect.per_decade:+.4f} ± {effect.per_decade_se:.4f} "
+                  f"per decade of rate ({effect.samples} unit means, relative scatter {effect.residual_sd:.3f}); "
+                  + ("faster is stronger" if effect.per_decade > 0 else "faster is weaker"))
+    table = Table(header_style="bold")
+    table.add_column("unit")
+    table.add_column(escape(f"{quantity} at {effect.reference_rate_mm_s:g} mm/s [kPa]"), justify="right")
+    for u, v in effect.reference_values.items():
+        table.add_row(str(u), f"{v:.1f}")
+    console.print(table)
+
+
+@soundings_app.command("diagnose")
+def diagnose(
+    units: Path = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps."),
+    site: str = typer.Option(..., "--site", help="The site of the units file whose soundings are diagnosed."),
+    quantity: str = typer.Option("qt", "--quantity", help=QUANTITY_HELP),
+    permutations: int = typer.Option(199, "--permutations", min=19, max=9999,
+                                     help="Shuffles of the rates among the soundings that make the null."),
+    false_alarm: float = typer.Option(0.01, "--false-alarm", min=1e-4, max=0.5,
+                                      help="Probability that a site without a rate effect gets the verdict "
+                                           "'rate_effect' [–]."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the shuffles (the same seed, the same verdict)."),
+    json_out: bool = typer.Option(False, "--json", help='Print {"verdict", "direction", "p_value", ...}.'),
+) -> None:
+    """Does the push rate change the resistance at this site, and which way? Each sounding is left out in turn and
+    predicted with and without the rate effect; the improvement is set against the same with the soundings' rates
+    shuffled among them. Verdict 'rate_effect' or 'none'.
+
+    Example: pen soundings diagnose examples/field/ntnu-cptu-rate/units.json --site Halsen
+    """
+    result = api.diagnose_soundings(units, site, quantity, permutations=permutations, false_alarm=false_alarm,
+                                    seed=seed)
+    record = {"site": site, "quantity": quantity, "verdict": result.verdict,
+              "direction": result.direction if result.verdict == "rate_effect" else None,
+              "per_decade": result.effect.per_decade, "per_decade_se": result.effect.per_decade_se,
+              "p_value": result.p_value, "false_alarm": result.false_alarm,
+              "heldout_rms_reference": result.heldout_rms_reference, "heldout_rms_effect": result.heldout_rms_effect,
+              "soundings": result.soundings, "notes": list(result.notes)}
+    if json_out:
+        print_json(record)
+        return
+    said = (f"rate_effect: {result.direction}, K = {result.effect.per_decade:+.3f} ± "
+            f"{result.effect.per_decade_se:.3f} per decade" if result.verdict == "rate_effect" else "none")
+    console.print(f"{escape(site)} ({result.soundings} soundings, {quantity}): {said}  "
+                  f"(p = {result.p_value:.3f} against {permutations} shuffles of the rates; held-out relative RMS "
+                  f"{result.heldout_rms_reference:.3f} without, {result.heldout_rms_effect:.3f} with)")
+    for note in result.notes:
+        console.print(f"  note: {escape(note)}")
