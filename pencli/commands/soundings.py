@@ -10,6 +10,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli.commands.common import PenTyper, console, print_json
+from pencli.diagnose import FALSE_ALARM, SHUFFLES
 from pencli.lazy import lazy
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
@@ -17,7 +18,10 @@ api = lazy("pencli.api")  # loaded when a command runs, not for --help
 soundings_app = PenTyper(help="Field soundings (SGF files): read them, fit a rate effect across a site's soundings, "
                               "diagnose whether the push rate matters.")
 
-QUANTITY_HELP = "qt (cone resistance corrected by u₂ on the net area ratio), qc, fs or u2; all in kPa."
+UNITS_FILE = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps.")
+SITE = typer.Option(..., "--site", help="The site of the units file whose soundings are taken.")
+QUANTITY = typer.Option("qt", "--quantity", help="qt (cone resistance corrected by u₂ on the net area ratio), qc, "
+                                                 "fs or u2; all in kPa.")
 
 
 @soundings_app.command("show")
@@ -61,9 +65,9 @@ def show(
 
 @soundings_app.command("fit")
 def fit(
-    units: Path = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps."),
-    site: str = typer.Option(..., "--site", help="The site of the units file whose soundings are fitted."),
-    quantity: str = typer.Option("qt", "--quantity", help=QUANTITY_HELP),
+    units: Path = UNITS_FILE,
+    site: str = SITE,
+    quantity: str = QUANTITY,
     json_out: bool = typer.Option(False, "--json", help='Print {"site", "quantity", "per_decade", ...}.'),
 ) -> None:
     """Fit q = q_u·(1 + K·log10(v/v_ref)) across a site's soundings: K, the change per decade of push rate, of
@@ -92,12 +96,12 @@ def fit(
 
 @soundings_app.command("diagnose")
 def diagnose(
-    units: Path = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps."),
-    site: str = typer.Option(..., "--site", help="The site of the units file whose soundings are diagnosed."),
-    quantity: str = typer.Option("qt", "--quantity", help=QUANTITY_HELP),
-    permutations: int = typer.Option(199, "--permutations", min=19, max=9999,
+    units: Path = UNITS_FILE,
+    site: str = SITE,
+    quantity: str = QUANTITY,
+    permutations: int = typer.Option(SHUFFLES, "--permutations", min=19, max=9999,
                                      help="Shuffles of the rates among the soundings that make the null."),
-    false_alarm: float = typer.Option(0.01, "--false-alarm", min=1e-4, max=0.5,
+    false_alarm: float = typer.Option(FALSE_ALARM, "--false-alarm", min=1e-4, max=0.5,
                                       help="Probability that a site without a rate effect gets the verdict "
                                            "'rate_effect' [–]."),
     seed: int = typer.Option(0, "--seed", help="Seed of the shuffles (the same seed, the same verdict)."),

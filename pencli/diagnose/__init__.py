@@ -8,6 +8,10 @@ rate (a third of the false-alarm rate, 0.33 %): from 60 replicates, nulls of kno
 called 1.7 % (t₃) and 8.2 % (a point mass with 5 % χ²₁) of the time, from 200 0.6 % and 1.4 %
 (``python -m bench.bench_null_calibration 1500 7 --engine``, 1,500 trials each); about 1.5 × the time."""
 
+SHUFFLES = 199
+"""Default shuffles of the rates among a site's soundings that make the null of a sounding diagnosis
+(:mod:`pencli.diagnose.soundings`): the smallest p-value they resolve is 1/200, a fifth of the false-alarm rate."""
+
 WORKERS = 2
 """Default processes (and compiled threads) of a diagnosis: this machine class's two cores. [–]"""
 MAX_WORKERS = 64

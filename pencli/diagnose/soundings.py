@@ -22,14 +22,15 @@ from typing import Sequence
 
 import numpy as np
 
+from pencli.diagnose import FALSE_ALARM as DEFAULT_FALSE_ALARM, SHUFFLES
 from pencli.errors import FitError
 from pencli.fit.rate_effect import MIN_RATE_SPAN, RateEffect, UnitMean, fit_rate_effect
 
-PERMUTATIONS = 199
-"""Shuffles of the rates among the soundings that make the null (the smallest p-value they resolve is 1/200)."""
+PERMUTATIONS = SHUFFLES
+"""Shuffles of the rates among the soundings that make the null (:data:`pencli.diagnose.SHUFFLES`)."""
 
-FALSE_ALARM = 0.01
-"""Probability that a site without a rate effect gets the verdict ``rate_effect``."""
+FALSE_ALARM = DEFAULT_FALSE_ALARM
+"""Probability that a site without a rate effect gets the verdict ``rate_effect`` (the diagnosis's default)."""
 
 MIN_SOUNDINGS = 4
 """Soundings a diagnosis needs: one left out, and three at two rates or more to fit the rest."""
