@@ -1234,9 +1234,10 @@ def gate_section(results: Sequence[CheckResult]) -> Any:
 
 
 # ---------------------------------------------------------------------------- field soundings
-SOUNDING_QUANTITIES = {"qt": "kPa", "qc": "kPa", "fs": "kPa", "u2": "kPa"}
-"""Quantities of a CPTu sounding a rate effect is fitted to, and their unit: qt = qc + (1 − a)·u₂ (a, the net area
-ratio, from the header's MA), qc the cone resistance, fs the sleeve friction, u2 the pore pressure."""
+SOUNDING_QUANTITIES = {"qt": ("qc_mpa", "u2_kpa"), "qc": ("qc_mpa",), "fs": ("fs_kpa",), "u2": ("u2_kpa",)}
+"""Quantities of a CPTu sounding a rate effect is fitted to (each in kPa), and the columns each is made from:
+qt = qc + (1 − a)·u₂ (a, the net area ratio, from the header's MA), qc the cone resistance, fs the sleeve
+friction, u2 the pore pressure."""
 
 
 def read_soundings(paths: Sequence[str | Path]):
@@ -1247,7 +1248,7 @@ def read_soundings(paths: Sequence[str | Path]):
 
 
 def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
-    """(the site, each sounding's name, each sounding's unit means of ``quantity``) for a site of a units file."""
+    """(the site, each sounding's unit means of ``quantity``) for a site of a units file."""
     from pencli.fit.rate_effect import qt_kpa, unit_means
     from pencli.io.sgf import read_sgf
     from pencli.io.units_file import read_units_file
@@ -1258,14 +1259,14 @@ def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
     if site not in sites:
         raise ParameterError(f"{units_file}: no site '{site}'; it has {', '.join(sites)}")
     chosen = sites[site]
-    names, means = [], []
+    needed = SOUNDING_QUANTITIES[quantity]
+    means = []
     for entry in chosen.soundings:
         records = read_sgf(entry.path)
         if len(records) != 1:
             raise DataError(f"{entry.path}: {len(records)} soundings in one file; a units file names one per file")
         record = records[0]
         columns = record.columns
-        needed = {"qt": ("qc_mpa", "u2_kpa"), "qc": ("qc_mpa",), "fs": ("fs_kpa",), "u2": ("u2_kpa",)}[quantity]
         missing = [c for c in needed if c not in columns]
         if missing or record.time_s is None:
             raise DataError(f"{entry.path}: no {', '.join(missing) or 'clock (%)'} column; a rate effect of "
@@ -1278,10 +1279,9 @@ def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
             values = qt_kpa(columns["qc_mpa"], columns["u2_kpa"], area_ratio)
         else:
             values = columns[needed[0]] * (1e3 if quantity == "qc" else 1.0)
-        names.append(entry.name)
         means.append(unit_means(columns["depth_m"], record.time_s, values, chosen.units_m, entry.warp_m,
                                 entry.drop_m))
-    return chosen, names, means
+    return chosen, means
 
 
 def fit_soundings(units_file: str | Path, site: str, quantity: str = "qt"):
@@ -1289,18 +1289,19 @@ def fit_soundings(units_file: str | Path, site: str, quantity: str = "qt"):
     (``pencli.fit.rate_effect.RateEffect``)."""
     from pencli.fit.rate_effect import fit_rate_effect
 
-    chosen, _, means = site_unit_means(units_file, site, quantity)
+    chosen, means = site_unit_means(units_file, site, quantity)
     return fit_rate_effect([m for g in means for m in g], chosen.reference_rate_mm_s)
 
 
 def diagnose_soundings(units_file: str | Path, site: str, quantity: str = "qt", *, permutations: int | None = None,
                        false_alarm: float | None = None, seed: int = 0):
     """``pen soundings diagnose``: whether the push rate changes ``quantity`` at a site, and which way
-    (``pencli.diagnose.soundings.SoundingDiagnosis``)."""
+    (``pencli.diagnose.soundings.SoundingDiagnosis``); ``permutations`` and ``false_alarm`` default to
+    ``pencli.diagnose.SHUFFLES`` and ``FALSE_ALARM``."""
     from pencli.diagnose import soundings
 
-    chosen, _, means = site_unit_means(units_file, site, quantity)
+    chosen, means = site_unit_means(units_file, site, quantity)
     return soundings.diagnose_soundings(
         means, reference_rate_mm_s=chosen.reference_rate_mm_s,
-        permutations=soundings.PERMUTATIONS if permutations is None else permutations,
+        permutations=soundings.SHUFFLES if permutations is None else permutations,
         false_alarm=soundings.FALSE_ALARM if false_alarm is None else false_alarm, seed=seed)

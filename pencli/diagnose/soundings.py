@@ -22,15 +22,9 @@ from typing import Sequence
 
 import numpy as np
 
-from pencli.diagnose import FALSE_ALARM as DEFAULT_FALSE_ALARM, SHUFFLES
+from pencli.diagnose import FALSE_ALARM, SHUFFLES
 from pencli.errors import FitError
-from pencli.fit.rate_effect import MIN_RATE_SPAN, RateEffect, UnitMean, fit_rate_effect
-
-PERMUTATIONS = SHUFFLES
-"""Shuffles of the rates among the soundings that make the null (:data:`pencli.diagnose.SHUFFLES`)."""
-
-FALSE_ALARM = DEFAULT_FALSE_ALARM
-"""Probability that a site without a rate effect gets the verdict ``rate_effect`` (the diagnosis's default)."""
+from pencli.fit.rate_effect import MIN_RATE_SPAN, RateEffect, UnitMean, fit_rate_effect, solve_rate_law
 
 MIN_SOUNDINGS = 4
 """Soundings a diagnosis needs: one left out, and three at two rates or more to fit the rest."""
@@ -66,8 +60,7 @@ def _heldout_errors(sounding: np.ndarray, unit: np.ndarray, value: np.ndarray, l
                     ) -> tuple[float, float]:
     """Σ of the held-out squared relative errors of (the reference model, the rate effect), each sounding left out
     in turn.  Per unit mean: its sounding's index, its unit's index (0…U−1), its value, and log10(v/v_ref) of its
-    sounding's rate.  The rate effect is fitted as :func:`pencli.fit.rate_effect.fit_rate_effect` does (p_u·y − K·L
-    = 1), on arrays."""
+    sounding's rate; the rate effect fitted by :func:`pencli.fit.rate_effect.solve_rate_law`."""
     U = int(unit.max()) + 1
     base = effect = 0.0
     for i in np.unique(sounding):
@@ -76,24 +69,18 @@ def _heldout_errors(sounding: np.ndarray, unit: np.ndarray, value: np.ndarray, l
         count = np.bincount(unit[rest], minlength=U)
         mean = np.bincount(unit[rest], weights=value[rest], minlength=U) / np.maximum(count, 1)
         known = out & (count[unit] > 0)
-        base += float(np.sum((value[known] / mean[unit[known]] - 1.0) ** 2))
-        X = np.zeros((int(rest.sum()), U + 1))
-        X[np.arange(X.shape[0]), unit[rest]] = value[rest]
-        X[:, -1] = -log_rate[rest]
-        used = np.flatnonzero(count > 0)
-        if X.shape[0] <= used.size + 1 or np.ptp(log_rate[rest]) < MIN_RATE_SPAN:
-            effect += float(np.sum((value[known] / mean[unit[known]] - 1.0) ** 2))
+        reference = float(np.sum((value[known] / mean[unit[known]] - 1.0) ** 2))
+        base += reference
+        if rest.sum() <= np.count_nonzero(count) + 1 or np.ptp(log_rate[rest]) < MIN_RATE_SPAN:
+            effect += reference  # too few left to fit the rate effect: the reference model's prediction
             continue
-        coef = np.linalg.lstsq(X[:, np.r_[used, U]], np.ones(X.shape[0]), rcond=None)[0]
-        p = np.zeros(U)
-        p[used] = coef[:-1]
-        K = coef[-1]
+        p, K, _ = solve_rate_law(unit[rest], value[rest], log_rate[rest], U)
         effect += float(np.sum((p[unit[known]] * value[known] / (1.0 + K * log_rate[known]) - 1.0) ** 2))
     return base, effect
 
 
 def diagnose_soundings(per_sounding: Sequence[Sequence[UnitMean]], *, reference_rate_mm_s: float = 20.0,
-                       permutations: int = PERMUTATIONS, false_alarm: float = FALSE_ALARM,
+                       permutations: int = SHUFFLES, false_alarm: float = FALSE_ALARM,
                        seed: int = 0) -> SoundingDiagnosis:
     """The verdict on a site (module docstring) from each sounding's unit means (its rate: the median over its
     units of the rates they were pushed at)."""

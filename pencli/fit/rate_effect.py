@@ -71,12 +71,13 @@ def unit_means(depth_m: np.ndarray, time_s: np.ndarray, values: np.ndarray, unit
     keep = np.isfinite(y) & np.isfinite(d)
     for lo, hi in drop_m:
         keep &= ~((at >= lo) & (at <= hi))
+    t = np.asarray(time_s, dtype=float)
     out = []
     for u, (top, bottom) in enumerate(units_m):
         rows = keep & (at >= top) & (at <= bottom)
         if rows.sum() < min_rows:
             continue
-        rate = push_rate_mm_s(d[rows], np.asarray(time_s, dtype=float)[rows])
+        rate = push_rate_mm_s(d[rows], t[rows])
         if np.isfinite(rate) and rate > 0:
             out.append(UnitMean(u, rate, float(np.mean(y[rows])), int(rows.sum())))
     return out
@@ -103,30 +104,44 @@ class RateEffect:
         return self.per_decade / self.per_decade_se if self.per_decade_se > 0 else float("inf")
 
 
+def solve_rate_law(unit: np.ndarray, value: np.ndarray, log_rate: np.ndarray, units: int
+                   ) -> tuple[np.ndarray, float, np.ndarray]:
+    """Least squares of p_u·y − K·L = 1 (module docstring) over unit means given as arrays: each one's unit index
+    (0…``units``−1), value and L = log10(v/v_ref).  (p per unit, 0 for a unit with no mean; K; the residuals)."""
+    present = np.flatnonzero(np.bincount(unit, minlength=units) > 0)
+    X = np.zeros((value.size, present.size + 1))
+    X[np.arange(value.size), np.searchsorted(present, unit)] = value
+    X[:, -1] = -log_rate
+    coef = np.linalg.lstsq(X, np.ones(value.size), rcond=None)[0]
+    p = np.zeros(units)
+    p[present] = coef[:-1]
+    return p, float(coef[-1]), X @ coef - 1.0
+
+
 def fit_rate_effect(samples: Sequence[UnitMean], reference_rate_mm_s: float = 20.0) -> RateEffect:
     """The rate effect shared by a site's units (module docstring), fitted by linear least squares on
-    p_u·y − K·L = 1; raises :class:`FitError` where the rates do not spread or too few samples are left."""
+    p_u·y − K·L = 1 (:func:`solve_rate_law`); raises :class:`FitError` where the rates do not spread or too few
+    samples are left."""
     if not samples:
         raise FitError("no unit means to fit a rate effect to")
     units = sorted({s.unit for s in samples})
     column = {u: j for j, u in enumerate(units)}
+    unit = np.array([column[s.unit] for s in samples])
     y = np.array([s.value for s in samples])
     L = np.log10(np.array([s.rate_mm_s for s in samples]) / reference_rate_mm_s)
-    n, p = len(samples), len(units) + 1
-    if n <= p:
-        raise FitError(f"{n} unit means for {p} unknowns (a value per unit and the rate effect); more soundings needed")
+    n, q = len(samples), len(units) + 1
+    if n <= q:
+        raise FitError(f"{n} unit means for {q} unknowns (a value per unit and the rate effect); more soundings needed")
     if np.ptp(L) < MIN_RATE_SPAN:
         raise FitError(f"the rates span {np.ptp(L):.2f} decades; a rate effect needs soundings at different rates")
-    X = np.zeros((n, p))
-    X[np.arange(n), [column[s.unit] for s in samples]] = y
-    X[:, -1] = -L
-    coef, *_ = np.linalg.lstsq(X, np.ones(n), rcond=None)
-    residual = X @ coef - 1.0
-    sigma2 = float(residual @ residual) / (n - p)
-    cov = sigma2 * np.linalg.inv(X.T @ X)
-    if np.any(coef[:-1] <= 0):
+    p, K, residual = solve_rate_law(unit, y, L, len(units))
+    if np.any(p <= 0):
         raise FitError("a unit's value at the reference rate comes out non-positive; the values are not a strength")
-    return RateEffect(per_decade=float(coef[-1]), per_decade_se=float(np.sqrt(cov[-1, -1])),
-                      reference_rate_mm_s=float(reference_rate_mm_s),
-                      reference_values={u: float(1.0 / coef[column[u]]) for u in units},
+    sigma2 = float(residual @ residual) / (n - q)
+    X = np.zeros((n, q))
+    X[np.arange(n), unit] = y
+    X[:, -1] = -L
+    se = float(np.sqrt(sigma2 * np.linalg.inv(X.T @ X)[-1, -1]))
+    return RateEffect(per_decade=K, per_decade_se=se, reference_rate_mm_s=float(reference_rate_mm_s),
+                      reference_values={u: float(1.0 / p[column[u]]) for u in units},
                       residual_sd=float(np.sqrt(sigma2)), samples=n)
