@@ -18,23 +18,51 @@ over runs of each run's mean squared residual. [N²]
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, fields
 
-import numba
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+
+_threads = 1
+"""Threads the compiled solves below run on (:func:`compiled_threads`)."""
+
+CHUNKS_PER_THREAD = 4
+"""Slices of a batch per thread: systems differ in cost (the free sets their targets end on), so a thread that
+finishes early takes another slice."""
 
 
 @contextmanager
 def compiled_threads(count: int):
-    """The compiled solves below run on at most ``count`` threads inside the block (numba's own limit kept)."""
-    before = numba.get_num_threads()
-    numba.set_num_threads(max(1, min(count, numba.config.NUMBA_NUM_THREADS)))
+    """The compiled solves below run on at most ``count`` threads inside the block.
+
+    The kernels are serial and release the GIL; a batch is cut into slices
+    run on a pool of Python threads (:func:`_sliced`).  Numba's own
+    ``parallel=True`` would compile each kernel a second time for its
+    threading layer: 7 s more for the bounded solve, once per process and
+    fresh install.
+    """
+    global _threads
+    before = _threads
+    _threads = max(1, int(count))
     try:
         yield
     finally:
-        numba.set_num_threads(before)
+        _threads = before
+
+
+def _sliced(kernel, n: int, *args) -> None:
+    """``kernel(lo, hi, *args)`` over [0, ``n``) in slices on :data:`_threads` threads (in this thread when one);
+    each slice writes its own rows of the outputs."""
+    if _threads == 1 or n < 2:
+        kernel(0, n, *args)
+        return
+    edges = np.linspace(0, n, min(n, _threads * CHUNKS_PER_THREAD) + 1).astype(int)
+    with ThreadPoolExecutor(_threads) as pool:
+        for done in [pool.submit(kernel, lo, hi, *args) for lo, hi in zip(edges[:-1], edges[1:]) if hi > lo]:
+            done.result()
 
 
 N_BOUNDED = 3
@@ -206,8 +234,8 @@ class Statistics:
         R, M, p, T = self.n_runs, len(specs), J.shape[1], C.shape[2]
         D, Dr = np.empty((R, M, p, p)), np.empty((R, M, p - 1, p - 1))
         cr, ttr, c0, c_data = np.empty((R, M, p - 1, T)), np.empty((R, M, T)), np.empty((R, M, T)), np.empty((R, M, p))
-        _profiled_pieces(np.ascontiguousarray(G), np.ascontiguousarray(C), np.ascontiguousarray(S), J, off, s,
-                         D, Dr, cr, ttr, c0, c_data)
+        _sliced(_profiled_pieces, R * M, np.ascontiguousarray(G), np.ascontiguousarray(C), np.ascontiguousarray(S),
+                J, off, s, D, Dr, cr, ttr, c0, c_data)
         d00 = np.maximum(D[:, :, 0, 0], 1e-300)[..., None]  # (R, M, 1)
         A_all, b_all, t_all = Dr.sum(0), cr.sum(0), ttr.sum(0)
         bounded = np.column_stack([np.ones((len(specs), N_BOUNDED), dtype=bool), self.nonnegative[J[:, 1 + N_BOUNDED:]]])
@@ -232,18 +260,19 @@ class Statistics:
         return Scores(heldout, train, total, theta, np.moveaxis(strength, 0, 1), folds, scale.T, profiled)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def _profiled_pieces(G: np.ndarray, C: np.ndarray, S: np.ndarray, J: np.ndarray, off: np.ndarray, s: np.ndarray,
+@njit(cache=True, nogil=True, error_model="numpy")
+def _profiled_pieces(lo: int, hi: int, G: np.ndarray, C: np.ndarray, S: np.ndarray, J: np.ndarray, off: np.ndarray, s: np.ndarray,
                      D: np.ndarray, Dr: np.ndarray, cr: np.ndarray, ttr: np.ndarray, c0: np.ndarray,
                      c_data: np.ndarray) -> None:
     """Per run r and model m (columns ``J[m]``, offset ``off[m]``, column factors ``s[r, m]``), from the run's
     Gram ``G`` (R, Q, Q), cross products ``C`` (R, Q, T) and squares ``S`` (R, T), in place: the model's Gram
     ``D`` (R, M, p, p) and, with the run's own strength factor (column 0) profiled out by a Schur complement,
     the reduced Gram ``Dr``, cross products ``cr`` with the target t = y − w_off, and |t|² ``ttr``; ``c0`` (R, M, T)
-    is column 0's cross product, ``c_data`` (R, M, p) every column's on the measured data (target 0)."""
+    is column 0's cross product, ``c_data`` (R, M, p) every column's on the measured data (target 0); the pairs
+    (r, m) numbered r·M + m from ``lo`` to ``hi``."""
     R, M, p, _ = D.shape
     T = C.shape[2]
-    for index in prange(R * M):
+    for index in range(lo, hi):
         r, m = index // M, index % M
         o = off[m]
         for a in range(p):
@@ -337,17 +366,17 @@ def _quadratic(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray) 
     (..., q, T), tt (..., T)) and target."""
     q, T = theta.shape[-2:]
     out = np.empty(tt.shape)
-    _quadratics(np.ascontiguousarray(A).reshape(-1, q, q), np.ascontiguousarray(b).reshape(-1, q, T),
+    _sliced(_quadratics, out.reshape(-1, T).shape[0], np.ascontiguousarray(A).reshape(-1, q, q), np.ascontiguousarray(b).reshape(-1, q, T),
                 np.ascontiguousarray(tt).reshape(-1, T), np.ascontiguousarray(theta).reshape(-1, q, T),
                 out.reshape(-1, T))
     return out
 
 
-@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def _quadratics(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray, out: np.ndarray) -> None:
-    """:func:`_quadratic` compiled, one model per thread (no (models, q, targets) temporaries)."""
-    M, q, T = theta.shape
-    for m in prange(M):
+@njit(cache=True, nogil=True, error_model="numpy")
+def _quadratics(lo: int, hi: int, A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray, out: np.ndarray) -> None:
+    """:func:`_quadratic` compiled for models ``lo`` to ``hi`` (no (models, q, targets) temporaries)."""
+    q, T = theta.shape[1:]
+    for m in range(lo, hi):
         for t in range(T):
             acc = tt[m, t]
             for i in range(q):
@@ -392,8 +421,8 @@ def bounded_solve(A: np.ndarray, b: np.ndarray, bounded: np.ndarray | None = Non
         bounded = np.zeros((M, q), dtype=bool)
         bounded[:, :N_BOUNDED] = True
     theta = np.empty(b.shape)
-    _bounded_optima(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float), theta,
-                    np.ascontiguousarray(bounded))
+    _sliced(_bounded_optima, M, np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(b, dtype=float), theta,
+            np.ascontiguousarray(bounded))
     return theta
 
 
@@ -453,7 +482,7 @@ def _substitute(lu: np.ndarray, pivots: np.ndarray, index: np.ndarray, n: int, b
         out[index[a]] = rhs[a]
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _solve_on(A: np.ndarray, b: np.ndarray, passive: np.ndarray, keys: np.ndarray, lus: np.ndarray,
               pivots: np.ndarray, index: np.ndarray, sizes: np.ndarray, rhs: np.ndarray, out: np.ndarray) -> None:
     """``out`` = the solution of A θ = b over the coefficients ``passive`` marks, 0 elsewhere.  The factors of the
@@ -491,12 +520,14 @@ def _slot(passive: np.ndarray, keys: np.ndarray) -> int:
     return -1
 
 
-@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def _bounded_optima(A_all: np.ndarray, b_all: np.ndarray, theta: np.ndarray, bounded: np.ndarray) -> None:
+@njit(cache=True, nogil=True, error_model="numpy")
+def _bounded_optima(lo: int, hi: int, A_all: np.ndarray, b_all: np.ndarray, theta: np.ndarray,
+                    bounded: np.ndarray) -> None:
     """``theta`` (M, q, T) = each system's minimiser of ½ θᵀAθ − bᵀθ with θ ≥ 0 where ``bounded``, found in the
-    system's unit-diagonal coordinates with a ridge of 10⁻¹⁰ (:func:`bounded_solve`).
+    system's unit-diagonal coordinates with a ridge of 10⁻¹⁰ (:func:`bounded_solve`), for systems ``lo`` to
+    ``hi`` (a slice of :func:`_sliced`).
 
-    The systems are shared among threads.  Within one, a target is solved
+    Within one system, a target is solved
     alone (:func:`_bounded_target`), and the set of coefficients it ends
     with free is every pending target's first guess, solved for all of them
     at once on that set's factors (:func:`_substitute_all`).  A target whose
@@ -511,61 +542,68 @@ def _bounded_optima(A_all: np.ndarray, b_all: np.ndarray, theta: np.ndarray, bou
     the starting set changes the path, not the answer; the last
     ``FACTOR_SLOTS`` sets' factors are kept (:func:`_solve_on`).
 
-    The small helpers run per target are inlined; the larger ones are
-    called: with every helper inlined the kernel took 87 s to compile on
-    this two-core machine (once per process and fresh install, in each test
-    worker), called 20 s, for 15 % more time in the kernel.
+    Only the smallest helpers are inlined; the others, the factorisation
+    included (:func:`_solve_on`), are called: with every helper inlined the
+    kernel took 87 s to compile on this two-core machine (once per fresh
+    install, and in each test worker), called 9 s, for about 20 % more time
+    in the kernel.
     """
-    M, q, T = theta.shape
-    for m in prange(M):
-        scale = np.empty(q)
+    for m in range(lo, hi):
+        _bounded_system(A_all[m], b_all[m], theta[m], bounded[m])
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _bounded_system(A_all: np.ndarray, b_all: np.ndarray, theta: np.ndarray, bounded: np.ndarray) -> None:
+    """One system of :func:`_bounded_optima`: ``theta`` (q, T) from ``A_all`` (q, q), ``b_all`` (q, T)."""
+    q, T = theta.shape
+    scale = np.empty(q)
+    for i in range(q):
+        scale[i] = math.sqrt(max(A_all[i, i], 0.0))
+        if scale[i] == 0.0:
+            scale[i] = 1.0
+    A = np.empty((q, q))
+    for i in range(q):
+        for j in range(q):
+            A[i, j] = A_all[i, j] / scale[i] / scale[j] + (1e-10 if i == j else 0.0)
+    B = np.empty((q, T))
+    for i in range(q):
+        for t in range(T):
+            B[i, t] = b_all[i, t] / scale[i]
+    b = np.empty(q)
+    keys = np.full(FACTOR_SLOTS, -1, dtype=np.int64)
+    lus = np.empty((FACTOR_SLOTS, q, q))
+    pivots = np.empty((FACTOR_SLOTS, q), dtype=np.int64)
+    index = np.empty((FACTOR_SLOTS, q), dtype=np.int64)
+    sizes = np.zeros(FACTOR_SLOTS + 1, dtype=np.int64)
+    passive = np.ones(q, dtype=np.bool_)
+    rhs = np.empty(q)
+    x = np.empty(q)
+    s = np.empty(q)
+    pending = np.arange(T)
+    free = passive.copy()
+    for _ in range(SET_PASSES):
+        if pending.size == 0:
+            break
+        # the first pending target alone, from the last set; the set it ends with is every other's first guess
+        first = pending[0]
         for i in range(q):
-            scale[i] = math.sqrt(max(A_all[m, i, i], 0.0))
-            if scale[i] == 0.0:
-                scale[i] = 1.0
-        A = np.empty((q, q))
+            b[i] = B[i, first]
+        _bounded_target(A, b, bounded, passive, x, s, keys, lus, pivots, index, sizes, rhs)
         for i in range(q):
-            for j in range(q):
-                A[i, j] = A_all[m, i, j] / scale[i] / scale[j] + (1e-10 if i == j else 0.0)
-        B = np.empty((q, T))
+            theta[i, first] = x[i] / scale[i]
+            free[i] = passive[i]
+        rest = pending[1:]
+        _solve_on(A, b, free, keys, lus, pivots, index, sizes, rhs, s)  # its factors: kept, or made here
+        k = _slot(free, keys)
+        X = _substitute_all(lus[k], pivots[k], index[k], sizes[k], B, rest)
+        keep = _not_optimal_on(A, B, bounded, free, X, rest, scale, theta)
+        pending = rest[keep]
+    for t in pending:  # what the passes left: one at a time, each from the set the previous ended with
         for i in range(q):
-            for t in range(T):
-                B[i, t] = b_all[m, i, t] / scale[i]
-        b = np.empty(q)
-        keys = np.full(FACTOR_SLOTS, -1, dtype=np.int64)
-        lus = np.empty((FACTOR_SLOTS, q, q))
-        pivots = np.empty((FACTOR_SLOTS, q), dtype=np.int64)
-        index = np.empty((FACTOR_SLOTS, q), dtype=np.int64)
-        sizes = np.zeros(FACTOR_SLOTS + 1, dtype=np.int64)
-        passive = np.ones(q, dtype=np.bool_)
-        rhs = np.empty(q)
-        x = np.empty(q)
-        s = np.empty(q)
-        pending = np.arange(T)
-        free = passive.copy()
-        for _ in range(SET_PASSES):
-            if pending.size == 0:
-                break
-            # the first pending target alone, from the last set; the set it ends with is every other's first guess
-            first = pending[0]
-            for i in range(q):
-                b[i] = B[i, first]
-            _bounded_target(A, b, bounded[m], passive, x, s, keys, lus, pivots, index, sizes, rhs)
-            for i in range(q):
-                theta[m, i, first] = x[i] / scale[i]
-                free[i] = passive[i]
-            rest = pending[1:]
-            _solve_on(A, b, free, keys, lus, pivots, index, sizes, rhs, s)  # its factors: kept, or made here
-            k = _slot(free, keys)
-            X = _substitute_all(lus[k], pivots[k], index[k], sizes[k], B, rest)
-            keep = _not_optimal_on(A, B, bounded[m], free, X, rest, scale, theta[m])
-            pending = rest[keep]
-        for t in pending:  # what the passes left: one at a time, each from the set the previous ended with
-            for i in range(q):
-                b[i] = B[i, t]
-            _bounded_target(A, b, bounded[m], passive, x, s, keys, lus, pivots, index, sizes, rhs)
-            for i in range(q):
-                theta[m, i, t] = x[i] / scale[i]
+            b[i] = B[i, t]
+        _bounded_target(A, b, bounded, passive, x, s, keys, lus, pivots, index, sizes, rhs)
+        for i in range(q):
+            theta[i, t] = x[i] / scale[i]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
