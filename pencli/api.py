@@ -1305,3 +1305,82 @@ def diagnose_soundings(units_file: str | Path, site: str, quantity: str = "qt", 
         means, reference_rate_mm_s=chosen.reference_rate_mm_s,
         permutations=soundings.SHUFFLES if permutations is None else permutations,
         false_alarm=soundings.FALSE_ALARM if false_alarm is None else false_alarm, seed=seed)
+
+
+# ---------------------------------------------------------------------------- SnowMicroPen profiles
+@dataclass(frozen=True)
+class SnowProfile:
+    """A SnowMicroPen profile read and estimated (``pen snow estimate``): the profile
+    (``pencli.io.pnt.SmpProfile``), the snow's surface and bottom [mm from the motor's start], the shot-noise
+    estimates per window with depths below the surface (``pencli.fit.shot_noise.ShotNoise``) and each layer's
+    medians (``LayerSummary``)."""
+
+    profile: object
+    surface_mm: float
+    bottom_mm: float
+    estimates: object
+    layers: tuple
+
+
+def read_snow_profiles(paths: Sequence[str | Path]):
+    """The profiles of SnowMicroPen ``.pnt`` files (``pencli.io.pnt.SmpProfile``), in the given order."""
+    from pencli.io.pnt import read_pnt
+
+    return [read_pnt(p) for p in paths]
+
+
+def estimate_snow_profile(path: str | Path, *, window_mm: float | None = None, overlap: float | None = None,
+                          surface_mm: float | None = None, bottom_mm: float | None = None,
+                          layers: Sequence[tuple[float, float]] = ()) -> SnowProfile:
+    """``pen snow estimate``: a ``.pnt`` profile's shot-noise estimates (Löwe and van Herwijnen 2012) per window
+    below the snow surface (found in the force unless given) down to ``bottom_mm`` (the profile's end unless
+    given), and the medians of each layer (top, bottom) [mm below the surface]."""
+    from pencli.fit import shot_noise as sn
+    from pencli.io.pnt import read_pnt
+
+    profile = read_pnt(path)
+    found = sn.surface_mm(profile.force_n, profile.step_mm) if surface_mm is None else surface_mm
+    if found is None:
+        raise DataError(f"{path}: no snow surface in the force (no 1-mm mean {sn.SURFACE_RISE_N} N above the "
+                        f"air's); give it with --surface-mm")
+    end = float(profile.depth_mm[-1]) if bottom_mm is None else bottom_mm
+    first, last = np.searchsorted(profile.depth_mm, [found, end])
+    if last - first < 3:
+        raise DataError(f"{path}: no samples between the surface at {found:.1f} mm and the bottom at {end:.1f} mm")
+    try:
+        estimates = sn.shot_noise(profile.force_n[first:last], profile.step_mm,
+                                  diameter_mm=profile.tip_diameter_mm,
+                                  window_mm=sn.WINDOW_MM if window_mm is None else window_mm,
+                                  overlap=sn.OVERLAP if overlap is None else overlap, overload_n=profile.overload_n,
+                                  start_mm=float(profile.depth_mm[first]) - found)
+    except ValueError as error:
+        raise DataError(f"{path}: {error}") from None
+    summaries = tuple(sn.layer_summary(estimates, top, bottom) for top, bottom in layers)
+    return SnowProfile(profile, found, end, estimates, summaries)
+
+
+def write_columns_csv(path: str | Path, columns: Mapping[str, np.ndarray]) -> Path:
+    """Columns of one length to a CSV file (a header line of their names; booleans as 0/1), written atomically."""
+    from pencli.io.atomic import write_atomic
+
+    table = np.column_stack([np.asarray(v, dtype=float) for v in columns.values()])
+    return write_atomic(path, lambda tmp: np.savetxt(tmp, table, delimiter=",", header=",".join(columns),
+                                                     comments="", fmt="%.9g"))
+
+
+def plot_snow_profile(result: SnowProfile, path: str | Path) -> str:
+    """Draw a profile's estimates (``pen snow estimate --plot``) to a PNG, SVG or PDF file; returns the caption."""
+    import matplotlib.pyplot as plt
+
+    from pencli.io.atomic import write_atomic
+    from pencli.report.figures import snow_profile
+
+    fig, caption = snow_profile(result.profile.name, result.estimates, result.layers)
+    fig.suptitle(caption, fontsize=8, wrap=True)
+    fig.subplots_adjust(top=0.86)
+    path = Path(path)
+    try:
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=150, format=path.suffix.lstrip(".").lower()))
+    finally:
+        plt.close(fig)
+    return caption

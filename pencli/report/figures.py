@@ -723,3 +723,38 @@ def prediction(title: str, trajectory, summary, band=None):
                   f"takes {lo * 1e3:.2f}–{hi * 1e3:.2f} ms")
     caption = f"{title}: contact at {summary.contact_speed_m_s:.2f} m/s; the blade {how}{share}{spread}."
     return fig, caption
+
+
+def snow_profile(name: str, estimates, layers: Sequence = ()):
+    """A SnowMicroPen profile's shot-noise estimates (:class:`pencli.fit.shot_noise.ShotNoise`, depths below the
+    surface) against depth: the strength term and the element size, layers' medians drawn as steps.
+
+    Returns the figure and its caption (the strength term's range and the layers' medians)."""
+    plt = _plt()
+    depth = estimates.depth_mm
+    fig, (left, right) = plt.subplots(1, 2, figsize=(8.0, 5.5), sharey=True)
+    kept = ~estimates.clipped
+    left.plot(estimates.strength_kpa[kept], depth[kept], lw=0.6, color="0.35", label="per window")
+    right.plot(estimates.element_size_mm[kept], depth[kept], lw=0.6, color="0.35")
+    if (~kept).any():
+        left.plot(estimates.strength_kpa[~kept], depth[~kept], "x", color="C3", ms=3,
+                  label="window at the sensor's range")
+    for layer in layers:
+        left.plot([layer.strength_kpa] * 2, [layer.top_mm, layer.bottom_mm], color="C0", lw=2.5)
+        right.plot([layer.element_size_mm] * 2, [layer.top_mm, layer.bottom_mm], color="C0", lw=2.5)
+    left.set_xscale("log")
+    left.set_xlabel("strength term, mean force / frontal area [kPa]")
+    right.set_xlabel("element size L [mm]")
+    left.set_ylabel("depth below the snow surface [mm]")
+    left.invert_yaxis()
+    left.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    strength = estimates.strength_kpa[kept]
+    said = "; ".join(f"{layer.top_mm:.0f}–{layer.bottom_mm:.0f} mm: {layer.strength_kpa:.0f} kPa, "
+                     f"L {layer.element_size_mm:.2f} mm" for layer in layers)
+    caption = (f"{name}: the strength term spans {np.nanpercentile(strength, 5):.0f}–"
+               f"{np.nanpercentile(strength, 95):.0f} kPa (5–95 % of {strength.size} windows) over "
+               f"{depth[-1] - depth[0]:.0f} mm of snow" + (f"; layer medians (blue) {said}" if said else "")
+               + (f"; {int((~kept).sum())} windows reached the sensor's range (crosses)" if (~kept).any() else "")
+               + ".")
+    return fig, caption
