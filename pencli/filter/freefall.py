@@ -1,0 +1,177 @@
+"""A free-fall penetrometer's record to motion: accelerometers stitched, release, impact and stop found, the
+specific force integrated to speed and depth with the sensors' bias removed where the probe is at rest.
+
+An axial accelerometer reads the specific force f = (g − a)/g in g (a the
+acceleration, positive down): 1 at rest, 0 in a vacuum's free fall, above
+1 while the bed decelerates the probe.  Where the probe hangs before its
+release and where it lies on the bed after it stopped, f must be 1; what
+the stitched reading shows there beyond 1 is the sensors' bias, taken out
+along a straight line in time between the two rests (a constant bias when
+one rest is missing).  Then a = g·(1 − f) is integrated from the release
+(v = 0) by the trapezoid rule.  Each accelerometer has its own bias, so
+each is corrected at rest before the readings are stitched.  Pure functions, no I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+G = 9.80665
+"""Standard gravity. [m/s²]"""
+
+STITCH_MARGIN = 0.9
+"""Share of an accelerometer's range below which its reading is taken (the finest such sensor, row by row)."""
+
+RELEASE_DROP_G = 0.2
+"""Fall of the specific force below the rest's 1 g that marks a release: a probe falling in water starts at
+1 − (m − ρV)/(m + m_a) ≈ 0.35 g, in air at 0. [g]"""
+
+REST_MS = 100.0
+"""Span before the release taken as the rest that gives the bias (and after the stop, the same). [ms]"""
+
+IMPACT_RISE_G = 0.5
+"""Rise of the specific force over its level in the water just before it that marks the bed: a fall at its
+terminal speed reads 1 g, an impact several g. [g]"""
+
+LEVEL_MS = 50.0
+"""Span before an impact whose median and scatter set the level the impact rises from. [ms]"""
+
+IMPACT_SIGMAS = 5.0
+"""Scatters of the pre-impact level a reading must exceed to belong to the impact (traced back from the rise)."""
+
+STOP_SPEED_M_S = 0.02
+"""Speed above the least after the impact at which the probe counts as stopped: the 2 kHz samples leave the
+integral a residue of about a·Δt/2 where the deceleration ends within a sample. [m/s]"""
+
+
+def stitch(channels: dict[str, np.ndarray], ranges_g: dict[str, float]) -> np.ndarray:
+    """Per row, the reading of the finest accelerometer (smallest range) whose reading is within
+    ``STITCH_MARGIN`` of its range on every one of its rows so far stitched; the coarsest where none is. [g]"""
+    order = sorted(ranges_g, key=ranges_g.get)
+    out = np.array(channels[order[-1]], dtype=float)
+    chosen = np.zeros(out.size, dtype=bool)
+    for name in order[:-1]:
+        fits = ~chosen & (np.abs(channels[name]) < STITCH_MARGIN * ranges_g[name])
+        out[fits] = channels[name][fits]
+        chosen |= fits
+    return out
+
+
+@dataclass(frozen=True)
+class DropMotion:
+    """A drop's motion from its record: time [s], acceleration (positive down) [m/s²], speed [m/s] and travel from
+    the release [m]; the release, impact (the first row in the bed) and stop rows; the time of impact [s] and the
+    speed there [m/s]; penetration, travel from impact to stop [m]; each sensor's bias taken out before the
+    release and after the stop [g]."""
+
+    time_s: np.ndarray
+    accel_m_s2: np.ndarray
+    speed_m_s: np.ndarray
+    travel_m: np.ndarray
+    release: int
+    impact: int
+    stop: int
+    impact_s: float
+    impact_speed_m_s: float
+    penetration_m: float
+    bias_g: dict[str, tuple[float, float]]
+
+
+def release_row(specific_g: np.ndarray) -> int:
+    """The first row of the fall: where the specific force first falls ``RELEASE_DROP_G`` below 1 g, traced back
+    to the last row before it at 1 g within half that (or the first row)."""
+    falling = np.flatnonzero(specific_g < 1.0 - RELEASE_DROP_G)
+    if falling.size == 0:
+        raise ValueError(f"no release: the specific force never falls {RELEASE_DROP_G} g below 1 g")
+    at_rest = np.flatnonzero(specific_g[: falling[0]] >= 1.0 - RELEASE_DROP_G / 2)
+    return int(at_rest[-1] + 1) if at_rest.size else 0
+
+
+def impact_time(time_s: np.ndarray, specific_g: np.ndarray, release: int) -> float:
+    """When the tip reached the bed [s]: the rows from where the readings leave their level
+    (:func:`impact_row`) to the rise of ``IMPACT_RISE_G``, read as a cone's onset, excess ∝ (t − tᵢ)² (the
+    frontal area grows with the square of the depth, the speed barely changes), extrapolated to no excess."""
+    rate = 1.0 / float(np.median(np.diff(time_s)))
+    first = impact_row(specific_g, release, rate)
+    level_rows = max(3, int(LEVEL_MS * 1e-3 * rate))
+    level = float(np.median(specific_g[first - level_rows: first]))
+    rise = first + int(np.argmax(specific_g[first:] > level + IMPACT_RISE_G))
+    rows = np.arange(first, max(rise, first + 2) + 1)
+    excess = np.sqrt(np.clip(specific_g[rows] - level, 0.0, None))
+    slope, intercept = np.polyfit(time_s[rows], excess, 1)
+    onset = -intercept / slope if slope > 0 else float(time_s[first])
+    return float(np.clip(onset, time_s[max(first - level_rows, release)], time_s[first]))
+
+
+def impact_row(specific_g: np.ndarray, release: int, rate_hz: float) -> int:
+    """The first row of the impact: after the release, the first row ``IMPACT_RISE_G`` above the median of the
+    ``LEVEL_MS`` before it, traced back to where the readings last stood within ``IMPACT_SIGMAS`` of that
+    level's scatter."""
+    level_rows = max(3, int(LEVEL_MS * 1e-3 * rate_hz))
+    start = release + level_rows
+    for row in range(start, specific_g.size):
+        window = specific_g[row - level_rows: row]
+        level = float(np.median(window))
+        if specific_g[row] > level + IMPACT_RISE_G:
+            spread = 1.4826 * float(np.median(np.abs(window - level)))
+            back = row
+            while back > start and specific_g[back - 1] > level + IMPACT_SIGMAS * spread:
+                back -= 1
+            return back
+    raise ValueError(f"no impact: the specific force never rises {IMPACT_RISE_G} g above its level after the release")
+
+
+def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: dict[str, float]) -> DropMotion:
+    """The motion of one drop from its axial accelerometers (``channels`` in g, ``ranges_g`` their ranges): each
+    sensor's bias taken out where the probe rests, then stitched (:func:`stitch`) and integrated."""
+    time_s = np.asarray(time_s, dtype=float)
+    rate = 1.0 / float(np.median(np.diff(time_s)))
+    rest = max(1, int(REST_MS * 1e-3 * rate))
+    raw = stitch(channels, ranges_g)
+    release = release_row(raw)
+    impact = impact_row(raw, release, rate)
+    # the stop from a first pass with each sensor's bias at the first rest, then each one's at the rest after it
+    first = {name: _rest_bias(values[max(0, release - rest): release]) for name, values in channels.items()}
+    stop = _stop(time_s, stitch({n: v - first[n] for n, v in channels.items()}, ranges_g), release, impact)
+    after = slice(stop + rest // 2, stop + rest // 2 + rest)
+    last = {name: (_rest_bias(values[after]) if values[after].size >= rest // 2 else first[name])
+            for name, values in channels.items()}
+    t0, t1 = time_s[max(0, release - rest // 2)], time_s[min(time_s.size - 1, stop + rest)]
+    share = np.clip((time_s - t0) / max(t1 - t0, 1e-12), 0.0, 1.0)
+    f = stitch({n: v - (first[n] + (last[n] - first[n]) * share) for n, v in channels.items()}, ranges_g)
+    accel, speed, travel = _integrate(time_s, f, release)
+    stop = _stop(time_s, f, release, impact)
+    hit = impact_time(time_s, f, release)
+    at_hit = float(np.interp(hit, time_s, travel))
+    return DropMotion(time_s=time_s, accel_m_s2=accel, speed_m_s=speed, travel_m=travel, release=release,
+                      impact=int(np.searchsorted(time_s, hit)), stop=stop, impact_s=hit,
+                      impact_speed_m_s=float(np.interp(hit, time_s, speed)),
+                      penetration_m=float(travel[stop] - at_hit),
+                      bias_g={name: (first[name], last[name]) for name in channels})
+
+
+def _rest_bias(values: np.ndarray) -> float:
+    """What a sensor reads beyond 1 g at rest (0 where there is no rest). [g]"""
+    return float(np.mean(values) - 1.0) if values.size else 0.0
+
+
+def _integrate(time_s: np.ndarray, specific_g: np.ndarray, release: int):
+    accel = G * (1.0 - specific_g)
+    accel[:release] = 0.0
+    dt = np.diff(time_s)
+    speed = np.concatenate([[0.0], np.cumsum(0.5 * (accel[1:] + accel[:-1]) * dt)])
+    speed[:release] = 0.0
+    speed -= speed[release]
+    travel = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * dt)])
+    travel -= travel[release]
+    return accel, speed, travel
+
+
+def _stop(time_s: np.ndarray, specific_g: np.ndarray, release: int, impact: int) -> int:
+    """The first row after the impact where the integrated speed is within ``STOP_SPEED_M_S`` of its least
+    there."""
+    _, speed, _ = _integrate(time_s, specific_g, release)
+    after = speed[impact:]
+    return int(impact + np.flatnonzero(after <= after.min() + STOP_SPEED_M_S)[0])
