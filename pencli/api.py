@@ -148,18 +148,28 @@ def write_prediction_trajectory(prediction: Prediction, path: str | Path) -> Pat
 
 def plot_prediction(prediction: Prediction, path: str | Path) -> str:
     """Draw a prediction (``pen predict --plot``) to a PNG, SVG or PDF file; returns the figure's caption."""
-    import matplotlib.pyplot as plt
-
-    from pencli.io.atomic import write_atomic
     from pencli.report.figures import prediction as prediction_figure
 
     title = f"{prediction.penetrator.name} · {prediction.material.name} · {prediction.energizing.name}"
     fig, caption = prediction_figure(title, prediction.result.trajectory, prediction.result.summary,
                                      prediction.band())
-    fig.suptitle(caption, fontsize=9, wrap=True)
+    return _save_captioned(fig, caption, path, fontsize=9, dpi=200)
+
+
+def _save_captioned(fig, caption: str, path: str | Path, *, fontsize: float, dpi: int, top: float | None = None
+                    ) -> str:
+    """A figure with its caption as title, written atomically in the format of ``path``'s suffix and closed;
+    returns the caption."""
+    import matplotlib.pyplot as plt
+
+    from pencli.io.atomic import write_atomic
+
+    fig.suptitle(caption, fontsize=fontsize, wrap=True)
+    if top is not None:
+        fig.subplots_adjust(top=top)
     path = Path(path)
     try:
-        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=200, format=path.suffix.lstrip(".").lower()))
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".").lower()))
     finally:
         plt.close(fig)
     return caption
@@ -1370,17 +1380,7 @@ def write_columns_csv(path: str | Path, columns: Mapping[str, np.ndarray]) -> Pa
 
 def plot_snow_profile(result: SnowProfile, path: str | Path) -> str:
     """Draw a profile's estimates (``pen snow estimate --plot``) to a PNG, SVG or PDF file; returns the caption."""
-    import matplotlib.pyplot as plt
-
-    from pencli.io.atomic import write_atomic
     from pencli.report.figures import snow_profile
 
     fig, caption = snow_profile(result.profile.name, result.estimates, result.layers)
-    fig.suptitle(caption, fontsize=8, wrap=True)
-    fig.subplots_adjust(top=0.86)
-    path = Path(path)
-    try:
-        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=150, format=path.suffix.lstrip(".").lower()))
-    finally:
-        plt.close(fig)
-    return caption
+    return _save_captioned(fig, caption, path, fontsize=8, dpi=150, top=0.86)
