@@ -1250,11 +1250,40 @@ qt = qc + (1 − a)·u₂ (a, the net area ratio, from the header's MA), qc the 
 friction, u2 the pore pressure."""
 
 
+def plot_sounding(sounding, path: str | Path) -> str:
+    """Draw a sounding (``pen soundings plot``) against depth to a PNG, SVG or PDF file; returns the caption."""
+    from pencli.fit.rate_effect import qt_kpa
+    from pencli.report.figures import sounding_profile
+
+    c = sounding.columns
+    if "qc_mpa" not in c:
+        raise DataError(f"{sounding.source}: sounding {sounding.name} has no cone resistance (qc) to draw")
+    ratio = sounding.header_number("MA")
+    qt = (qt_kpa(c["qc_mpa"], c["u2_kpa"], ratio) / 1e3 if "u2_kpa" in c and ratio is not None else None)
+    fig, caption = sounding_profile(sounding.name, c["depth_m"], c["qc_mpa"], c.get("fs_kpa"), c.get("u2_kpa"), qt)
+    return _save_captioned(fig, caption, path, fontsize=8, dpi=150, top=0.9)
+
+
+SOUNDING_READERS = {".gef": "pencli.io.gef:read_gef"}
+"""Readers of sounding files by suffix (``.gz`` aside), as ``module:function`` returning one sounding; any other
+suffix is read as SGF (``pencli.io.sgf.read_sgf``, one or more soundings)."""
+
+
 def read_soundings(paths: Sequence[str | Path]):
-    """The soundings of SGF files (``pencli.io.sgf.Sounding``), in the files' order."""
+    """The soundings of SGF or GEF files (``pencli.io.sgf.Sounding``), in the files' order."""
+    import importlib
+
     from pencli.io.sgf import read_sgf
 
-    return [s for p in paths for s in read_sgf(p)]
+    out = []
+    for path in paths:
+        suffix = Path(str(path).removesuffix(".gz")).suffix.lower()
+        if suffix in SOUNDING_READERS:
+            module, function = SOUNDING_READERS[suffix].split(":")
+            out.append(getattr(importlib.import_module(module), function)(path))
+        else:
+            out.extend(read_sgf(path))
+    return out
 
 
 def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):

@@ -15,7 +15,7 @@ from pencli.lazy import lazy
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
-soundings_app = PenTyper(help="Field soundings (SGF files): read them, fit a rate effect across a site's soundings, "
+soundings_app = PenTyper(help="Field soundings (SGF and GEF files): read and draw them, fit a rate effect across a site's soundings, "
                               "diagnose whether the push rate matters.")
 
 UNITS_FILE = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps.")
@@ -26,7 +26,7 @@ QUANTITY = typer.Option("qt", "--quantity", help="qt (cone resistance corrected 
 
 @soundings_app.command("show")
 def show(
-    files: List[Path] = typer.Argument(..., help="SGF files (.cpt, .std, .tot; plain or .gz)."),
+    files: List[Path] = typer.Argument(..., help="SGF files (.cpt, .std, .tot; plain or .gz) or GEF files (.gef)."),
     json_out: bool = typer.Option(False, "--json", help='Print [{"file", "name", "kind", "rows", ...}].'),
 ) -> None:
     """One line per sounding: its kind, depth range, rows, the push rate from its clock [mm/s] and the logger's.
@@ -61,6 +61,25 @@ def show(
                       "–" if r["rate_mm_s"] is None or not np.isfinite(r["rate_mm_s"]) else f"{r['rate_mm_s']:.1f}",
                       "–" if r["logger_rate_mm_s"] is None else f"{r['logger_rate_mm_s']:.0f}")
     console.print(table)
+
+
+@soundings_app.command("plot")
+def plot(
+    file: Path = typer.Argument(..., help="A sounding file (SGF: .cpt, .std, .tot; GEF: .gef)."),
+    out: Path = typer.Option(..., "--out", help="Figure to write (PNG, SVG or PDF); a file of several soundings "
+                                                "gets one figure each, numbered."),
+) -> None:
+    """Draw a sounding against depth: qc (and qt where u₂ and the net area ratio correct it) [MPa], fs [kPa],
+    u₂ [kPa].
+
+    Example: pen soundings plot examples/field/gef/cpt.gef --out cpt.png
+    """
+    api.check_output(out, None, "--out")
+    soundings = api.read_soundings([file])
+    for k, sounding in enumerate(soundings):
+        target = out if len(soundings) == 1 else out.with_name(f"{out.stem}-{k + 1}{out.suffix}")
+        caption = api.plot_sounding(sounding, target)
+        console.print(f"figure written to {escape(str(target))}: {escape(caption)}")
 
 
 @soundings_app.command("fit")

@@ -758,3 +758,38 @@ def snow_profile(name: str, estimates, layers: Sequence = ()):
                + (f"; {int((~kept).sum())} windows reached the sensor's range (crosses)" if (~kept).any() else "")
                + ".")
     return fig, caption
+
+
+def sounding_profile(name: str, depth_m: np.ndarray, qc_mpa: np.ndarray, fs_kpa: np.ndarray | None = None,
+                     u2_kpa: np.ndarray | None = None, qt_mpa: np.ndarray | None = None):
+    """A sounding against depth: cone resistance (qc, and qt where u₂ corrects it), sleeve friction, pore
+    pressure u₂, each in a panel where the sounding has it.
+
+    Returns the figure and its caption (the depth range, the largest cone resistance and where)."""
+    plt = _plt()
+    panels = [p for p, values in (("q", qc_mpa), ("fs", fs_kpa), ("u2", u2_kpa)) if values is not None]
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.0 * len(panels) + 1.0, 6.0), sharey=True, squeeze=False)
+    axes = axes[0]
+    for ax, panel in zip(axes, panels):
+        if panel == "q":
+            ax.plot(qc_mpa, depth_m, lw=0.7, color="0.3", label="qc")
+            if qt_mpa is not None:
+                ax.plot(qt_mpa, depth_m, lw=0.7, color="C0", label="qt = qc + (1 − a)·u₂")
+                ax.legend(loc="upper right", fontsize=8)
+            ax.set_xlabel("cone resistance [MPa]")
+        elif panel == "fs":
+            ax.plot(fs_kpa, depth_m, lw=0.7, color="C1")
+            ax.set_xlabel("sleeve friction fs [kPa]")
+        else:
+            ax.plot(u2_kpa, depth_m, lw=0.7, color="C2")
+            ax.set_xlabel("pore pressure u₂ [kPa]")
+    axes[0].set_ylabel("depth [m]")
+    axes[0].invert_yaxis()
+    fig.tight_layout()
+    q = qt_mpa if qt_mpa is not None else qc_mpa
+    k = int(np.nanargmax(q))
+    caption = (f"{name}: {depth_m[0]:.2f}–{depth_m[-1]:.2f} m; the cone resistance peaks at {q[k]:.1f} MPa at "
+               f"{depth_m[k]:.2f} m" + ("" if qt_mpa is None else
+                                      f" (qt; u₂ adds up to {np.nanmax(qt_mpa - qc_mpa) * 1e3:.0f} kPa to qc)")
+               + ".")
+    return fig, caption
