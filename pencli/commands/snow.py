@@ -9,7 +9,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from pencli.commands.common import PenTyper, console, print_json
+from pencli.commands.common import PenTyper, console, db_path, print_json
 from pencli.errors import ParameterError
 from pencli.fit import SNOW_OVERLAP as OVERLAP
 from pencli.fit import SNOW_WINDOW_MM as WINDOW_MM
@@ -98,7 +98,7 @@ def estimate(
     bounds = [_layer(text) for text in layers]
     for target, option in ((out, "--out"), (plot, "--plot")):
         if target is not None:
-            api.check_output(target, None, option)
+            api.check_output(target, db_path(None), option)  # never onto the default workspace
     result = api.estimate_snow_profile(file, window_mm=window_mm, overlap=overlap, surface_mm=surface,
                                        bottom_mm=bottom, layers=bounds)
     est = result.estimates

@@ -9,7 +9,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from pencli.commands.common import PenTyper, console, print_json
+from pencli.commands.common import PenTyper, console, db_path, print_json
 from pencli.diagnose import FALSE_ALARM, SHUFFLES
 from pencli.lazy import lazy
 
@@ -74,7 +74,7 @@ def plot(
 
     Example: pen soundings plot examples/field/gef/cpt.gef --out cpt.png
     """
-    api.check_output(out, None, "--out")
+    api.check_output(out, db_path(None), "--out")  # never onto the default workspace
     soundings = api.read_soundings([file])
     for k, sounding in enumerate(soundings):
         target = out if len(soundings) == 1 else out.with_name(f"{out.stem}-{k + 1}{out.suffix}")

@@ -150,6 +150,8 @@ def surface_mm(force_n: np.ndarray, step_mm: float, rise_n: float = SURFACE_RISE
     ``SURFACE_HOLD_MM``.  None if no mean does. [mm]"""
     per = max(1, int(round(SURFACE_STEP_MM / step_mm)))
     blocks = np.asarray(force_n, float)[: force_n.size // per * per].reshape(-1, per).mean(axis=1)
+    if blocks.size == 0:
+        return None
     air = float(np.median(blocks[: max(1, int(AIR_MM / SURFACE_STEP_MM))]))
     hold = max(1, int(round(SURFACE_HOLD_MM / SURFACE_STEP_MM)))
     above = blocks > air + rise_n
