@@ -41,11 +41,11 @@ from pencli.fit import SNOW_WINDOW_MM as WINDOW_MM
 
 @dataclass(frozen=True)
 class ShotNoise:
-    """Per window (arrays of one length): the window's centre depth [mm], mean force k₁ [N], variance k₂ [N²] and
-    lag-one autocovariance ratio; the estimates δ [mm], f₀ [N], λ [mm⁻¹], L [mm]; the strength term, the mean
-    force over the cone's frontal area [kPa]; and whether a sample of the window reached the sensor's range
+    """Per window (arrays of one length): the window's centre depth [mm], mean force k₁ [N] and variance k₂ of
+    the detrended force [N²]; the estimates δ [mm], f₀ [N], λ [mm⁻¹], L [mm]; the strength term, the mean force
+    over the cone's frontal area [kPa]; and whether a sample of the window reached the sensor's range
     (``clipped``: its estimates are biased low).  Windows where C(Δ) ≥ C(0) (no resolved correlation) have NaN
-    estimates."""
+    estimates of δ, λ and L."""
 
     depth_mm: np.ndarray
     mean_force_n: np.ndarray
