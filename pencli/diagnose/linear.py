@@ -18,6 +18,7 @@ over runs of each run's mean squared residual. [N²]
 from __future__ import annotations
 
 import math
+import os
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, fields
@@ -29,7 +30,7 @@ from numba import njit
 _threads = 1
 """Threads the compiled solves below run on (:func:`compiled_threads`)."""
 
-CHUNKS_PER_THREAD = 4
+CHUNKS_PER_THREAD = 8
 """Slices of a batch per thread: systems differ in cost (the free sets their targets end on), so a thread that
 finishes early takes another slice."""
 
@@ -53,16 +54,24 @@ def compiled_threads(count: int):
         _threads = before
 
 
+_pools: dict[tuple[int, int], ThreadPoolExecutor] = {}
+"""The thread pools of :func:`_sliced`, one per (process, thread count): kept between calls (a diagnosis makes
+over a thousand), and never used across a fork."""
+
+
 def _sliced(kernel, n: int, *args) -> None:
     """``kernel(lo, hi, *args)`` over [0, ``n``) in slices on :data:`_threads` threads (in this thread when one);
     each slice writes its own rows of the outputs."""
     if _threads == 1 or n < 2:
         kernel(0, n, *args)
         return
+    key = (os.getpid(), _threads)
+    pool = _pools.get(key)
+    if pool is None:
+        pool = _pools[key] = ThreadPoolExecutor(_threads, thread_name_prefix="pen-solve")
     edges = np.linspace(0, n, min(n, _threads * CHUNKS_PER_THREAD) + 1).astype(int)
-    with ThreadPoolExecutor(_threads) as pool:
-        for done in [pool.submit(kernel, lo, hi, *args) for lo, hi in zip(edges[:-1], edges[1:]) if hi > lo]:
-            done.result()
+    for done in [pool.submit(kernel, lo, hi, *args) for lo, hi in zip(edges[:-1], edges[1:]) if hi > lo]:
+        done.result()
 
 
 N_BOUNDED = 3
