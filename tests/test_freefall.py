@@ -41,9 +41,9 @@ def drops(tmp_path, bed, seed):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_impact_speed_and_penetration_within_one_percent_of_the_simulation(tmp_path, seed):
-    """Random beds that stop the probe (σ 10–40 kPa, b 0–300 kPa/m, c 0–30 kPa·s/m) and sensor biases up to 0.03 g: the speed at impact
-    and the penetration integrated from the record within 1 % of the simulation's, each sensor's bias taken out
-    within a tenth of the largest."""
+    """Random beds that stop the probe (σ 10–40 kPa, b 0–300 kPa/m, c 0–30 kPa·s/m) and sensor biases up to
+    0.03 g: the speed at impact and the penetration integrated from the record within 1 % of the simulation's,
+    each sensor's bias taken out within a tenth of the largest."""
     rng = np.random.default_rng(500 + seed)
     bed = Bed(rng.uniform(10, 40), rng.uniform(0, 300), rng.uniform(0, 30))
     for truth, motion, sensors in drops(tmp_path, bed, seed):

@@ -161,7 +161,8 @@ def simulate_drop(probe: Probe, bed: Bed, drop_height_m: float, *, sensors: Sens
         cal = sensors.calibration[name]
         raw[:, CHANNELS.index(name)] = np.rint(value * cal.scale - cal.offset)
     depth_below_surface = water_depth_m - drop_height_m + x
-    pressure_psi = water_density * G * depth_below_surface / 1e3 / PSI_KPA + rng.normal(0, sensors.pressure_noise_psi, n)
+    pressure_psi = (water_density * G * depth_below_surface / 1e3 / PSI_KPA
+                    + rng.normal(0, sensors.pressure_noise_psi, n))
     cal = sensors.calibration["pore_pressure"]
     raw[:, CHANNELS.index("pore_pressure")] = np.rint(pressure_psi * cal.scale - cal.offset)
     for name in ("tilt_x", "tilt_y"):

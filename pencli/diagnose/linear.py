@@ -270,8 +270,8 @@ class Statistics:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _profiled_pieces(lo: int, hi: int, G: np.ndarray, C: np.ndarray, S: np.ndarray, J: np.ndarray, off: np.ndarray, s: np.ndarray,
-                     D: np.ndarray, Dr: np.ndarray, cr: np.ndarray, ttr: np.ndarray, c0: np.ndarray,
+def _profiled_pieces(lo: int, hi: int, G: np.ndarray, C: np.ndarray, S: np.ndarray, J: np.ndarray, off: np.ndarray,
+                     s: np.ndarray, D: np.ndarray, Dr: np.ndarray, cr: np.ndarray, ttr: np.ndarray, c0: np.ndarray,
                      c_data: np.ndarray) -> None:
     """Per run r and model m (columns ``J[m]``, offset ``off[m]``, column factors ``s[r, m]``), from the run's
     Gram ``G`` (R, Q, Q), cross products ``C`` (R, Q, T) and squares ``S`` (R, T), in place: the model's Gram
@@ -375,14 +375,15 @@ def _quadratic(A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray) 
     (..., q, T), tt (..., T)) and target."""
     q, T = theta.shape[-2:]
     out = np.empty(tt.shape)
-    _sliced(_quadratics, out.reshape(-1, T).shape[0], np.ascontiguousarray(A).reshape(-1, q, q), np.ascontiguousarray(b).reshape(-1, q, T),
-                np.ascontiguousarray(tt).reshape(-1, T), np.ascontiguousarray(theta).reshape(-1, q, T),
-                out.reshape(-1, T))
+    _sliced(_quadratics, out.size // T, np.ascontiguousarray(A).reshape(-1, q, q),
+            np.ascontiguousarray(b).reshape(-1, q, T), np.ascontiguousarray(tt).reshape(-1, T),
+            np.ascontiguousarray(theta).reshape(-1, q, T), out.reshape(-1, T))
     return out
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _quadratics(lo: int, hi: int, A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray, out: np.ndarray) -> None:
+def _quadratics(lo: int, hi: int, A: np.ndarray, b: np.ndarray, tt: np.ndarray, theta: np.ndarray,
+                out: np.ndarray) -> None:
     """:func:`_quadratic` compiled for models ``lo`` to ``hi`` (no (models, q, targets) temporaries)."""
     q, T = theta.shape[1:]
     for m in range(lo, hi):

@@ -134,7 +134,8 @@ def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: d
     impact = impact_row(raw, release, rate)
     # the stop from a first pass with each sensor's bias at the first rest, then each one's at the rest after it
     first = {name: _rest_bias(values[max(0, release - rest): release]) for name, values in channels.items()}
-    stop = _stop(time_s, stitch({n: v - first[n] for n, v in channels.items()}, ranges_g), release, impact)
+    _, speed, _ = _integrate(time_s, stitch({n: v - first[n] for n, v in channels.items()}, ranges_g), release)
+    stop = _stop(speed, impact)
     after = slice(stop + rest // 2, stop + rest // 2 + rest)
     last = {name: (_rest_bias(values[after]) if values[after].size >= rest // 2 else first[name])
             for name, values in channels.items()}
@@ -142,7 +143,7 @@ def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: d
     share = np.clip((time_s - t0) / max(t1 - t0, 1e-12), 0.0, 1.0)
     f = stitch({n: v - (first[n] + (last[n] - first[n]) * share) for n, v in channels.items()}, ranges_g)
     accel, speed, travel = _integrate(time_s, f, release)
-    stop = _stop(time_s, f, release, impact)
+    stop = _stop(speed, impact)
     hit = impact_time(time_s, f, release)
     at_hit = float(np.interp(hit, time_s, travel))
     return DropMotion(time_s=time_s, accel_m_s2=accel, speed_m_s=speed, travel_m=travel, release=release,
@@ -169,9 +170,8 @@ def _integrate(time_s: np.ndarray, specific_g: np.ndarray, release: int):
     return accel, speed, travel
 
 
-def _stop(time_s: np.ndarray, specific_g: np.ndarray, release: int, impact: int) -> int:
-    """The first row after the impact where the integrated speed is within ``STOP_SPEED_M_S`` of its least
+def _stop(speed: np.ndarray, impact: int) -> int:
+    """The first row after the impact where the integrated ``speed`` is within ``STOP_SPEED_M_S`` of its least
     there."""
-    _, speed, _ = _integrate(time_s, specific_g, release)
     after = speed[impact:]
     return int(impact + np.flatnonzero(after <= after.min() + STOP_SPEED_M_S)[0])
