@@ -55,7 +55,7 @@ def _command_page(path: tuple[str, ...], command) -> str:
 
 
 def _parameters_page() -> str:
-    from pencli.params.definitions import KINDS, PARAMETERS
+    from pencli.params.definitions import KINDS, PARAMETERS, choices_of
 
     lines = ["# Parameter keys", "",
              "Every key of the three parameter files (penetrator, material, energizing), generated from pen's one "
@@ -64,12 +64,24 @@ def _parameters_page() -> str:
              "its documented range is refused unless `--allow-out-of-range` is given; the hard limits always hold.",
              ""]
     for kind in KINDS:
-        lines += [f"## {kind}", "", "| key | symbol | unit | documented range | hard limits | required | meaning |",
-                  "|---|---|---|---|---|---|---|"]
+        lines += [f"## {kind}", ""]
+        for c in choices_of(kind):
+            held = f" ({' and '.join(c.geometries)} files only)" if c.geometries else ""
+            lines += [f"`{c.key}`{held}: {c.meaning}; one of", ""]
+            lines += [f"- `{o}`{' (default)' if o == c.default else ''}: {h}" for o, h in zip(c.options, c.option_help)]
+            lines.append("")
+        shaped = any(p.geometries for p in PARAMETERS if p.kind == kind)
+        if shaped:
+            lines += ["A key whose *geometries* column names some is held by files of those geometries only "
+                      "(another geometry's key is an error); its *required* holds within them.", ""]
+        lines += ["| key | symbol | unit | documented range | hard limits | required | " +
+                  ("geometries | " if shaped else "") + "meaning |",
+                  "|---|---|---|---|---|---|" + ("---|" if shaped else "") + "---|"]
         for p in (p for p in PARAMETERS if p.kind == kind):
             required = "yes" if p.required else (f"no (default {p.default:g})" if p.default is not None else "no")
+            held = f"{', '.join(p.geometries) or 'all'} | " if shaped else ""
             lines.append(f"| `{p.key}` | {p.symbol} | {p.unit} | {p.range_text} | {p.hard_text} | {required} | "
-                         f"{p.meaning.replace('|', '/')} |")
+                         f"{held}{p.meaning.replace('|', '/')} |")
         lines.append("")
     return "\n".join(lines)
 

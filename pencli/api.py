@@ -61,13 +61,22 @@ class Prediction:
             return None
         mean = {name: self.material.values[f"coefficients.{name}"] for name in COEFFICIENT_NAMES}
         return prediction_band(self.design, mean, covariance, self.result, terms=self.terms,
-                               speed_at_contact_m_s=self.speed_at_contact_m_s, draws=draws or BAND_DRAWS)
+                               speed_at_contact_m_s=self.speed_at_contact_m_s, draws=draws or BAND_DRAWS,
+                               geometry=self.geometry)
+
+    @property
+    def geometry(self):
+        """The penetrator's geometry (:func:`pencli.model.geometry.geometry_of`)."""
+        from pencli.model.geometry import geometry_of
+
+        return geometry_of(self.penetrator)
 
     def to_dict(self) -> dict:
         """CONTRACT §5 record plus where the parameters came from."""
         record = self.result.to_dict()
         record["warnings"] = list(self.warnings) + ([self.result.message] if self.result.message else [])
         record["penetrator"] = self.penetrator.name
+        record["geometry"] = self.penetrator.geometry
         record["material"] = self.material.name
         record["energizing"] = self.energizing.name
         overrides = {**self.penetrator.overrides, **self.material.overrides, **self.energizing.overrides}
@@ -87,9 +96,10 @@ class Prediction:
 
 
 def load_parameter_sets(penetrator: str | Path, material: str | Path, energizing: str | Path, *,
-                        overrides: Sequence[str] = (), allow_out_of_range: bool = False
+                        overrides: Sequence[str] = (), allow_out_of_range: bool = False, blade_only: str = ""
                         ) -> tuple[ParameterSet, ParameterSet, ParameterSet]:
-    """Resolve three preset names or files and apply ``--set`` overrides."""
+    """Resolve three preset names or files and apply ``--set`` overrides.  ``blade_only``: the command that
+    integrates Eq. 9's blade alone (a penetrator of another geometry is then one line)."""
     sets = {
         "penetrator": resolve(penetrator, "penetrator", allow_out_of_range=allow_out_of_range),
         "material": resolve(material, "material", allow_out_of_range=allow_out_of_range),
@@ -97,6 +107,11 @@ def load_parameter_sets(penetrator: str | Path, material: str | Path, energizing
     }
     for kind, updates in parse_overrides(overrides).items():
         sets[kind] = sets[kind].with_values(updates, allow_out_of_range=allow_out_of_range)
+    shape = sets["penetrator"].geometry
+    if blade_only and shape != "blade":
+        raise ParameterError(f"{sets['penetrator'].source}: geometry {shape}: {blade_only} integrates the blade's "
+                             f"Eq. 9 law only so far; `pen predict` simulates a {shape.replace('_', ' ')}, one design "
+                             f"at a time")
     return sets["penetrator"], sets["material"], sets["energizing"]
 
 
@@ -107,8 +122,11 @@ def predict(penetrator: str | Path, material: str | Path, energizing: str | Path
     """Simulate one design from presets or files (``pen predict``)."""
     p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
                                   allow_out_of_range=allow_out_of_range)
+    from pencli.model.geometry import geometry_of
+
     design = design_from_sets(p, m, e)
-    result = simulate(design, terms, speed_at_contact_m_s=speed_at_contact_m_s, output_rate_hz=output_rate_hz)
+    result = simulate(design, terms, speed_at_contact_m_s=speed_at_contact_m_s, output_rate_hz=output_rate_hz,
+                      geometry=geometry_of(p))
     return Prediction(p, m, e, design, result, outside_fitted_ranges(p, m, result),
                       tuple(terms) if terms is not None and not isinstance(terms, str) else terms, speed_at_contact_m_s)
 
@@ -122,13 +140,13 @@ def outside_fitted_ranges(penetrator: ParameterSet, material: ParameterSet, resu
     asked = {
         "contact_speed_m_s": (s.contact_speed_m_s, "m/s", "contact speed"),
         "depth_mm": (s.final_depth_mm, "mm", "depth"),
-        "blade_thickness_mm": (penetrator.values["blade_thickness_mm"], "mm", "blade thickness"),
-        "blade_width_mm": (penetrator.values["blade_width_mm"], "mm", "blade width"),
+        "blade_thickness_mm": (penetrator.values.get("blade_thickness_mm"), "mm", "blade thickness"),
+        "blade_width_mm": (penetrator.values.get("blade_width_mm"), "mm", "blade width"),
         "microstructure_strength_kpa": (material.values["microstructure_strength_kpa"], "kPa", "strength"),
     }
     out = []
     for key, (value, unit, label) in asked.items():
-        if key in ranges:
+        if key in ranges and value is not None:  # a cone has no blade width
             lo, hi = ranges[key]
             # 1 % of what the fit saw: a full-depth prediction (133 mm) against runs recorded at 132.9 mm is
             # not an extrapolation
@@ -152,7 +170,7 @@ def plot_prediction(prediction: Prediction, path: str | Path) -> str:
 
     title = f"{prediction.penetrator.name} · {prediction.material.name} · {prediction.energizing.name}"
     fig, caption = prediction_figure(title, prediction.result.trajectory, prediction.result.summary,
-                                     prediction.band())
+                                     prediction.band(), shape=prediction.penetrator.geometry)
     return _save_captioned(fig, caption, path, fontsize=9, dpi=200)
 
 
@@ -825,7 +843,7 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     if speed_at_contact_m_s is not None:
         check_contact_speed(speed_at_contact_m_s)
     p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
-                                  allow_out_of_range=allow_out_of_range)
+                                  allow_out_of_range=allow_out_of_range, blade_only="pen sweep")
     base = {**p.values, **m.values, **e.values}
     base[SPEED] = (float(speed_at_contact_m_s) if speed_at_contact_m_s is not None else
                    float(simulate(design_from_sets(p, m, e), output_rate_hz=1000.0).summary.contact_speed_m_s))
@@ -914,7 +932,7 @@ def sensitivity(penetrator: str = "appendix_c", material: str = "grill_brick", e
     from pencli.predict.sweep import SENSITIVITY_KEYS, one_at_a_time, si_designs
 
     p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
-                                  allow_out_of_range=allow_out_of_range)
+                                  allow_out_of_range=allow_out_of_range, blade_only="pen sweep --sensitivity")
     base = {**p.values, **m.values, **e.values}
     chosen = list(keys or SENSITIVITY_KEYS)
     rows, columns = one_at_a_time(base, chosen, [0.0, *steps])
@@ -965,7 +983,7 @@ def solve(penetrator: str, material: str, energizing: str, *, target: str, until
         raise ParameterError(f"--solve {target!r}: expected max:KEY or min:KEY with a CONTRACT §1 key")
     name, threshold = parse_condition(until)
     p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
-                                  allow_out_of_range=allow_out_of_range)
+                                  allow_out_of_range=allow_out_of_range, blade_only="pen sweep --solve")
     base = {**p.values, **m.values, **e.values}
     param = BY_KEY[key]
     if search is None:

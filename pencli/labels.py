@@ -43,6 +43,7 @@ FIGURES: dict[str, Quantity] = {
     "energy_friction_j": Quantity("energy: friction", "J"),
     "energy_damping_j": Quantity("energy: damping", "J"),
     "energy_inertia_j": Quantity("energy: inertia", "J"),
+    "energy_other_j": Quantity("energy: resistance not by term", "J"),
 }
 """The figures of one predicted run (CONTRACT §5 and the energy balance), as shown."""
 

@@ -55,11 +55,13 @@ def test_the_getting_started_page_is_the_readmes_tour(site):
 
 
 def test_the_parameter_keys_page_lists_every_key_with_its_unit(site):
-    from pencli.params.definitions import PARAMETERS
+    from pencli.params.definitions import CHOICES, PARAMETERS
 
     page = (site / "reference" / "parameters" / "index.html").read_text()
     for p in PARAMETERS:
         assert f"<code>{p.key}</code>" in page, p.key
+    for c in CHOICES:  # the named choices, each option listed
+        assert f"<code>{c.key}</code>" in page and all(f"<code>{o}</code>" in page for o in c.options), c.key
 
 
 def test_the_catalog_page_names_every_column_of_every_table(site):

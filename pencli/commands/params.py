@@ -12,7 +12,7 @@ from rich.table import Table
 
 from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, db_path, fail, print_json
-from pencli.params.definitions import KINDS, PARAMETERS
+from pencli.params.definitions import CHOICES, KINDS, PARAMETERS
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
@@ -104,18 +104,28 @@ def keys(
     Example: pen params keys --kind material
     """
     rows = [p for p in PARAMETERS if kind is None or p.kind == kind]
+    named = [c for c in CHOICES if kind is None or c.kind == kind]
     if json_out:
-        print_json([{"key": p.key, "kind": p.kind, "unit": p.unit, "symbol": p.symbol, "meaning": p.meaning,
-                     "range": [p.range_min, p.range_max], "hard": p.hard_text, "required": p.required,
-                     "default": p.default} for p in rows])
+        print_json([{"key": c.key, "kind": c.kind, "options": list(c.options), "default": c.default,
+                     "meaning": c.help, "geometries": list(c.geometries)} for c in named]
+                   + [{"key": p.key, "kind": p.kind, "unit": p.unit, "symbol": p.symbol, "meaning": p.meaning,
+                       "range": [p.range_min, p.range_max], "hard": p.hard_text, "required": p.required,
+                       "default": p.default, "geometries": list(p.geometries)} for p in rows])
         return
     table = Table(show_header=True, header_style="bold")
     for col in ("key", "kind", "unit", "range", "meaning"):
         table.add_column(col)
+    for c in named:
+        table.add_row(c.key, c.kind + _of(c.geometries), "", " | ".join(c.options), c.help)
     for p in rows:
-        table.add_row(p.key, p.kind, p.unit, p.range_text.replace(f" {p.unit}", ""),
+        table.add_row(p.key, p.kind + _of(p.geometries), p.unit, p.range_text.replace(f" {p.unit}", ""),
                       f"{p.symbol}: {p.meaning}" + ("" if p.required else " (optional)"))
     console.print(table)
+
+
+def _of(geometries: tuple[str, ...]) -> str:
+    """' (cone)' after a kind whose key only some geometries' files hold."""
+    return f" ({', '.join(geometries)})" if geometries else ""
 
 
 @app.command("schema")

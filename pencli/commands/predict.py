@@ -27,7 +27,7 @@ SUMMARY_FORMATS = (
     ("final_depth_mm", "{:.2f}"), ("full_penetration", "{}"), ("peak_resistance_n", "{:.1f}"),
     ("peak_resistance_depth_mm", "{:.2f}"), ("residual_ke_j", "{:.2f}"), ("spring_energy_j", "{:.2f}"),
     ("gravity_work_j", "{:.2f}"), ("energy_strength_j", "{:.2f}"), ("energy_friction_j", "{:.2f}"),
-    ("energy_damping_j", "{:.2f}"), ("energy_inertia_j", "{:.2f}"),
+    ("energy_damping_j", "{:.2f}"), ("energy_inertia_j", "{:.2f}"), ("energy_other_j", "{:.2f}"),
 )
 """The rows of the summary table and their number formats (names and units: :data:`pencli.labels.FIGURES`)."""
 
@@ -87,13 +87,16 @@ def predict(
 def render(prediction: api.Prediction, out: Path | None) -> None:
     """A rich summary table with units."""
     record = prediction.to_dict()
-    title = f"{prediction.penetrator.name} · {prediction.material.name} · {prediction.energizing.name}"
+    title = f"{prediction.penetrator.name} ({prediction.penetrator.geometry.replace('_', ' ')}) · " \
+            f"{prediction.material.name} · {prediction.energizing.name}"
     table = Table(title=title, caption=f"terms: {', '.join(prediction.result.terms)}", show_header=True,
                   header_style="bold")
     table.add_column("figure")
     table.add_column("value", justify="right")
     table.add_column("unit")
     for key, fmt in SUMMARY_FORMATS:
+        if key == "energy_other_j" and not record[key]:
+            continue  # every joule booked by Eq. 9's terms (a blade)
         shown = FIGURES[key]
         value = record[key] * shown.scale if shown.scale != 1.0 else record[key]
         finite = not isinstance(value, float) or math.isfinite(value)

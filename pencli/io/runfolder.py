@@ -279,6 +279,11 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
                                  allow_out_of_range=options.allow_out_of_range)
         else:
             raise ParameterError(f"{folder}: missing {name} (or give --{kind} PRESET_OR_FILE)")
+    shape = sets["penetrator"].geometry
+    if shape != "blade":
+        raise ParameterError(f"{sets['penetrator'].source}: geometry {shape}: the run store records blade runs only "
+                             f"so far (its catalog indexes each run's blade width and thickness); `pen predict` "
+                             f"simulates a {shape.replace('_', ' ')}")
     info: dict[str, Any] = {}
     if (folder / "run.yaml").is_file():
         loaded = read_yaml(folder / "run.yaml")

@@ -212,8 +212,8 @@ def design_from_sets(penetrator: ParameterSet, material: ParameterSet, energizin
     by_kind = {"penetrator": penetrator, "material": material, "energizing": energizing}
     values: dict[str, float] = {}
     for param in PARAMETERS:
-        if not param.si_name:  # an alternative input (EITHER_OR): its primary carries the value
-            continue
+        if not param.si_name or param.builds != "design":  # an alternative input (EITHER_OR), whose primary
+            continue  # carries the value, or a geometry's dimension (pencli.model.geometry.geometry_of)
         raw = by_kind[param.kind].get(param.key)
         if raw is None:
             values[param.si_name] = math.nan

@@ -35,6 +35,8 @@ from typing import Callable, Protocol
 from pencli.errors import ModelError
 from pencli.model.design import Design
 from pencli.model.resistance import ResistanceLaw, parse_terms, reduced, resistance_law
+from pencli.params.definitions import choices_of, params_of
+from pencli.params.validate import ParameterSet
 
 
 class Geometry(Protocol):
@@ -195,6 +197,22 @@ class TaperedBlade:
 
 
 GEOMETRIES = {"blade": Blade, "cone": Cone, "tapered_blade": TaperedBlade}
-"""Every geometry by the name a parameter file will give it."""
+"""Every geometry by the name a parameter file's ``geometry:`` gives it; its constructor's keywords are the SI
+names of the parameters that build it (``builds="geometry"`` in :data:`pencli.params.definitions.PARAMETERS`,
+and the named choices' ``si_name``)."""
 
-__all__ = ["BLADE", "Blade", "CONE_AREAS", "Cone", "GEOMETRIES", "Geometry", "TaperedBlade", "shape_resistance"]
+
+def geometry_of(penetrator: ParameterSet) -> Geometry:
+    """The geometry a penetrator file names, built from its keys (SI, by each definition's scale)."""
+    name = penetrator.geometry
+    kwargs: dict = {p.si_name: float(penetrator.values[p.key]) * p.si_scale
+                    for p in params_of("penetrator", name) if p.builds == "geometry" and p.key in penetrator.values}
+    kwargs.update({c.si_name: penetrator.choice(c.key) for c in choices_of("penetrator", name) if c.si_name})
+    try:
+        return GEOMETRIES[name](**kwargs)
+    except ModelError as exc:
+        raise ModelError(f"{penetrator.source}: {exc}") from None
+
+
+__all__ = ["BLADE", "Blade", "CONE_AREAS", "Cone", "GEOMETRIES", "Geometry", "TaperedBlade", "geometry_of",
+           "shape_resistance"]

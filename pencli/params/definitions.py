@@ -59,6 +59,8 @@ class Param:
         A file of this kind must give it.
     default
         Value used when an optional key is absent (``None``: stays absent).
+    geometries, builds
+        Which penetrator geometries hold the key, and what its value builds (below).
     """
 
     key: str
@@ -77,6 +79,16 @@ class Param:
     range_max: float | None = None
     required: bool = True
     default: float | None = None
+    geometries: tuple[str, ...] = ()
+    """The penetrator geometries (:data:`GEOMETRY_NAMES`) whose files hold this key; empty: every file of its
+    kind.  A key of one geometry in another's file is an error, and its ``required`` holds within the geometry."""
+    builds: str = "design"
+    """What the SI value fills: ``design`` (the field ``si_name`` of :class:`pencli.model.design.Design`) or
+    ``geometry`` (the keyword ``si_name`` of the geometry's class in :data:`pencli.model.geometry.GEOMETRIES`)."""
+
+    def belongs_to(self, geometry: str) -> bool:
+        """Whether a file of ``geometry`` may hold this key."""
+        return not self.geometries or geometry in self.geometries
 
     @property
     def hard_text(self) -> str:
@@ -124,15 +136,77 @@ def _fmt(value: float | None) -> str:
     return f"{value:g}"
 
 
+GEOMETRY_NAMES: tuple[str, ...] = ("blade", "cone", "tapered_blade")
+"""The penetrator geometries a file's ``geometry:`` may name (default ``blade``, CONTRACT §2's); each is a class
+in :data:`pencli.model.geometry.GEOMETRIES` (a test checks the two agree)."""
+DEFAULT_GEOMETRY = "blade"
+_BLADES = ("blade", "tapered_blade")
+
+
+@dataclass(frozen=True)
+class Choice:
+    """A parameter whose value is one of a few names (the geometry, a cone's area convention).
+
+    ``si_name`` is the keyword of the geometry's class it fills (empty: the geometry itself)."""
+
+    key: str
+    kind: Kind
+    meaning: str
+    options: tuple[str, ...]
+    default: str
+    option_help: tuple[str, ...]
+    """One line per option, in ``options``' order."""
+    geometries: tuple[str, ...] = ()
+    si_name: str = ""
+
+    def belongs_to(self, geometry: str) -> bool:
+        return not self.geometries or geometry in self.geometries
+
+    @property
+    def help(self) -> str:
+        described = "; ".join(f"{o}: {h}" for o, h in zip(self.options, self.option_help))
+        return f"{self.meaning}: one of {described} (default {self.default})"
+
+
+CHOICES: tuple[Choice, ...] = (
+    Choice("geometry", "penetrator", "the penetrator's shape", GEOMETRY_NAMES, DEFAULT_GEOMETRY,
+           ("a rectangular blade (Eq. 9)", "a cone tip on a cylindrical shaft",
+            "a blade whose thickness grows from its tip over a taper")),
+    Choice("cone_area", "penetrator", "which area a cone's strength acts on", ("projected", "mantle"), "projected",
+           ("the frontal area times (sin α + μ·cos α), the blade's convention",
+            "the face normal to it, with friction along it (a flat tip presses with the strength alone)"),
+           geometries=("cone",), si_name="area"),
+)
+"""The named-choice parameters, by kind; values are the option names as written."""
+
+CHOICE_BY_KEY: dict[str, Choice] = {c.key: c for c in CHOICES}
+
+
 _P = Param
 PARAMETERS: tuple[Param, ...] = (
     # --- penetrator: the blade and the moving body ---------------------------
     _P("blade_width_mm", "penetrator", "w", "rectangular blade width", "mm",
-       "blade_width_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=5, range_max=1000),
+       "blade_width_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=5, range_max=1000, geometries=_BLADES),
     _P("blade_thickness_mm", "penetrator", "T", "blade thickness", "mm",
-       "blade_thickness_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=0.1, range_max=50),
+       "blade_thickness_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=0.1, range_max=50,
+       geometries=_BLADES),
     _P("tip_angle_deg", "penetrator", "θ", "leading-edge angle from vertical (90 = flat edge)", "deg",
-       "tip_angle_rad", math.pi / 180, hard_min=0, hard_max=90, range_min=0, range_max=90),
+       "tip_angle_rad", math.pi / 180, hard_min=0, hard_max=90, range_min=0, range_max=90, geometries=_BLADES),
+    _P("tip_thickness_mm", "penetrator", "T_tip", "a tapered blade's thickness at its tip", "mm",
+       "tip_thickness_m", 1e-3, hard_min=0, range_min=0, range_max=50, geometries=("tapered_blade",),
+       builds="geometry"),
+    _P("taper_length_mm", "penetrator", "L_t", "depth over which a tapered blade reaches its full thickness", "mm",
+       "taper_length_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=0.1, range_max=1000,
+       geometries=("tapered_blade",), builds="geometry"),
+    _P("cone_half_angle_deg", "penetrator", "α", "a cone's half-angle at its apex (30 for a 60° CPT cone)", "deg",
+       "half_angle_rad", math.pi / 180, hard_min=0, hard_max=90, hard_min_exclusive=True, hard_max_exclusive=True,
+       range_min=5, range_max=85, geometries=("cone",), builds="geometry"),
+    _P("shaft_diameter_mm", "penetrator", "D", "a cone's base and shaft diameter (35.7 for a 10 cm² CPT cone)",
+       "mm", "shaft_radius_m", 0.5e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=1000,
+       geometries=("cone",), builds="geometry"),
+    _P("tip_flat_diameter_mm", "penetrator", "d_t", "diameter of a blunted cone's flat tip (0: sharp)", "mm",
+       "tip_radius_m", 0.5e-3, hard_min=0, range_min=0, range_max=1000, required=False, default=0.0,
+       geometries=("cone",), builds="geometry"),
     _P("penetration_depth_mm", "penetrator", "d", "full penetration depth (hard stops)", "mm",
        "penetration_depth_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=1000),
     _P("sprung_mass_kg", "penetrator", "m", "accelerated body, blade included", "kg",
@@ -216,9 +290,14 @@ coefficient → coefficient → value in the product of their file units (the ``
 coefficients the fit held are absent).  ``pen predict --plot`` draws a prediction band from it."""
 
 
-def params_of(kind: Kind) -> tuple[Param, ...]:
-    """The parameters of one kind, in definition order."""
-    return tuple(p for p in PARAMETERS if p.kind == kind)
+def params_of(kind: Kind, geometry: str | None = None) -> tuple[Param, ...]:
+    """The parameters of one kind, in definition order; with ``geometry``, those a file of it holds."""
+    return tuple(p for p in PARAMETERS if p.kind == kind and (geometry is None or p.belongs_to(geometry)))
+
+
+def choices_of(kind: Kind, geometry: str | None = None) -> tuple[Choice, ...]:
+    """The named-choice parameters of one kind; with ``geometry``, those a file of it holds."""
+    return tuple(c for c in CHOICES if c.kind == kind and (geometry is None or c.belongs_to(geometry)))
 
 
 @dataclass(frozen=True)
@@ -245,6 +324,10 @@ class Rule:
 RULES: tuple[Rule, ...] = (
     Rule("penetrator", ("blade_thickness_mm", "blade_width_mm"), "must be less than blade_width_mm",
          lambda v: v["blade_thickness_mm"] < v["blade_width_mm"]),
+    Rule("penetrator", ("tip_thickness_mm", "blade_thickness_mm"), "must not exceed blade_thickness_mm",
+         lambda v: v["tip_thickness_mm"] <= v["blade_thickness_mm"]),
+    Rule("penetrator", ("tip_flat_diameter_mm", "shaft_diameter_mm"), "must be less than shaft_diameter_mm",
+         lambda v: v["tip_flat_diameter_mm"] < v["shaft_diameter_mm"]),
     Rule("penetrator", ("load_cell_mass_kg", "sprung_mass_kg"),
          "must not exceed sprung_mass_kg (it is part of the moving body)",
          lambda v: v["load_cell_mass_kg"] <= v["sprung_mass_kg"]),

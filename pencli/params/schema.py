@@ -10,7 +10,19 @@ from __future__ import annotations
 
 from typing import Any
 
-from pencli.params.definitions import COEFFICIENT_NAMES, COVARIANCE_KEY, EITHER_OR, OPTIONAL_TOP_KEYS, RANGE_KEYS, Kind, Param, params_of
+from pencli.params.definitions import (
+    COEFFICIENT_NAMES,
+    COVARIANCE_KEY,
+    DEFAULT_GEOMETRY,
+    EITHER_OR,
+    GEOMETRY_NAMES,
+    OPTIONAL_TOP_KEYS,
+    RANGE_KEYS,
+    Kind,
+    Param,
+    choices_of,
+    params_of,
+)
 
 
 def _property(param: Param) -> dict[str, Any]:
@@ -37,6 +49,8 @@ def json_schema(kind: Kind) -> dict[str, Any]:
     }
     for key, meaning in OPTIONAL_TOP_KEYS.items():
         properties[key] = {"type": "string", "description": meaning}
+    for choice in choices_of(kind):
+        properties[choice.key] = {"enum": list(choice.options), "default": choice.default, "description": choice.help}
     required = ["kind", "name"]
     nested: dict[str, Any] = {}
     for param in params_of(kind):
@@ -45,7 +59,7 @@ def json_schema(kind: Kind) -> dict[str, Any]:
             nested.setdefault(group, {})[sub] = _property(param)
             continue
         properties[param.key] = _property(param)
-        if param.required and param.key not in EITHER_OR:
+        if param.required and param.key not in EITHER_OR and not param.geometries:
             required.append(param.key)
     for group, props in nested.items():
         properties[group] = {"type": "object", "properties": props, "additionalProperties": False}
@@ -64,7 +78,10 @@ def json_schema(kind: Kind) -> dict[str, Any]:
                                      "additionalProperties": {"type": "number"}}}
     either = [(primary, alternative) for primary, (alternative, _) in EITHER_OR.items()
               if any(p.key == primary for p in params_of(kind))]
-    extra = {"allOf": [{"oneOf": [{"required": [a]}, {"required": [b]}]} for a, b in either]} if either else {}
+    rules = [{"oneOf": [{"required": [a]}, {"required": [b]}]} for a, b in either]
+    if choices_of(kind):
+        rules += [_geometry_rule(kind, name) for name in GEOMETRY_NAMES]
+    extra = {"allOf": rules} if rules else {}
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "$id": f"https://pen.invalid/schema/{kind}.schema.json",
@@ -75,3 +92,17 @@ def json_schema(kind: Kind) -> dict[str, Any]:
         "additionalProperties": False,
         **extra,
     }
+
+
+def _geometry_rule(kind: Kind, geometry: str) -> dict[str, Any]:
+    """A file of ``geometry`` (``geometry:`` names it, or, for the default, gives none) must give that geometry's
+    required keys and none of another's."""
+    named = {"properties": {"geometry": {"const": geometry}}, "required": ["geometry"]}
+    condition = ({"anyOf": [{"not": {"required": ["geometry"]}}, named]} if geometry == DEFAULT_GEOMETRY
+                 else named)
+    own = params_of(kind, geometry)
+    foreign = [p.key for p in params_of(kind) if p not in own] + [
+        c.key for c in choices_of(kind) if not c.belongs_to(geometry)]
+    return {"if": condition,
+            "then": {"required": [p.key for p in own if p.geometries and p.required],
+                     "properties": {key: False for key in foreign}}}

@@ -14,6 +14,7 @@ from typing import Any, Mapping
 
 from pencli.errors import ParameterError
 from pencli.params.definitions import (
+    CHOICE_BY_KEY,
     COEFFICIENT_NAMES,
     COVARIANCE_KEY,
     EITHER_OR,
@@ -21,9 +22,11 @@ from pencli.params.definitions import (
     KINDS,
     OPTIONAL_TOP_KEYS,
     RANGE_KEYS,
+    DEFAULT_GEOMETRY,
     RULES,
     Kind,
     Param,
+    choices_of,
     params_of,
 )
 
@@ -56,6 +59,19 @@ class ParameterSet:
     """Material files from ``pen fit``: what the fit saw, for ``predict`` to warn outside it."""
     coefficient_covariance: Mapping[str, Mapping[str, float]] | None = None
     """Material files from ``pen fit``: the fitted coefficients' covariance (file units), for ``predict``'s band."""
+    choices: Mapping[str, str] = field(default_factory=dict)
+    """The named choices the file gives (``geometry:``, ``cone_area:``), as written; absent ones take their
+    defaults (:meth:`choice`)."""
+
+    @property
+    def geometry(self) -> str:
+        """The penetrator's geometry (:data:`~pencli.params.definitions.GEOMETRY_NAMES`; ``blade`` unless the file
+        names another)."""
+        return self.choices.get("geometry", DEFAULT_GEOMETRY)
+
+    def choice(self, key: str) -> str:
+        """A named choice's value, or its default."""
+        return self.choices.get(key, CHOICE_BY_KEY[key].default)
 
     def get(self, key: str, default: float | None = None) -> float | None:
         """Value of ``key`` in file units, or ``default`` when absent."""
@@ -66,6 +82,7 @@ class ParameterSet:
         out: dict[str, Any] = {"kind": self.kind, "name": self.name}
         if self.notes:
             out["notes"] = self.notes
+        out.update(self.choices)
         derived = {primary for primary, (alternative, _) in EITHER_OR.items() if alternative in self.values}
         for param in params_of(self.kind):
             if param.key not in self.values or param.key in derived:
@@ -166,6 +183,7 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
     if not isinstance(notes, str):
         raise ParameterError(f"{source}: key 'notes': got {notes!r}; expected a string")
 
+    geometry, choices = _choices(data, kind, source)
     fitted_ranges = covariance = None
     if "fitted_ranges" in data and kind == "material":
         fitted_ranges = _fitted_ranges(data["fitted_ranges"], source)
@@ -173,7 +191,7 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
         covariance = _covariance(data[COVARIANCE_KEY], source)
     flat: dict[str, Any] = {}
     for key, value in data.items():
-        if key in ("kind", "name") or key in OPTIONAL_TOP_KEYS or (
+        if key in ("kind", "name") or key in OPTIONAL_TOP_KEYS or key in choices or (
                 key in ("fitted_ranges", COVARIANCE_KEY) and kind == "material"):
             continue
         if key == "coefficients" and kind == "material":
@@ -187,15 +205,12 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
         else:
             flat[str(key)] = value
 
-    known = {p.key: p for p in params_of(kind)}
+    known = {p.key: p for p in params_of(kind, geometry)}
     for key in flat:
         if key not in known:
-            hint = ""
-            other = BY_KEY.get(key)
-            if other is not None:
-                hint = f" (it belongs in a {other.kind} file)"
-            raise ParameterError(
-                f"{source}: unknown key '{key}'{hint}; valid {kind} keys: {', '.join(known)}")
+            raise ParameterError(f"{source}: {_unknown(key, kind, geometry)}; valid {kind} keys"
+                                 f"{f' of a {geometry}' if kind == 'penetrator' else ''}: "
+                                 f"{', '.join([*(c.key for c in choices_of(kind, geometry)), *known])}")
 
     for primary, (alternative, _) in EITHER_OR.items():
         if primary in known and primary in flat and alternative in flat:
@@ -229,7 +244,37 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
             shown = ", ".join(f"{k}={values[k]:g}" for k in rule.keys)
             raise ParameterError(f"{source}: key '{first}': got {shown}; {first} {rule.message}")
     return ParameterSet(kind=kind, name=name, values=values, source=source, notes=notes, fitted_ranges=fitted_ranges,
-                        coefficient_covariance=covariance)
+                        coefficient_covariance=covariance, choices=choices)
+
+
+def _choices(data: Mapping, kind: Kind, source: str) -> tuple[str, dict[str, str]]:
+    """(the geometry, the named choices the file gives), each checked against its options."""
+    geometry = DEFAULT_GEOMETRY
+    given: dict[str, str] = {}
+    for choice in choices_of(kind):
+        if choice.key not in data:
+            continue
+        value = data[choice.key]
+        if value not in choice.options:
+            raise ParameterError(f"{source}: key '{choice.key}': got {value!r}; expected one of "
+                                 f"{', '.join(choice.options)} ({choice.meaning})")
+        given[choice.key] = str(value)
+    geometry = given.get("geometry", geometry)
+    for key in given:
+        if not CHOICE_BY_KEY[key].belongs_to(geometry):
+            raise ParameterError(f"{source}: {_unknown(key, kind, geometry)}")
+    return geometry, given
+
+
+def _unknown(key: str, kind: Kind, geometry: str) -> str:
+    """Why ``key`` is not a key of this file: unknown, another kind's, or another geometry's."""
+    other = BY_KEY.get(key) or CHOICE_BY_KEY.get(key)
+    if other is None:
+        return f"unknown key '{key}'"
+    if other.kind != kind:
+        return f"unknown key '{key}' (it belongs in a {other.kind} file)"
+    return (f"key '{key}' is not a {geometry}'s (a key of {' or '.join(other.geometries)}: set geometry: "
+            f"{other.geometries[0]})")
 
 
 def _covariance(value: Any, source: str) -> dict[str, dict[str, float]]:

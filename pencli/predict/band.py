@@ -15,6 +15,7 @@ import numpy as np
 from pencli.fit.resistance import with_coefficients
 from pencli.model.design import Design
 from pencli.model.dynamics import simulate
+from pencli.model.geometry import BLADE, Geometry
 
 BAND_DRAWS = 100
 """Coefficient draws a band is read from: the 2.5 and 97.5 % points of 100 draws scatter by about a fifth of
@@ -58,9 +59,11 @@ def coefficient_draws(mean: Mapping[str, float], covariance: Mapping[str, Mappin
 
 def prediction_band(design: Design, mean: Mapping[str, float], covariance: Mapping[str, Mapping[str, float]],
                     central, *, terms: Iterable[str] | str | None = None, speed_at_contact_m_s: float | None = None,
-                    draws: int = BAND_DRAWS, seed: int = 0, level: float = BAND_LEVEL) -> Band:
+                    draws: int = BAND_DRAWS, seed: int = 0, level: float = BAND_LEVEL, geometry: Geometry = BLADE
+                    ) -> Band:
     """The band of ``central`` (the prediction's :class:`~pencli.model.dynamics.SimulationResult`) over
-    ``draws`` coefficient sets (:func:`coefficient_draws`; ``mean`` in file units by coefficient name)."""
+    ``draws`` coefficient sets (:func:`coefficient_draws`; ``mean`` in file units by coefficient name), each
+    simulated on ``geometry``."""
     t = central.trajectory.time_s
     rate_hz = (t.size - 1) / (t[-1] - t[0]) if t.size > 1 else 50_000.0  # the central's: flight agrees to the bit
     depth_grid = np.linspace(0.0, float(np.max(central.trajectory.depth_m)), 200)
@@ -68,7 +71,7 @@ def prediction_band(design: Design, mean: Mapping[str, float], covariance: Mappi
                                                                 "residual_ke_j", "peak_resistance_n")}
     for values in coefficient_draws(mean, covariance, draws, seed):
         run = simulate(with_coefficients(design, values), terms, speed_at_contact_m_s=speed_at_contact_m_s,
-                       output_rate_hz=rate_hz)
+                       output_rate_hz=rate_hz, geometry=geometry)
         tr = run.trajectory
         depth.append(np.interp(t, tr.time_s, tr.depth_m))  # past its end a draw holds its last value
         speed.append(np.interp(t, tr.time_s, tr.velocity_m_s))

@@ -58,6 +58,9 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variabl
     if key != SPEED and key not in BY_KEY:
         hint = f" (did you mean 'coefficients.{key}'?)" if f"coefficients.{key}" in BY_KEY else ""
         raise ParameterError(f"--vary {spec!r}: unknown key '{key}'{hint}; any CONTRACT §1 key or {SPEED}")
+    if key != SPEED and BY_KEY[key].builds != "design":
+        raise ParameterError(f"--vary {spec!r}: '{key}' is a dimension of a {' or '.join(BY_KEY[key].geometries)}; "
+                             f"the sweep simulates the blade")
     discrete = False
     try:
         if "%" in text:

@@ -666,14 +666,20 @@ def campaign_energy(balances: Sequence[tuple[str, object]]):
     return fig, caption
 
 
-def prediction(title: str, trajectory, summary, band=None):
+OUTSIDE_TERMS = "resistance, not by term"
+"""The label of a resistance the simulator does not book by Eq. 9 term (a geometry whose law is not Eq. 9's
+form, such as a cone's growing frontal area)."""
+
+
+def prediction(title: str, trajectory, summary, band=None, shape: str = "blade"):
     """A predicted run (``pen predict --plot``): depth and speed against time, the force of each Eq. 9 term against
     depth (stacked), and where the energy goes; with ``band`` (:class:`~pencli.predict.band.Band`, from a fitted
     material's covariance), the spread of depth, speed and resistance over the fit's uncertainty.
 
     ``trajectory`` and ``summary`` are a :class:`~pencli.model.dynamics.SimulationResult`'s.  Returns the figure
     and its caption (how the run ends, the largest term's share of the energy, and the band's interval of the
-    penetration time)."""
+    penetration time).  ``shape`` names the penetrator's geometry in the caption; a resistance not booked by
+    term (:data:`OUTSIDE_TERMS`) is drawn and counted as one more term."""
     plt = _plt()
     fig, (motion, force, energy) = plt.subplots(1, 3, figsize=(14, 4.2), constrained_layout=True,
                                                 gridspec_kw={"width_ratios": [1.1, 1.1, 1]})
@@ -687,8 +693,13 @@ def prediction(title: str, trajectory, summary, band=None):
     inside = trajectory.phase == 1
     depth = trajectory.depth_m[inside] * 1e3
     terms = ("strength", "friction", "damping", "inertia")
-    force.stackplot(depth, *(getattr(trajectory, f"{n}_n")[inside] for n in terms),
-                    colors=[TERM_COLOURS[n] for n in terms], labels=terms, alpha=0.85)
+    layers = [getattr(trajectory, f"{n}_n")[inside] for n in terms]
+    colours = {**TERM_COLOURS, OUTSIDE_TERMS: "tab:brown"}
+    if summary.energy_other_j > 0.0:  # the terms that book nothing are not drawn
+        kept = [k for k, n in enumerate(terms) if getattr(summary, f"energy_{n}_j") > 0.0 or np.any(layers[k])]
+        layers = [layers[k] for k in kept] + [trajectory.resistance_n[inside] - sum(layers)]
+        terms = (*(terms[k] for k in kept), OUTSIDE_TERMS)
+    force.stackplot(depth, *layers, colors=[colours[n] for n in terms], labels=terms, alpha=0.85)
     if band is not None:
         share = f"{100 * band.level:.0f} % of {band.draws} runs drawn from the fit's covariance"
         motion.fill_between(band.time_s * 1e3, band.depth_low_m * 1e3, band.depth_high_m * 1e3, color=DYNAMIC,
@@ -701,12 +712,12 @@ def prediction(title: str, trajectory, summary, band=None):
     force.set_xlabel(label("depth_m"))
     force.set_ylabel("resistance by term [N]")
     force.legend(fontsize=7, loc="lower right")
-    spent = {n: getattr(summary, f"energy_{n}_j") for n in terms}
+    spent = {n: getattr(summary, f"energy_{n}_j") if n != OUTSIDE_TERMS else summary.energy_other_j for n in terms}
     spent["left as kinetic"] = summary.residual_ke_j
     supplied = {"springs": summary.spring_energy_j, "gravity": summary.gravity_work_j}
     bars = [*supplied.items(), *spent.items()]
     energy.bar(range(len(bars)), [v for _, v in bars],
-               color=["0.55"] * len(supplied) + [TERM_COLOURS.get(n, "0.3") for n in spent])
+               color=["0.55"] * len(supplied) + [colours.get(n, "0.3") for n in spent])
     energy.set_xticks(range(len(bars)), [k for k, _ in bars], rotation=30, ha="right", fontsize=8)
     energy.axvline(len(supplied) - 0.5, color="0.3", lw=0.8)
     energy.set_ylabel("energy [J]")
@@ -721,7 +732,8 @@ def prediction(title: str, trajectory, summary, band=None):
         lo, hi = band.figures["penetration_time_s"]
         spread = (f"; over the fit's uncertainty ({100 * band.level:.0f} % of {band.draws} draws) the penetration "
                   f"takes {lo * 1e3:.2f}–{hi * 1e3:.2f} ms")
-    caption = f"{title}: contact at {summary.contact_speed_m_s:.2f} m/s; the blade {how}{share}{spread}."
+    caption = (f"{title}: contact at {summary.contact_speed_m_s:.2f} m/s; the {shape.replace('_', ' ')} "
+               f"{how}{share}{spread}.")
     return fig, caption
 
 

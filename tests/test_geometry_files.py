@@ -1,0 +1,150 @@
+"""Penetrator files that name a geometry: the keys each geometry holds, and `pen predict` on a cone file against
+an integration written here from the cone's areas (their closed forms, not pen's geometry classes)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+import yaml
+from scipy.integrate import solve_ivp
+
+from pencli.params.definitions import GEOMETRY_NAMES
+from tests.conftest import invoke
+
+CONE = {"kind": "penetrator", "name": "blunt_cone", "geometry": "cone", "cone_area": "mantle",
+        "cone_half_angle_deg": 30.0, "shaft_diameter_mm": 35.7, "tip_flat_diameter_mm": 6.0,
+        "penetration_depth_mm": 300.0, "sprung_mass_kg": 2.443, "load_cell_mass_kg": 0.389}
+MATERIAL = {"kind": "material", "name": "soft", "density_kg_m3": 600.0, "microstructure_strength_kpa": 400.0,
+            "friction_coefficient": 0.4, "coefficients": {"strength_factor": 1.2, "sidewall_pressure_kpa": 30.0,
+                                                          "damping_kpa_s_m": 8.0, "inertia_coefficient": 2.0}}
+LAUNCHER = {"kind": "energizing", "name": "two", "spring_count": 2, "spring_stiffness_kn_m": 1.45,
+            "spring_mass_kg": 0.28, "spring_nominal_length_mm": 500.0, "spring_compressed_length_mm": 300.0,
+            "surface_offset_mm": 150.0, "propulsion_efficiency_pct": 98.0}
+
+
+def write(tmp_path, name, mapping):
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(mapping, sort_keys=False))
+    return str(path)
+
+
+def cone_resistance(x: float, v: float) -> float:
+    """The blunt cone's resistance in the soft material, from the closed forms of its areas: radius
+    r = min(r_t + x·tan α, r_s), face pressed by the strength normal to it with friction along it (mantle),
+    the flat by the strength alone, the shaft in the material by the sidewall pressure. [N]"""
+    if x <= 0.0:
+        return 0.0
+    m, c = MATERIAL, MATERIAL["coefficients"]
+    alpha = math.radians(CONE["cone_half_angle_deg"])
+    rs, rt = CONE["shaft_diameter_mm"] / 2e3, CONE["tip_flat_diameter_mm"] / 2e3
+    r = min(rt + x * math.tan(alpha), rs)
+    frontal, flat = math.pi * r * r, math.pi * rt * rt
+    mu = m["friction_coefficient"]
+    bearing = flat + (frontal - flat) * (1.0 + mu / math.tan(alpha))
+    side = 2.0 * math.pi * rs * max(x - (rs - rt) / math.tan(alpha), 0.0)
+    v = max(v, 0.0)
+    return (c["strength_factor"] * m["microstructure_strength_kpa"] * 1e3 * bearing
+            + mu * c["sidewall_pressure_kpa"] * 1e3 * side
+            + c["damping_kpa_s_m"] * 1e3 * v * frontal + c["inertia_coefficient"] * m["density_kg_m3"] * v * v * frontal)
+
+
+def test_a_cone_file_predicts_what_an_integration_of_its_areas_gives(tmp_path, runner):
+    files = [write(tmp_path, n, m) for n, m in (("cone", CONE), ("soft", MATERIAL), ("two", LAUNCHER))]
+    result = invoke(runner, "predict", "-p", files[0], "-m", files[1], "-e", files[2], "--json")
+    assert result.exit_code == 0, result.output
+    s = json.loads(result.stdout)
+    assert s["geometry"] == "cone" and s["end"] == "arrest"
+    e = LAUNCHER
+    mass = CONE["sprung_mass_kg"] + e["spring_count"] * e["spring_mass_kg"] / 3.0
+    kd = e["propulsion_efficiency_pct"] / 100 * e["spring_count"] * e["spring_stiffness_kn_m"] * 1e3
+    push_end = (e["spring_nominal_length_mm"] - e["spring_compressed_length_mm"] - e["surface_offset_mm"]) / 1e3
+    assert push_end > 0  # the springs still push in the material
+
+    def rhs(_t, y):
+        x, v = y
+        return [v, (kd * max(push_end - x, 0.0) + mass * 9.81 - cone_resistance(x, v)) / mass]
+
+    arrest = lambda _t, y: y[1]  # noqa: E731
+    arrest.terminal, arrest.direction = True, -1
+    ref = solve_ivp(rhs, (0.0, 5.0), [0.0, s["contact_speed_m_s"]], method="DOP853", rtol=1e-12, atol=1e-14,
+                    events=arrest, max_step=1e-4)
+    assert ref.status == 1
+    assert s["final_depth_mm"] / 1e3 == pytest.approx(ref.y_events[0][0][0], rel=1e-8)
+    assert s["penetration_time_s"] == pytest.approx(ref.t_events[0][0], rel=1e-8)
+    # energy closes, and none of it is booked by Eq. 9's terms: a cone's law is not their form
+    supplied = s["spring_energy_j"] + s["gravity_work_j"]
+    assert s["energy_other_j"] == pytest.approx(supplied, rel=1e-8)
+    assert s["energy_strength_j"] == s["energy_inertia_j"] == 0.0
+    # the flight to the surface: ½mv² from the springs' work over the stand-off and gravity's
+    stroke = (e["spring_nominal_length_mm"] - e["spring_compressed_length_mm"]) / 1e3
+    s0 = e["surface_offset_mm"] / 1e3
+    work = 0.5 * kd * (stroke ** 2 - (stroke - s0) ** 2) + mass * 9.81 * s0
+    assert s["contact_speed_m_s"] == pytest.approx(math.sqrt(2 * work / mass), rel=1e-9)
+
+
+@pytest.mark.parametrize("change, said", [
+    ({"blade_width_mm": 30.0}, ["blade_width_mm", "not a cone's", "geometry: blade"]),
+    ({"shaft_diameter_mm": None}, ["missing key 'shaft_diameter_mm'"]),
+    ({"geometry": "sphere"}, ["'geometry'", "'sphere'", "blade, cone, tapered_blade"]),
+    ({"cone_area": "wetted"}, ["'cone_area'", "projected, mantle"]),
+    ({"tip_flat_diameter_mm": 40.0}, ["tip_flat_diameter_mm", "less than shaft_diameter_mm"]),
+    ({"geometry": None}, ["not a blade's", "geometry: cone"]),
+])
+def test_a_key_of_another_geometry_or_a_wrong_choice_is_one_line(tmp_path, runner, change, said):
+    mapping = {k: v for k, v in {**CONE, **change}.items() if v is not None}
+    result = invoke(runner, "predict", "-p", write(tmp_path, "bad", mapping), "-m", "mpacs_c", "-e", "springs_4")
+    assert result.exit_code == 1
+    line = result.stderr.strip()
+    assert "\n" not in line and all(w in line for w in said), line
+
+
+def test_the_schema_holds_each_geometry_to_its_own_keys():
+    import jsonschema
+
+    from tests.conftest import REPO
+
+    schema = json.loads((REPO / "schema" / "penetrator.schema.json").read_text())
+    check = jsonschema.Draft202012Validator(schema)
+    taper = {"kind": "penetrator", "name": "t", "geometry": "tapered_blade", "blade_width_mm": 184,
+             "blade_thickness_mm": 2, "tip_angle_deg": 89.9, "tip_thickness_mm": 0.5, "taper_length_mm": 10,
+             "penetration_depth_mm": 133, "sprung_mass_kg": 2.4, "load_cell_mass_kg": 0.4}
+    blade = {k: v for k, v in taper.items() if k not in ("geometry", "tip_thickness_mm", "taper_length_mm")}
+    for good in (CONE, taper, blade):
+        assert not list(check.iter_errors(good)), good["name"]
+    for bad in ({**CONE, "blade_width_mm": 30}, {**blade, "taper_length_mm": 10}, {**blade, "cone_area": "mantle"},
+                {k: v for k, v in taper.items() if k != "taper_length_mm"}, {**CONE, "geometry": "sphere"}):
+        assert list(check.iter_errors(bad)), bad
+
+
+def test_every_geometry_a_file_may_name_is_a_simulator_geometry():
+    from pencli.model.geometry import GEOMETRIES
+
+    assert set(GEOMETRY_NAMES) == set(GEOMETRIES)
+
+
+@pytest.mark.parametrize("args", [
+    ["sweep", "-p", "cone_10cm2", "-m", "mpacs_c", "-e", "springs_4", "--vary", "spring_count=2:6"],
+    ["sweep", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--vary", "cone_half_angle_deg=20:40"],
+    ["predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--set", "shaft_diameter_mm=30"],
+])
+def test_what_models_the_blade_only_says_so_for_a_cone(tmp_path, runner, args):
+    result = invoke(runner, *args, "--db", str(tmp_path / "runs.duckdb"))
+    assert result.exit_code == 1
+    line = result.stderr.strip()
+    assert "\n" not in line and "cone" in line, line
+
+
+def test_a_run_folder_of_a_cone_is_refused_by_the_store_naming_its_file(tmp_path, runner):
+    from pencli import api
+    from tests.conftest import REPO
+
+    folder = tmp_path / "run"
+    api.export_run(REPO / "examples" / "workspace" / "runs.duckdb", "mc-1.5-2", folder)
+    (folder / "penetrator.yaml").write_text(yaml.safe_dump(CONE, sort_keys=False))
+    db = tmp_path / "runs.duckdb"
+    result = invoke(runner, "ingest", str(folder), "--db", str(db))
+    assert result.exit_code == 1
+    assert "penetrator.yaml: geometry cone" in result.stderr and "blade runs only" in result.stderr
+    assert not db.exists() or api.list_runs(db) == []
