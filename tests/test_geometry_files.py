@@ -148,3 +148,37 @@ def test_a_run_folder_of_a_cone_is_refused_by_the_store_naming_its_file(tmp_path
     assert result.exit_code == 1
     assert "penetrator.yaml: geometry cone" in result.stderr and "blade runs only" in result.stderr
     assert not db.exists() or api.list_runs(db) == []
+
+
+@pytest.mark.parametrize("shape", ["blade", "cone", "tapered_blade"])
+def test_each_geometrys_unit_columns_weighted_by_the_coefficients_are_its_resistance(shape):
+    """What a linear fit of Cs, P, C and K multiplies: the columns at one file unit of each coefficient, summed
+    with the material's coefficients (file units, read from its file), give the force the simulator
+    integrates, at depths and speeds either side of the surface and of rest."""
+    import numpy as np
+
+    from pencli.model.design import design_from_sets
+    from pencli.model.geometry import geometry_of
+    from pencli.params.load import resolve
+    from pencli.params.validate import validate_mapping
+
+    files = {"blade": {k: v for k, v in CONE.items() if k not in ("geometry", "cone_area", "cone_half_angle_deg",
+                                                                 "shaft_diameter_mm", "tip_flat_diameter_mm")}
+             | {"blade_width_mm": 150.0, "blade_thickness_mm": 2.0, "tip_angle_deg": 60.0},
+             "cone": CONE}
+    files["tapered_blade"] = files["blade"] | {"geometry": "tapered_blade", "tip_thickness_mm": 0.5,
+                                               "taper_length_mm": 12.0}
+    penetrator = validate_mapping(files[shape], shape)
+    material = validate_mapping(MATERIAL, "soft")
+    design = design_from_sets(penetrator, material, resolve("springs_4", "energizing"))
+    geometry = geometry_of(penetrator)
+    x = np.linspace(-0.02, 0.12, 57)
+    v = np.linspace(6.0, -1.0, 57)
+    columns = geometry.unit_terms(design, x, v)
+    c = MATERIAL["coefficients"]
+    weighted = (c["strength_factor"] * columns[0] + c["sidewall_pressure_kpa"] * columns[1]
+                + c["damping_kpa_s_m"] * columns[2] + c["inertia_coefficient"] * columns[3])
+    force = geometry.resistance(design, ("strength", "friction", "damping", "inertia"))
+    expected = np.array([force(a, max(b, 0.0)) if a > 0 else 0.0 for a, b in zip(x, v)])
+    assert np.any(expected > 0) and np.all(weighted[x <= 0] == 0.0)
+    np.testing.assert_allclose(weighted, expected, rtol=1e-12, atol=1e-9)

@@ -34,7 +34,7 @@ from typing import Callable, Protocol
 
 from pencli.errors import ModelError
 from pencli.model.design import Design
-from pencli.model.resistance import ResistanceLaw, parse_terms, reduced, resistance_law
+from pencli.model.resistance import TERMS, ResistanceLaw, coefficient_of, parse_terms, reduced, resistance_law, unit_terms
 from pencli.params.definitions import choices_of, params_of
 from pencli.params.validate import ParameterSet
 
@@ -48,6 +48,11 @@ class Geometry(Protocol):
     def resistance(self, design: Design, terms: tuple[str, ...]) -> Callable[[float, float], float]:
         """R(x [m], v [m/s]) → N for x > 0; ``v`` is already clipped at 0 (the material resists motion into
         it only). Called with floats inside the integrator."""
+
+    def unit_terms(self, design: Design, x, v) -> tuple:
+        """The four terms of the resistance at one file unit of each coefficient (Cs, P, C, K), at depths ``x``
+        [m] and speeds ``v`` [m/s] (arrays): the columns a linear fit of the coefficients multiplies; their
+        sum weighted by the coefficients is :meth:`resistance`. [N per file unit]"""
 
 
 @dataclass(frozen=True)
@@ -63,6 +68,9 @@ class Blade:
         law = resistance_law(design, terms)
         a0, a1, b, d = law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2
         return lambda x, v: reduced(x, v, a0, a1, b, d)
+
+    def unit_terms(self, design: Design, x, v) -> tuple:
+        return unit_terms(design, x, v)
 
 
 BLADE = Blade()
@@ -87,6 +95,23 @@ def shape_resistance(x: float, v: float, frontal_m2: float, bearing_m2: float, s
     if "inertia" in terms:
         out += design.inertia_coefficient * design.density_kg_m3 * vp * vp * frontal_m2
     return out
+
+
+def shape_unit_terms(areas: Callable[[float], tuple[float, float, float]], design: Design, x, v) -> tuple:
+    """:func:`shape_resistance`'s four terms at one file unit of each coefficient (Cs, P, C, K; as
+    :func:`pencli.model.resistance.unit_terms` gives the blade's), from a shape's ``areas(x)`` → (frontal,
+    bearing, side) [m²] evaluated at each depth of ``x`` [m]; ``v`` [m/s].  0 outside the material, and the
+    rate terms 0 where ``v`` ≤ 0. [N per file unit]"""
+    import numpy as np
+
+    x, v = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(v, dtype=float))
+    frontal, bearing, side = (np.asarray(a, dtype=float) for a in np.vectorize(areas, otypes=[float] * 3)(x))
+    inside, moving = x > 0.0, (x > 0.0) & (v > 0.0)
+    unit = {term: coefficient_of(term).si_scale for term in TERMS}  # one file unit of each coefficient, SI
+    return (np.where(inside, unit["strength"] * design.strength_pa * bearing, 0.0),
+            np.where(inside, unit["friction"] * design.friction_coefficient * side, 0.0),
+            np.where(moving, unit["damping"] * v * frontal, 0.0),
+            np.where(moving, unit["inertia"] * design.density_kg_m3 * v * v * frontal, 0.0))
 
 
 def _tip_factor(angle_rad: float, mu: float) -> float:
@@ -155,6 +180,9 @@ class Cone:
             return shape_resistance(x, v, *self.areas(x, mu), design, chosen) if x > 0.0 else 0.0
         return r
 
+    def unit_terms(self, design: Design, x, v) -> tuple:
+        return shape_unit_terms(lambda depth: self.areas(depth, design.friction_coefficient), design, x, v)
+
 
 CONE_AREAS = ("projected", "mantle")
 """The conventions for the strength on a cone's face (:class:`Cone`)."""
@@ -195,6 +223,9 @@ class TaperedBlade:
             return shape_resistance(x, v, *self.areas(design, x), design, chosen) if x > 0.0 else 0.0
         return r
 
+    def unit_terms(self, design: Design, x, v) -> tuple:
+        return shape_unit_terms(lambda depth: self.areas(design, depth), design, x, v)
+
 
 GEOMETRIES = {"blade": Blade, "cone": Cone, "tapered_blade": TaperedBlade}
 """Every geometry by the name a parameter file's ``geometry:`` gives it; its constructor's keywords are the SI
@@ -215,4 +246,4 @@ def geometry_of(penetrator: ParameterSet) -> Geometry:
 
 
 __all__ = ["BLADE", "Blade", "CONE_AREAS", "Cone", "GEOMETRIES", "Geometry", "TaperedBlade", "geometry_of",
-           "shape_resistance"]
+           "shape_resistance", "shape_unit_terms"]
