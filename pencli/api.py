@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from pencli.errors import DataError, ParameterError, PenError, StoreError, describe_os_error
+from pencli.errors import DataError, FitError, ParameterError, PenError, StoreError, describe_os_error
 from pencli.model.design import Design, design_from_sets
 
 if TYPE_CHECKING:
@@ -800,7 +800,13 @@ def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | No
     from pencli.diagnose import engine
 
     workers = workers_from_environment() if workers is None else workers  # before the runs are read
-    return engine.diagnose(load_campaign(db, refs), effects=effects,
+    campaign = load_campaign(db, refs)
+    shaped = next((run for run in campaign if run.penetrator.geometry != "blade"), None)
+    if shaped is not None:
+        raise FitError(f"run '{shaped.run_id}': a {shaped.penetrator.geometry.replace('_', ' ')} penetrator; the "
+                       f"diagnosis's effect catalogue is written on the blade's Eq. 9 columns only so far (pen fit "
+                       f"fits any geometry)")
+    return engine.diagnose(campaign, effects=effects,
                            false_alarm=engine.FALSE_ALARM if false_alarm is None else false_alarm,
                            bootstrap=engine.BOOTSTRAP if bootstrap is None else bootstrap, seed=seed,
                            suggest=suggest, progress=progress, workers=workers)

@@ -124,6 +124,14 @@ class Run:
         return self.penetrator, self.material, self.energizing
 
     @functools.cached_property
+    def geometry(self):
+        """The penetrator's geometry (:func:`pencli.model.geometry.geometry_of`): the blade unless its file names
+        another."""
+        from pencli.model.geometry import geometry_of
+
+        return geometry_of(self.penetrator)
+
+    @functools.cached_property
     def design(self) -> Design:
         """The blade, material properties and launcher of the run (SI; coefficients as the material file gives)."""
         return design_from_sets(self.penetrator, self.material, self.energizing)

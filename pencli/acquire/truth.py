@@ -165,6 +165,9 @@ class TrueWorld:
     surface_offset_m: float
     efficiency: float
     effects: tuple[tuple[str, dict[str, float]], ...] = field(default_factory=tuple)
+    cone: tuple[float, float, float, str] | None = None
+    """A cone tip in place of the blade: (half-angle [rad], shaft radius [m], flat tip radius [m], ``projected`` or
+    ``mantle``); the blade's dimensions are then unused."""
 
     def effect(self, name: str) -> dict[str, float] | None:
         """Parameters of effect ``name`` when present."""
@@ -290,7 +293,29 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
         sidewall = 2.0 * mu * w * sidewall_integral(x)
         return frontal + sidewall
 
-    return resistance
+    if world.cone is None:
+        return resistance
+    if plug or pgrowth:
+        raise ParameterError("the simulated cone carries no plug growth or sidewall pressure growth (blade effects)")
+    alpha, r_shaft, r_tip, area = world.cone
+    slope = math.tan(alpha)
+    cone_length = (r_shaft - r_tip) / slope
+
+    def cone_resistance(x: float, v: float) -> float:
+        """A cone tip blunted to a flat, then its shaft: the strength pushes on the face (its projection times
+        sin α + μ cos α, or the face normal to it with friction along it) and on the flat, P on the shaft in the
+        material, the rate terms on the cross-section."""
+        x = x if x > 0.0 else 0.0
+        vp = v if v > 0.0 else 0.0
+        mu = friction_coefficient(vp)
+        radius = min(r_tip + slope * x, r_shaft)
+        section, flat = math.pi * radius ** 2, math.pi * r_tip ** 2
+        face = section * (math.sin(alpha) + mu * math.cos(alpha)) if area == "projected" else (
+            flat + (section - flat) * (1.0 + mu / slope))
+        shaft = 2.0 * math.pi * r_shaft * mu * P0 * max(x - cone_length, 0.0)
+        return Cs * strength(x, vp) * face + section * (C * vp + K * rho * vp * vp) + shaft
+
+    return cone_resistance
 
 
 @dataclass(frozen=True)

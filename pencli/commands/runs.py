@@ -132,7 +132,7 @@ def runs(
     columns = (("run", "left"), ("date", "left"), ("material", "left"), ("blade", "left"), ("T [mm]", "right"),
                ("springs", "right"), ("rate [kHz]", "right"), ("duration [s]", "right"), ("stage", "left"),
                ("tags", "left"))
-    cells = [[r["run_id"], str(r["run_date"] or ""), r["material"], r["penetrator"], f"{r['blade_thickness_mm']:g}",
+    cells = [[r["run_id"], str(r["run_date"] or ""), r["material"], r["penetrator"], _thickness(r["blade_thickness_mm"]),
               str(r["spring_count"]), f"{r['sampling_rate_hz'] / 1e3:.1f}", f"{r['duration_s']:.3f}",
               r["latest_stage"] or "", ", ".join(r["tags"] or [])] for r in rows]
     if not console.is_terminal:  # piped: plain tab-separated text, nothing cut
@@ -297,3 +297,8 @@ def export(
 
 
 __all__ = ["app", "runs_app", "fail"]
+
+
+def _thickness(value: float | None) -> str:
+    """A run's blade thickness, or a dash for a penetrator without one (a cone). [mm]"""
+    return "–" if value is None else f"{value:g}"

@@ -8,12 +8,14 @@ resistance from the launch (dynamic mode).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from typing import Mapping, Sequence
 
 import numpy as np
 
 from pencli.fit.dynamic import predicted_on
-from pencli.fit.resistance import _Window, basis, windows
+from pencli.fit.resistance import basis, windows
 from pencli.fit.result import COEFFICIENTS, TERM_OF
 from pencli.run import Run
 
@@ -31,8 +33,8 @@ def model_vs_data(runs: Sequence[Run], values: Mapping[str, float], terms: Seque
                            "resistance_n": s.resistance_n}
         t = rec["time_s"]
         keep = (t >= s.contact_s - before_s) & (t <= s.stop_s + after_s)
-        view = _Window(s.run_id, s.design, t[keep], rec["depth_m"][keep], rec["velocity_m_s"][keep],
-                       rec["resistance_n"][keep], s.contact_s, s.stop_s, s.end, s.contact_speed_m_s)
+        view = replace(s, time_s=t[keep], depth_m=rec["depth_m"][keep], velocity_m_s=rec["velocity_m_s"][keep],
+                       resistance_n=rec["resistance_n"][keep], record=None)
         in_material = (view.depth_m >= 0) & (view.time_s >= s.contact_s) & (view.time_s <= s.stop_s)
         eq9 = np.where(in_material, basis(view) @ coeffs, 0.0)
         x_dyn, r_dyn, _ = predicted_on(view, values, terms, view.time_s)

@@ -39,7 +39,7 @@ def predicted_on(series: _Window, values: Mapping[str, float], terms: Sequence[s
     """
     design = with_coefficients(series.design, values)
     rate = (series.time_s.size - 1) / max(series.time_s[-1] - series.time_s[0], 1e-9)
-    result = simulate(design, terms, output_rate_hz=max(rate, 10_000.0), rtol=FIT_RTOL)
+    result = simulate(design, terms, output_rate_hz=max(rate, 10_000.0), rtol=FIT_RTOL, geometry=series.geometry)
     traj = result.trajectory
     t = series.time_s if times is None else times
     x = np.interp(t, traj.time_s, traj.depth_m)

@@ -16,7 +16,7 @@ from typing import Mapping
 import numpy as np
 
 from pencli.fit.result import COEFFICIENT_OF
-from pencli.model.resistance import TERMS, unit_terms
+from pencli.model.resistance import TERMS
 from pencli.run import Run
 
 
@@ -65,7 +65,7 @@ def measured_energy(run: Run, values: Mapping[str, float],
     d = run.design
     m, g = d.effective_mass_kg, d.gravity_m_s2
     per_unit = {term: float(np.trapezoid(column, x)) if x.size > 1 else 0.0
-                for term, column in zip(TERMS, np.broadcast_arrays(*unit_terms(d, np.maximum(x, 1e-12), v)))}
+                for term, column in zip(TERMS, np.broadcast_arrays(*run.geometry.unit_terms(d, np.maximum(x, 1e-12), v)))}
     terms = {term: values[COEFFICIENT_OF[term]] * per_unit[term] for term in TERMS}
     ranges = {}
     for term in TERMS:

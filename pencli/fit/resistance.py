@@ -29,7 +29,8 @@ from pencli.filter.inertia import effective_samples
 from pencli.filter.windows import FIT_EDGE_MARGINS_S, fit_edges
 from pencli.fit.result import COEFFICIENT_OF, COEFFICIENTS, TERM_OF, Coefficient, FitResult, RunFit
 from pencli.model.design import Design
-from pencli.model.resistance import TERMS, coefficient_of, parse_terms, unit_terms
+from pencli.model.geometry import BLADE, Geometry
+from pencli.model.resistance import TERMS, coefficient_of, parse_terms
 from pencli.run import MIN_WINDOW_SAMPLES, Run
 
 TYPICAL = {"strength_factor": 1.0, "sidewall_pressure_kpa": 10.0, "damping_kpa_s_m": 10.0, "inertia_coefficient": 30.0}
@@ -73,6 +74,8 @@ class _Window:
     """The whole record (time_s, depth_m, velocity_m_s, resistance_n), for model-against-data tables."""
     material: str = ""
     """The ``name:`` of the run's material file."""
+    geometry: Geometry = BLADE
+    """The run's penetrator geometry, whose columns the fit multiplies (:meth:`Geometry.unit_terms`)."""
 
     @property
     def penetration_time_s(self) -> float:
@@ -104,15 +107,15 @@ def windows(runs: Sequence[Run | _Window], margins_s: tuple[float, float] = (0.0
                             f"needs at least {MIN_WINDOW_SAMPLES}")
         out.append(_Window(run.run_id, run.design, *(record[name][keep] for name in RECORD_COLUMNS),
                            events.contact_s, events.stop_s, events.end, events.contact_speed_m_s, record,
-                           run.material.name))
+                           run.material.name, run.geometry))
     return out
 
 
 def basis(series: _Window) -> np.ndarray:
-    """Columns of Eq. 9 per file unit of each coefficient, shape (n, 4). [N per unit]"""
-    d = series.design
+    """Columns of Eq. 9 per file unit of each coefficient, shape (n, 4), on the run's geometry (the blade's are
+    Eq. 9's own). [N per unit]"""
     x, v = np.maximum(series.depth_m, 1e-12), series.velocity_m_s  # in the window the tip is in the material
-    return np.column_stack(np.broadcast_arrays(*unit_terms(d, x, v)))
+    return np.column_stack(np.broadcast_arrays(*series.geometry.unit_terms(series.design, x, v)))
 
 
 def _solve(X: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -180,13 +183,14 @@ def ranges_of(series: Sequence[_Window]) -> dict:
     def span(values):
         return [float(np.min(values)), float(np.max(values))]
 
-    return {
+    out = {
         "contact_speed_m_s": span([s.contact_speed_m_s for s in series]),
         "depth_mm": [0.0, float(max(np.max((s.record or {"depth_m": s.depth_m})["depth_m"]) for s in series) * 1e3)],
         "blade_thickness_mm": span([s.design.blade_thickness_m * 1e3 for s in series]),
         "blade_width_mm": span([s.design.blade_width_m * 1e3 for s in series]),
         "microstructure_strength_kpa": span([s.design.strength_pa / 1e3 for s in series]),
     }
+    return {key: pair for key, pair in out.items() if all(np.isfinite(pair))}  # a cone has no blade width
 
 
 def fit_resistance(runs: Sequence[Run], material: str, *, terms: Iterable[str] | str | None = None,

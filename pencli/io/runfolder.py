@@ -279,11 +279,6 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
                                  allow_out_of_range=options.allow_out_of_range)
         else:
             raise ParameterError(f"{folder}: missing {name} (or give --{kind} PRESET_OR_FILE)")
-    shape = sets["penetrator"].geometry
-    if shape != "blade":
-        raise ParameterError(f"{sets['penetrator'].source}: geometry {shape}: the run store records blade runs only "
-                             f"so far (its catalog indexes each run's blade width and thickness); `pen predict` "
-                             f"simulates a {shape.replace('_', ' ')}")
     info: dict[str, Any] = {}
     if (folder / "run.yaml").is_file():
         loaded = read_yaml(folder / "run.yaml")
@@ -311,9 +306,14 @@ def read_run_folder(folder: str | Path, options: ReadOptions = ReadOptions(),
 
 def unit_scales(penetrator: ParameterSet, material: ParameterSet, energizing: ParameterSet) -> UnitScales:
     """The scales a run's parameter files set for its travel and force (for :func:`check_units`)."""
-    return UnitScales(float(energizing.get("surface_offset_mm")), float(penetrator.get("penetration_depth_mm")),
-                      float(material.get("microstructure_strength_kpa")) * 1e3
-                      * float(penetrator.get("blade_width_mm")) * 1e-3 * float(penetrator.get("blade_thickness_mm")) * 1e-3)
+    from pencli.model.design import design_from_sets
+    from pencli.model.geometry import geometry_of
+
+    depth_mm = float(penetrator.get("penetration_depth_mm"))
+    frontal = geometry_of(penetrator).frontal_area_m2(design_from_sets(penetrator, material, energizing),
+                                                      depth_mm * 1e-3)  # the blade's w·T; a cone's base
+    return UnitScales(float(energizing.get("surface_offset_mm")), depth_mm,
+                      float(material.get("microstructure_strength_kpa")) * 1e3 * frontal)
 
 
 def _check_run_info(info: dict, path: Path) -> None:

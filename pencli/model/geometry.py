@@ -49,6 +49,9 @@ class Geometry(Protocol):
         """R(x [m], v [m/s]) → N for x > 0; ``v`` is already clipped at 0 (the material resists motion into
         it only). Called with floats inside the integrator."""
 
+    def frontal_area_m2(self, design: Design, x: float) -> float:
+        """The area the tip presses and the rate terms act on at depth ``x`` > 0. [m²]"""
+
     def unit_terms(self, design: Design, x, v) -> tuple:
         """The four terms of the resistance at one file unit of each coefficient (Cs, P, C, K), at depths ``x``
         [m] and speeds ``v`` [m/s] (arrays): the columns a linear fit of the coefficients multiplies; their
@@ -68,6 +71,9 @@ class Blade:
         law = resistance_law(design, terms)
         a0, a1, b, d = law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2
         return lambda x, v: reduced(x, v, a0, a1, b, d)
+
+    def frontal_area_m2(self, design: Design, x: float) -> float:
+        return design.frontal_area_m2
 
     def unit_terms(self, design: Design, x, v) -> tuple:
         return unit_terms(design, x, v)
@@ -180,6 +186,9 @@ class Cone:
             return shape_resistance(x, v, *self.areas(x, mu), design, chosen) if x > 0.0 else 0.0
         return r
 
+    def frontal_area_m2(self, design: Design, x: float) -> float:
+        return self.areas(x, design.friction_coefficient)[0]
+
     def unit_terms(self, design: Design, x, v) -> tuple:
         return shape_unit_terms(lambda depth: self.areas(depth, design.friction_coefficient), design, x, v)
 
@@ -222,6 +231,9 @@ class TaperedBlade:
         def r(x: float, v: float) -> float:
             return shape_resistance(x, v, *self.areas(design, x), design, chosen) if x > 0.0 else 0.0
         return r
+
+    def frontal_area_m2(self, design: Design, x: float) -> float:
+        return self.areas(design, x)[0]
 
     def unit_terms(self, design: Design, x, v) -> tuple:
         return shape_unit_terms(lambda depth: self.areas(design, depth), design, x, v)

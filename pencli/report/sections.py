@@ -192,8 +192,9 @@ def material_section(ws, row: Mapping[str, Any]) -> Section:
                                paper="Fig. 13")
     runs = row["source_runs"]
     median_run = runs[len(runs) // 2]
-    design, m = _design_with_fit(ws.load_run(median_run, "raw"), fit["coefficients"])
-    tr = simulate(design, output_rate_hz=20_000.0).trajectory
+    median = ws.load_run(median_run, "raw")
+    design, m = _design_with_fit(median, fit["coefficients"])
+    tr = simulate(design, output_rate_hz=20_000.0, geometry=median.geometry).trajectory
     inside = tr.phase == 1
     cone, ucs = REFERENCE_ESTIMATES.get(m.name, (None, None))
     section.add_figure(*figures.estimates_comparison(

@@ -698,14 +698,14 @@ class Workspace:
                 run_date = dt.date.fromisoformat(run_date)
             except ValueError:
                 run_date = None
-        con.execute("INSERT INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
+        con.execute("INSERT INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)", [
             run_id, digest, run.source, run.source_format, now, run_date,
             None if info.get("operator") is None else str(info.get("operator")),
             None if info.get("notes") is None else str(info.get("notes")),
             [str(t) for t in tags], json.dumps(info, default=str),
-            m.name, p.name, e.name, p.get("blade_thickness_mm"), p.get("blade_width_mm"),
+            m.name, p.name, e.name, p.get("blade_thickness_mm"), p.get("blade_width_mm"),  # None for a cone
             int(e.get("spring_count")), p.get("sprung_mass_kg"), e.get("surface_offset_mm"),
-            run.sampling_rate_hz, run.n_samples, run.duration_s, __version__])
+            run.sampling_rate_hz, run.n_samples, run.duration_s, __version__, p.geometry])
         for ps in run.parameter_sets():
             con.execute("INSERT INTO run_parameters VALUES (?, ?, ?, ?)",
                         [run_id, ps.kind, ps.name, json.dumps(ps.to_mapping())])

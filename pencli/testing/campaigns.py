@@ -35,6 +35,7 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
                   converter_noise: float | None = None) -> Path:
     """Fire a campaign into ``folder/runs.duckdb``; returns the catalog path.
 
+    ``shots``: (blade thickness in mm of a bundled 184 mm blade, or a penetrator file ending in .yaml; springs).
     ``standoff_mm``: per shot, the true stand-off minus the file's (stand-off scatter).
     ``strength_scale``: per shot, the block's true strength over the recorded one (unrecorded scatter).
     ``encoder_mm``: the string encoder's step (default: the bundled encoder's).
@@ -81,7 +82,8 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
             rig["converter_noise_n"] = float(converter_noise) * gauge
         rig_file = folder / f"rig-{i}.yaml"
         rig_file.write_text(yaml.safe_dump(rig))
-        shot = api.acquire(springs=springs, penetrator=f"al6061_{blade}mm", material=str(material_file), rig=rig_file,
+        penetrator = blade if str(blade).endswith(".yaml") else f"al6061_{blade}mm"  # a file, or a blade's mm
+        shot = api.acquire(springs=springs, penetrator=penetrator, material=str(material_file), rig=rig_file,
                            position_cal=position_cal, duration_s=1.0, info={"id": f"r{i:02d}-{blade}mm-{springs}s"})
         try:
             api.add_run(shot.run, db, command="test campaign")
