@@ -158,28 +158,48 @@ def test_a_run_folder_of_a_cone_is_stored_with_its_geometry_and_no_blade(tmp_pat
 
 
 def test_a_workspace_written_before_runs_had_a_geometry_keeps_every_run_and_stage_when_upgraded(tmp_path, runner):
-    """The example workspace's catalog predates the geometry column: a writing command upgrades it (the run tables
-    rebuilt), every run becomes a blade, and every stage file still matches its hash."""
+    """A catalog of schema 3 (the first three migrations, run here on their own, filled with the example
+    workspace's rows): a writing command upgrades it (the run tables rebuilt), every run becomes a blade, the
+    rows are all kept, and every stage file still matches its hash."""
     import shutil
 
     import duckdb
 
-    shutil.copytree(REPO / "examples" / "workspace", tmp_path / "ws")
-    db = tmp_path / "ws" / "runs.duckdb"
+    from pencli.store.migrations import MIGRATIONS
+
+    example = REPO / "examples" / "workspace"
+    for folder in ("runs", "fits", "sweeps"):
+        shutil.copytree(example / folder, tmp_path / folder)
+    db = tmp_path / "runs.duckdb"
+    tables = ("runs", "run_parameters", "stages", "materials", "sweeps")
+    con = duckdb.connect(str(db))
+    try:
+        con.execute("CREATE TABLE schema_migrations (version INTEGER PRIMARY KEY, name VARCHAR, applied_at "
+                    "TIMESTAMP, pen_version VARCHAR)")
+        for version, name, sql in MIGRATIONS[:3]:
+            con.execute(sql)
+            con.execute("INSERT INTO schema_migrations VALUES (?, ?, now(), 'old')", [version, name])
+        con.execute(f"ATTACH '{example / 'runs.duckdb'}' AS example (READ_ONLY)")
+        for table in tables:
+            columns = [row[0] for row in con.execute(f"DESCRIBE {table}").fetchall()]  # schema 3's columns
+            con.execute(f"INSERT INTO {table} SELECT {', '.join(columns)} FROM example.{table}")
+    finally:
+        con.close()
 
     def counts():
         con = duckdb.connect(str(db), read_only=True)
         try:
-            return [con.execute(f"SELECT count(*) FROM {t}").fetchone()[0] for t in ("runs", "run_parameters",
-                                                                                      "stages")]
+            return [con.execute(f"SELECT count(*) FROM {t}").fetchone()[0] for t in tables]
         finally:
             con.close()
 
     before = counts()
+    assert before[0] == 12 and invoke(runner, "runs", "check", "--db", str(db)).exit_code == 0  # read as it is
     assert invoke(runner, "tare", "mc-1.0-4", "--db", str(db)).exit_code == 0  # writes: upgrades the catalog
     assert counts() == before
     con = duckdb.connect(str(db), read_only=True)
     try:
+        assert con.execute("SELECT max(version) FROM schema_migrations").fetchone()[0] == MIGRATIONS[-1][0]
         assert con.execute("SELECT DISTINCT geometry FROM runs").fetchall() == [("blade",)]
     finally:
         con.close()
