@@ -6,6 +6,7 @@ pure core and returns result objects.  Nothing here prints.
 
 from __future__ import annotations
 
+import functools
 import glob
 import json
 import math
@@ -848,17 +849,28 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
         raise ParameterError(f"--resolution {resolution}: at least 2 points per variable")
     if speed_at_contact_m_s is not None:
         check_contact_speed(speed_at_contact_m_s)
+    from pencli.model.geometry import geometry_of
+    from pencli.predict import shapes
+
     p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
-                                  allow_out_of_range=allow_out_of_range, blade_only="pen sweep")
+                                  allow_out_of_range=allow_out_of_range)
     base = {**p.values, **m.values, **e.values}
     base[SPEED] = (float(speed_at_contact_m_s) if speed_at_contact_m_s is not None else
-                   float(simulate(design_from_sets(p, m, e), output_rate_hz=1000.0).summary.contact_speed_m_s))
-    variables = [parse_vary(spec, base, resolution) for spec in vary]
+                   float(simulate(design_from_sets(p, m, e), output_rate_hz=1000.0,
+                                  geometry=geometry_of(p)).summary.contact_speed_m_s))
+    variables = [parse_vary(spec, base, resolution, p.geometry) for spec in vary]
     total = n if sample else Grid(variables).size
+    shaped = p.geometry != "blade"  # not Eq. 9's form: each design integrated on its own
+    if shaped and total > shapes.MAX_DESIGNS:
+        raise ParameterError(f"{'--n' if sample else '--resolution/--vary'}: {total:.3g} designs of a "
+                             f"{p.geometry.replace('_', ' ')}, each integrated on its own (about 12 ms a design); "
+                             f"pen sweeps at most {shapes.MAX_DESIGNS:.0e} of them: lower --resolution or --n")
     if total > MAX_DESIGNS:
         raise ParameterError(f"{'--n' if sample else '--resolution/--vary'}: {total:.3g} designs; pen sweeps at most "
                              f"{MAX_DESIGNS:.0e} (about 100 GB of Parquet): lower --resolution or --n, or "
                              f"sample the space (--sample lhs --n N)")
+    runner = (functools.partial(shapes.run_chunk_shaped, geometry=p.geometry, choices=dict(p.choices)) if shaped
+              else None)
     ws = workspace(db) if db is not None else None
     written_to = out if out is not None else db
     folder = Path(written_to).expanduser().absolute().parent if written_to is not None else None
@@ -881,8 +893,9 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
     with (StreamedTable(target, meta, categories={"end": ENDS}, compression="none",
                         nullable=False) if target is not None
           else contextlib.nullcontext()) as table:
-        for chunk, result in evaluate_columns(base, columns, engine=engine, scheduler=scheduler, workers=workers,
-                                              progress=progress):
+        chunking = {"runner": runner, "chunk_size": shapes.CHUNK, "workers": 1} if shaped else {"workers": workers}
+        for chunk, result in evaluate_columns(base, columns, engine=engine, scheduler=scheduler, progress=progress,
+                                              **chunking):
             if table is not None:
                 table.write({**{k: np.asarray(v, dtype=float) for k, v in chunk.items()}, **result})
             stats["full_penetration"] += int(np.sum(result["full_penetration"]))

@@ -125,7 +125,9 @@ def test_every_geometry_a_file_may_name_is_a_simulator_geometry():
 
 
 @pytest.mark.parametrize("args", [
-    ["sweep", "-p", "cone_10cm2", "-m", "mpacs_c", "-e", "springs_4", "--vary", "spring_count=2:6"],
+    ["sweep", "-p", "cone_10cm2", "-m", "mpacs_c", "-e", "springs_4", "--solve", "max:spring_count",
+     "--until", "full_penetration"],
+    ["sweep", "-p", "cone_10cm2", "-m", "mpacs_c", "-e", "springs_4", "--vary", "blade_width_mm=20:40"],
     ["sweep", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--vary", "cone_half_angle_deg=20:40"],
     ["predict", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "springs_4", "--set", "shaft_diameter_mm=30"],
 ])
@@ -280,3 +282,29 @@ def test_a_fit_of_cones_fired_by_the_simulated_rig_recovers_the_materials_coeffi
     assert lo <= truth["sidewall_pressure_kpa"] <= hi
     lo, hi = fitted["damping_kpa_s_m"].ci95
     assert lo <= truth["damping_kpa_s_m"] <= hi
+
+
+def test_a_sweep_of_cones_gives_each_design_what_predict_gives_it_and_marks_the_impossible_ones(tmp_path, runner):
+    """Each design of a cone's sweep is integrated on its own: its row is `pen predict`'s for that design (the
+    varied shaft diameter and spring count set, the file's mantle convention kept); a blunt tip wider than
+    its shaft is `invalid`, with no figures."""
+    import pyarrow.parquet as pq
+
+    files = [write(tmp_path, n, m) for n, m in (("cone", CONE), ("soft", MATERIAL), ("two", LAUNCHER))]
+    out = tmp_path / "sweep.parquet"
+    result = invoke(runner, "sweep", "-p", files[0], "-m", files[1], "-e", files[2], "--vary",
+                    "shaft_diameter_mm=4,20,44", "--vary", "spring_count=1,3", "--out", str(out))
+    assert result.exit_code == 0, result.output
+    rows = pq.read_table(out).to_pylist()
+    assert len(rows) == 6
+    for row in rows:
+        if row["shaft_diameter_mm"] <= CONE["tip_flat_diameter_mm"]:
+            assert row["end"] == "invalid" and math.isnan(row["final_depth_mm"])
+            continue
+        alone = invoke(runner, "predict", "-p", files[0], "-m", files[1], "-e", files[2], "--json", "--set",
+                       f"shaft_diameter_mm={row['shaft_diameter_mm']}", "--set", f"spring_count={row['spring_count']:g}")
+        expected = json.loads(alone.stdout)
+        for key in ("final_depth_mm", "penetration_time_s", "peak_resistance_n", "energy_other_j"):
+            assert row[key] == pytest.approx(expected[key], rel=1e-9), key
+        assert row["end"] == expected["end"]
+    assert {row["end"] for row in rows} >= {"invalid", "arrest"}

@@ -27,22 +27,26 @@ def run_chunk(base: dict, columns: dict) -> dict:
     return {**result.figures, "end": result.code, "near_critical": result.near_critical}
 
 
-def _take_and_run(base: dict, columns, start: int, stop: int) -> tuple[dict, dict]:
+def _take_and_run(base: dict, columns, start: int, stop: int, runner=run_chunk) -> tuple[dict, dict]:
     """Designs ``start`` to ``stop`` of ``columns`` made and simulated in the worker: the caller's thread
     only writes."""
     chunk = columns.take(start, stop)
-    return chunk, run_chunk(base, chunk)
+    return chunk, runner(base, chunk)
 
 
 def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: str | None = None,
-                     workers: int = 2, progress: Callable[[int, int], None] | None = None):
+                     workers: int = 2, progress: Callable[[int, int], None] | None = None,
+                     runner: Callable[[dict, dict], dict] = run_chunk, chunk_size: int = CHUNK):
     """Yield (chunk columns, results) in order; local threads or a dask cluster do the work.
+
+    ``runner(base, chunk)`` simulates one chunk (default :func:`run_chunk`, the batch simulator; a penetrator
+    outside Eq. 9's form passes :func:`pencli.predict.shapes.run_chunk_shaped`), ``chunk_size`` designs at a time.
 
     ``columns``: a :class:`~pencli.predict.sweep.Grid` or :class:`~pencli.predict.sweep.Sample`, whose chunks
     are made as they are needed (a few in flight at a time, so memory does not grow with the sweep).
     """
     n, take = columns.size, columns.take
-    chunks = (take(s, min(s + CHUNK, n)) for s in range(0, n, CHUNK))
+    chunks = (take(s, min(s + chunk_size, n)) for s in range(0, n, chunk_size))
     done = 0
 
     def emit(chunk: dict, result: dict) -> tuple[dict, dict]:
@@ -62,7 +66,7 @@ def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: s
         client = Client(scheduler or cluster)
         try:
             chunks = list(chunks)
-            futures = client.map(run_chunk, [base] * len(chunks), chunks, pure=False)
+            futures = client.map(runner, [base] * len(chunks), chunks, pure=False)
             for chunk, future in zip(chunks, futures):
                 yield emit(chunk, future.result())
         finally:
@@ -72,9 +76,9 @@ def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: s
         return
     if engine != "local":
         raise ParameterError(f"--engine {engine!r}: expected local or dask")
-    if n <= CHUNK or workers <= 1:
+    if n <= chunk_size or workers <= 1:
         for chunk in chunks:
-            yield emit(chunk, run_chunk(base, chunk))
+            yield emit(chunk, runner(base, chunk))
         return
     from collections import deque
     from concurrent.futures import ThreadPoolExecutor
@@ -83,8 +87,8 @@ def evaluate_columns(base: dict, columns, *, engine: str = "local", scheduler: s
     # copied between processes; the caller writes each finished chunk while the next ones run
     with ThreadPoolExecutor(max_workers=workers) as pool:
         pending: deque = deque()  # at most 2 × workers chunks in flight
-        for start in range(0, n, CHUNK):
-            pending.append(pool.submit(_take_and_run, base, columns, start, min(start + CHUNK, n)))
+        for start in range(0, n, chunk_size):
+            pending.append(pool.submit(_take_and_run, base, columns, start, min(start + chunk_size, n), runner))
             if len(pending) >= 2 * workers:
                 yield emit(*pending.popleft().result())
         while pending:

@@ -47,10 +47,11 @@ class Variable:
         return "m/s" if self.key == SPEED else BY_KEY[self.key].unit
 
 
-def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variable:
+def parse_vary(spec: str, base: Mapping[str, float], resolution: int, geometry: str = "blade") -> Variable:
     """``KEY=+20%,-50%`` (BAM ± deltas), ``KEY=LO:HI`` (range) or ``KEY=V1,V2,...`` (list).
 
-    Percentages are of the base value; ranges and deltas get ``resolution`` points.
+    Percentages are of the base value; ranges and deltas get ``resolution`` points.  ``geometry``: the
+    penetrator's, whose keys alone may vary.
     """
     if "=" not in spec:
         raise ParameterError(f"--vary {spec!r}: expected KEY=+20%,-50% or KEY=LO:HI or KEY=V1,V2,...")
@@ -58,9 +59,9 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int) -> Variabl
     if key != SPEED and key not in BY_KEY:
         hint = f" (did you mean 'coefficients.{key}'?)" if f"coefficients.{key}" in BY_KEY else ""
         raise ParameterError(f"--vary {spec!r}: unknown key '{key}'{hint}; any CONTRACT §1 key or {SPEED}")
-    if key != SPEED and BY_KEY[key].builds != "design":
+    if key != SPEED and not BY_KEY[key].belongs_to(geometry):
         raise ParameterError(f"--vary {spec!r}: '{key}' is a dimension of a {' or '.join(BY_KEY[key].geometries)}; "
-                             f"the sweep simulates the blade")
+                             f"this penetrator is a {geometry.replace('_', ' ')}")
     discrete = False
     try:
         if "%" in text:
