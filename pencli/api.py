@@ -1301,13 +1301,13 @@ def plot_sounding(sounding, path: str | Path) -> str:
     return _save_captioned(fig, caption, path, fontsize=8, dpi=150, top=0.9)
 
 
-SOUNDING_READERS = {".gef": "pencli.io.gef:read_gef"}
-"""Readers of sounding files by suffix (``.gz`` aside), as ``module:function`` returning one sounding; any other
-suffix is read as SGF (``pencli.io.sgf.read_sgf``, one or more soundings)."""
+SOUNDING_READERS = {".gef": "pencli.io.gef:read_gef", ".ags": "pencli.io.ags:read_ags"}
+"""Readers of sounding files by suffix (``.gz`` aside), as ``module:function`` returning one sounding or a list of
+them; any other suffix is read as SGF (``pencli.io.sgf.read_sgf``, one or more soundings)."""
 
 
 def read_soundings(paths: Sequence[str | Path]):
-    """The soundings of SGF or GEF files (``pencli.io.sgf.Sounding``), in the files' order."""
+    """The soundings of SGF, GEF or AGS4 files (``pencli.io.sgf.Sounding``), in the files' order."""
     import importlib
 
     from pencli.io.sgf import read_sgf
@@ -1317,7 +1317,8 @@ def read_soundings(paths: Sequence[str | Path]):
         suffix = Path(str(path).removesuffix(".gz")).suffix.lower()
         if suffix in SOUNDING_READERS:
             module, function = SOUNDING_READERS[suffix].split(":")
-            out.append(getattr(importlib.import_module(module), function)(path))
+            read = getattr(importlib.import_module(module), function)(path)
+            out.extend(read if isinstance(read, list) else [read])
         else:
             out.extend(read_sgf(path))
     return out

@@ -15,7 +15,7 @@ from pencli.lazy import lazy
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
-soundings_app = PenTyper(help="Field soundings (SGF and GEF files): read and draw them, fit a rate effect across a site's soundings, "
+soundings_app = PenTyper(help="Field soundings (SGF, GEF and AGS4 files): read and draw them, fit a rate effect across a site's soundings, "
                               "diagnose whether the push rate matters.")
 
 UNITS_FILE = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps.")
@@ -26,10 +26,12 @@ QUANTITY = typer.Option("qt", "--quantity", help="qt (cone resistance corrected 
 
 @soundings_app.command("show")
 def show(
-    files: List[Path] = typer.Argument(..., help="SGF files (.cpt, .std, .tot; plain or .gz) or GEF files (.gef)."),
+    files: List[Path] = typer.Argument(..., help="SGF files (.cpt, .std, .tot), GEF files (.gef) or AGS4 files "
+                                                 "(.ags); plain or .gz."),
     json_out: bool = typer.Option(False, "--json", help='Print [{"file", "name", "kind", "rows", ...}].'),
 ) -> None:
-    """One line per sounding: its kind, depth range, rows, the push rate from its clock [mm/s] and the logger's.
+    """One line per sounding: its kind, depth range, rows, the push rate from its clock [mm/s] and the logger's
+    (an AGS4 test's nominal rate, which its file states instead).
 
     Example: pen soundings show examples/field/ntnu-cptu-rate/soundings/TILC5*.cpt.gz
     """
@@ -42,6 +44,9 @@ def show(
         for sounding in api.read_soundings([path]):
             depth = sounding.columns["depth_m"]
             logger = sounding.columns.get("rate_mm_s")
+            nominal = sounding.header_number("push_rate_mm_s")
+            if logger is None and nominal is not None:
+                logger = np.array([nominal])
             moving = logger[logger > 0] if logger is not None else np.array([])
             records.append({"file": str(path), "name": sounding.name, "kind": sounding.kind, "rows": int(depth.size),
                             "top_m": float(depth[0]), "bottom_m": float(depth[-1]),
@@ -65,7 +70,8 @@ def show(
 
 @soundings_app.command("plot")
 def plot(
-    file: Path = typer.Argument(..., help="A sounding file (SGF: .cpt, .std, .tot; GEF: .gef)."),
+    file: Path = typer.Argument(..., help="A sounding file (SGF: .cpt, .std, .tot; GEF: .gef; AGS4: .ags; plain "
+                                          "or .gz)."),
     out: Path = typer.Option(..., "--out", help="Figure to write (PNG, SVG or PDF); a file of several soundings "
                                                 "gets one figure each, numbered."),
 ) -> None:

@@ -66,9 +66,9 @@ class Sounding:
 
     @property
     def kind(self) -> str:
-        """``cptu``, ``total_sounding``, or ``sgf_method_<HM>`` for a method pen does not know; a GEF file's
-        (method ``gef``) ``cptu`` where it has u₂, else ``cpt``."""
-        if self.method == "gef":
+        """``cptu``, ``total_sounding``, or ``sgf_method_<HM>`` for a method pen does not know; a GEF or AGS4
+        file's (method ``gef``, ``ags``) ``cptu`` where it has u₂, else ``cpt``."""
+        if self.method in ("gef", "ags"):
             return "cptu" if "u2_kpa" in self.columns else "cpt"
         return METHODS.get(self.method, f"sgf_method_{self.method}")
 
