@@ -1287,17 +1287,43 @@ qt = qc + (1 − a)·u₂ (a, the net area ratio, from the header's MA), qc the 
 friction, u2 the pore pressure."""
 
 
-def plot_sounding(sounding, path: str | Path) -> str:
-    """Draw a sounding (``pen soundings plot``) against depth to a PNG, SVG or PDF file; returns the caption."""
+def sounding_resistance_mpa(sounding) -> tuple[np.ndarray, str]:
+    """A sounding's cone resistance and its name: qt = qc + (1 − a)·u₂ where the sounding has u₂ and its net area
+    ratio, else qc. [MPa]"""
     from pencli.fit.rate_effect import qt_kpa
-    from pencli.report.figures import sounding_profile
 
     c = sounding.columns
     if "qc_mpa" not in c:
-        raise DataError(f"{sounding.source}: sounding {sounding.name} has no cone resistance (qc) to draw")
+        raise DataError(f"{sounding.source}: sounding {sounding.name} has no cone resistance (qc)")
     ratio = sounding.header_number("MA")
-    qt = (qt_kpa(c["qc_mpa"], c["u2_kpa"], ratio) / 1e3 if "u2_kpa" in c and ratio is not None else None)
-    fig, caption = sounding_profile(sounding.name, c["depth_m"], c["qc_mpa"], c.get("fs_kpa"), c.get("u2_kpa"), qt)
+    if "u2_kpa" in c and ratio is not None:
+        return qt_kpa(c["qc_mpa"], c["u2_kpa"], ratio) / 1e3, "qt"
+    return c["qc_mpa"], "qc"
+
+
+def sounding_layers(sounding, *, min_thickness_m: float | None = None):
+    """The layers of a sounding's cone resistance (qt where it can be had, else qc;
+    :func:`pencli.fit.layers.detect_layers`)."""
+    from pencli.fit.layers import MIN_THICKNESS_M, detect_layers
+
+    q, _ = sounding_resistance_mpa(sounding)
+    try:
+        return detect_layers(sounding.columns["depth_m"], q,
+                             min_thickness_m=MIN_THICKNESS_M if min_thickness_m is None else min_thickness_m)
+    except DataError as error:
+        raise DataError(f"{sounding.source}: sounding {sounding.name}: {error}") from None
+
+
+def plot_sounding(sounding, path: str | Path, layers=None) -> str:
+    """Draw a sounding (``pen soundings plot``) against depth to a PNG, SVG or PDF file, with ``layers`` (a
+    :class:`~pencli.fit.layers.Cut`) drawn where given; returns the caption."""
+    from pencli.report.figures import sounding_profile
+
+    c = sounding.columns
+    q, name = sounding_resistance_mpa(sounding)
+    qt = q if name == "qt" else None
+    fig, caption = sounding_profile(sounding.name, c["depth_m"], c["qc_mpa"], c.get("fs_kpa"), c.get("u2_kpa"), qt,
+                                    layers=layers)
     return _save_captioned(fig, caption, path, fontsize=8, dpi=150, top=0.9)
 
 

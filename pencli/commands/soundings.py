@@ -11,13 +11,16 @@ from rich.table import Table
 
 from pencli.commands.common import PenTyper, console, db_path, print_json
 from pencli.diagnose import FALSE_ALARM, SHUFFLES
+from pencli.fit import LAYER_MIN_THICKNESS_M as MIN_THICKNESS_M
 from pencli.lazy import lazy
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
-soundings_app = PenTyper(help="Field soundings (SGF, GEF and AGS4 files): read and draw them, fit a rate effect across a site's soundings, "
-                              "diagnose whether the push rate matters.")
+soundings_app = PenTyper(help="Field soundings (SGF, GEF and AGS4 files): read and draw them, find their layers, fit a "
+                              "rate effect across a site's soundings, diagnose whether the push rate matters.")
 
+MIN_THICKNESS = typer.Option(MIN_THICKNESS_M, "--min-thickness", min=0.02, max=50.0,
+                             help="Thinnest layer kept [m]; the default is about eight diameters of a 10 cm² cone.")
 UNITS_FILE = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps.")
 SITE = typer.Option(..., "--site", help="The site of the units file whose soundings are taken.")
 QUANTITY = typer.Option("qt", "--quantity", help="qt (cone resistance corrected by u₂ on the net area ratio), qc, "
@@ -74,9 +77,11 @@ def plot(
                                           "or .gz)."),
     out: Path = typer.Option(..., "--out", help="Figure to write (PNG, SVG or PDF); a file of several soundings "
                                                 "gets one figure each, numbered."),
+    layers: bool = typer.Option(False, "--layers", help="Draw the layers `pen soundings layers` finds."),
+    min_thickness: float = MIN_THICKNESS,
 ) -> None:
     """Draw a sounding against depth: qc (and qt where u₂ and the net area ratio correct it) [MPa], fs [kPa],
-    u₂ [kPa].
+    u₂ [kPa]; with --layers, the layers of its resistance.
 
     Example: pen soundings plot examples/field/gef/cpt.gef --out cpt.png
     """
@@ -84,8 +89,55 @@ def plot(
     soundings = api.read_soundings([file])
     for k, sounding in enumerate(soundings):
         target = out if len(soundings) == 1 else out.with_name(f"{out.stem}-{k + 1}{out.suffix}")
-        caption = api.plot_sounding(sounding, target)
+        cut = api.sounding_layers(sounding, min_thickness_m=min_thickness) if layers else None
+        caption = api.plot_sounding(sounding, target, cut)
         console.print(f"figure written to {escape(str(target))}: {escape(caption)}")
+
+
+@soundings_app.command("layers")
+def layers_command(
+    files: List[Path] = typer.Argument(..., help="Sounding files (SGF, GEF or AGS4; plain or .gz)."),
+    min_thickness: float = MIN_THICKNESS,
+    json_out: bool = typer.Option(False, "--json", help='Print [{"file", "name", "layers": [...], ...}].'),
+) -> None:
+    """The layers of each sounding: where its cone resistance (qt, or qc without u₂) changes from one straight
+    line in depth to another, by optimal partitioning with a penalty set from the sounding's own scatter. Per
+    layer: its top and bottom [m], the resistance at both [MPa] and the mean sleeve friction [kPa].
+
+    Example: pen soundings layers examples/field/ags/HKZ_20161114_FEBV_HKZ1-CPT01_AGS4.0_V03_F.ags.gz
+    """
+    import numpy as np
+
+    records = []
+    for path in files:
+        for sounding in api.read_soundings([path]):
+            cut = api.sounding_layers(sounding, min_thickness_m=min_thickness)
+            _, quantity = api.sounding_resistance_mpa(sounding)
+            fs = sounding.columns.get("fs_kpa")
+            records.append({"file": str(path), "name": sounding.name, "quantity": quantity,
+                            "scatter": cut.scatter, "correlation": cut.correlation, "penalty": cut.penalty,
+                            "layers": [{"top_m": layer.top_m, "bottom_m": layer.bottom_m,
+                                        "q_top_mpa": layer.q_top, "q_bottom_mpa": layer.q_bottom,
+                                        "fs_mean_kpa": (float(np.nanmean(fs[slice(*layer.rows)]))
+                                                        if fs is not None and np.isfinite(fs[slice(*layer.rows)]).any()
+                                                        else None)}
+                                       for layer in cut.layers]})
+    if json_out:
+        print_json(records)
+        return
+    for r in records:
+        table = Table(header_style="bold", title=escape(f"{r['name']} ({Path(r['file']).name}): {len(r['layers'])} "
+                                                        f"layers of {r['quantity']}"),
+                      caption=f"scatter about the layers' lines {100 * r['scatter']:.1f} % (row to row "
+                              f"correlation {r['correlation']:.2f})")
+        for column in ("top [m]", "bottom [m]", f"{r['quantity']} top [MPa]", f"{r['quantity']} bottom [MPa]",
+                       "fs mean [kPa]"):
+            table.add_column(escape(column), justify="right")
+        for layer in r["layers"]:
+            table.add_row(f"{layer['top_m']:.2f}", f"{layer['bottom_m']:.2f}", f"{layer['q_top_mpa']:.3g}",
+                          f"{layer['q_bottom_mpa']:.3g}",
+                          "–" if layer["fs_mean_kpa"] is None else f"{layer['fs_mean_kpa']:.1f}")
+        console.print(table)
 
 
 @soundings_app.command("fit")

@@ -773,11 +773,12 @@ def snow_profile(name: str, estimates, layers: Sequence = ()):
 
 
 def sounding_profile(name: str, depth_m: np.ndarray, qc_mpa: np.ndarray, fs_kpa: np.ndarray | None = None,
-                     u2_kpa: np.ndarray | None = None, qt_mpa: np.ndarray | None = None):
+                     u2_kpa: np.ndarray | None = None, qt_mpa: np.ndarray | None = None, layers=None):
     """A sounding against depth: cone resistance (qc, and qt where u₂ corrects it), sleeve friction, pore
-    pressure u₂, each in a panel where the sounding has it.
+    pressure u₂, each in a panel where the sounding has it; with ``layers`` (a :class:`pencli.fit.layers.Cut` of
+    the resistance drawn), each layer's line on the resistance and its boundaries across every panel.
 
-    Returns the figure and its caption (the depth range, the largest cone resistance and where)."""
+    Returns the figure and its caption (the depth range, the largest cone resistance and where; the layers)."""
     plt = _plt()
     panels = [p for p, values in (("q", qc_mpa), ("fs", fs_kpa), ("u2", u2_kpa)) if values is not None]
     fig, axes = plt.subplots(1, len(panels), figsize=(3.0 * len(panels) + 1.0, 6.0), sharey=True, squeeze=False)
@@ -795,13 +796,23 @@ def sounding_profile(name: str, depth_m: np.ndarray, qc_mpa: np.ndarray, fs_kpa:
         else:
             ax.plot(u2_kpa, depth_m, lw=0.7, color="C2")
             ax.set_xlabel("pore pressure u₂ [kPa]")
+    if layers is not None:
+        for layer in layers.layers:
+            axes[0].plot([layer.q_top, layer.q_bottom], [layer.top_m, layer.bottom_m], color="k", lw=1.4,
+                         label="layers" if layer is layers.layers[0] else None)
+        for ax in axes:
+            for boundary in layers.boundaries_m:
+                ax.axhline(boundary, color="0.5", lw=0.6, ls="--")
+        axes[0].legend(loc="upper right", fontsize=8)
     axes[0].set_ylabel("depth [m]")
     axes[0].invert_yaxis()
     fig.tight_layout()
     q = qt_mpa if qt_mpa is not None else qc_mpa
     k = int(np.nanargmax(q))
+    thickness = [layer.bottom_m - layer.top_m for layer in layers.layers] if layers is not None else []
     caption = (f"{name}: {depth_m[0]:.2f}–{depth_m[-1]:.2f} m; the cone resistance peaks at {q[k]:.1f} MPa at "
                f"{depth_m[k]:.2f} m" + ("" if qt_mpa is None else
                                       f" (qt; u₂ adds up to {np.nanmax(qt_mpa - qc_mpa) * 1e3:.0f} kPa to qc)")
-               + ".")
+               + ("" if layers is None else f"; {len(layers.layers)} layers of {min(thickness):.2f}–"
+                  f"{max(thickness):.2f} m (dashed: their boundaries)") + ".")
     return fig, caption
