@@ -12,7 +12,7 @@ import json
 import math
 import os
 import shutil
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, Sequence
 
@@ -1353,7 +1353,6 @@ def read_soundings(paths: Sequence[str | Path]):
 def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
     """(the site, each sounding's unit means of ``quantity``) for a site of a units file."""
     from pencli.fit.rate_effect import qt_kpa, unit_means
-    from pencli.io.sgf import read_sgf
     from pencli.io.units_file import read_units_file
 
     if quantity not in SOUNDING_QUANTITIES:
@@ -1363,9 +1362,11 @@ def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
         raise ParameterError(f"{units_file}: no site '{site}'; it has {', '.join(sites)}")
     chosen = sites[site]
     needed = SOUNDING_QUANTITIES[quantity]
+    if chosen.units_m is None:
+        chosen = replace(chosen, units_m=layer_units(chosen))
     means = []
     for entry in chosen.soundings:
-        records = read_sgf(entry.path)
+        records = read_soundings([entry.path])
         if len(records) != 1:
             raise DataError(f"{entry.path}: {len(records)} soundings in one file; a units file names one per file")
         record = records[0]
@@ -1385,6 +1386,29 @@ def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
         means.append(unit_means(columns["depth_m"], record.time_s, values, chosen.units_m, entry.warp_m,
                                 entry.drop_m))
     return chosen, means
+
+
+UNIT_MARGIN_M = 0.15
+"""A unit made from a layer stays this far inside its boundaries, off the cone's ramp across them (about four
+diameters of a 10 cm² cone). [m]"""
+
+
+def layer_units(site) -> tuple[tuple[float, float], ...]:
+    """The units of a site whose units file says ``"units_m": "layers"``: the layers of the reference sounding's
+    resistance (:func:`sounding_layers`), each less :data:`UNIT_MARGIN_M` at either boundary, those left at least
+    as thick as the cut's thinnest layer. [m]"""
+    from pencli.fit.layers import MIN_THICKNESS_M
+
+    entry = next(s for s in site.soundings if s.name == site.reference_sounding)
+    (reference,) = read_soundings([entry.path])
+    cut = sounding_layers(reference)
+    last = len(cut.layers) - 1
+    units = [(layer.top_m + (UNIT_MARGIN_M if k > 0 else 0.0), layer.bottom_m - (UNIT_MARGIN_M if k < last else 0.0))
+             for k, layer in enumerate(cut.layers)]
+    kept = tuple((top, bottom) for top, bottom in units if bottom - top >= MIN_THICKNESS_M - 1e-9)
+    if not kept:
+        raise DataError(f"{entry.path}: no layer of the reference sounding is thick enough to be a unit")
+    return kept
 
 
 def fit_soundings(units_file: str | Path, site: str, quantity: str = "qt"):

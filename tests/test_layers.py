@@ -100,3 +100,43 @@ def test_the_layers_command_reads_a_sounding_and_draws_its_layers(tmp_path, runn
     short.write_text("$\nHK=x,HM=07\n#\nD=1.00,QC=1.0\nD=1.02,QC=1.1\nD=1.04,QC=1.2\n")
     result = invoke(runner, "soundings", "layers", str(short))
     assert result.exit_code == 1 and "short.cpt" in result.stderr and "at least 8" in result.stderr
+
+
+def site_of_six_rates(tmp_path, seed: int, per_decade: float) -> str:
+    """Six simulated soundings through the same layered ground (hold-out ``seed``) at 5–65 mm/s with a rate
+    effect of ``per_decade``, as SGF files and a units file whose units are the 20 mm/s sounding's layers."""
+    rng = np.random.default_rng(seed)
+    layers = random_layers(rng, 1.0, 12.0)
+    soundings = {}
+    for rate in (5, 10, 20, 35, 50, 65):
+        sounding = simulate_sounding(layers, 12.0, rng, rate_mm_s=rate, rate_effect=per_decade, noise=0.03)
+        (tmp_path / f"r{rate}.cpt").write_text(sgf_text(f"r{rate}", sounding))
+        soundings[f"r{rate}"] = {"file": f"r{rate}.cpt", "nominal_rate_mm_s": rate}
+    units = tmp_path / "units.json"
+    units.write_text(json.dumps({"sites": {"sim": {"reference_sounding": "r20", "units_m": "layers",
+                                                   "soundings": soundings}}}))
+    return str(units)
+
+
+@pytest.mark.parametrize("seed, per_decade", [(1001, -0.15), (1002, 0.10), (1004, -0.15)])
+def test_a_rate_effect_of_either_sign_is_recovered_from_six_soundings_on_their_own_layers(tmp_path, runner, seed,
+                                                                                         per_decade):
+    """The rate effect's sign and size from six soundings at 5–65 mm/s, the units found as the reference's
+    layers (all six hold-out grounds 1000–1005, both signs: within 1.8 %), and the diagnosis names it."""
+    units = site_of_six_rates(tmp_path, seed, per_decade)
+    result = invoke(runner, "soundings", "fit", units, "--site", "sim", "--json")
+    assert result.exit_code == 0, result.output
+    fitted = json.loads(result.stdout)
+    assert fitted["per_decade"] == pytest.approx(per_decade, rel=0.05)
+    result = invoke(runner, "soundings", "diagnose", units, "--site", "sim", "--json")
+    assert result.exit_code == 0, result.output
+    verdict = json.loads(result.stdout)
+    assert verdict["verdict"] == "rate_effect"
+    assert verdict["direction"] == ("faster is stronger" if per_decade > 0 else "faster is weaker"), verdict
+
+
+def test_six_soundings_without_a_rate_effect_are_none(tmp_path, runner):
+    units = site_of_six_rates(tmp_path, 1003, 0.0)
+    result = invoke(runner, "soundings", "diagnose", units, "--site", "sim", "--json")
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["verdict"] == "none"

@@ -24,13 +24,19 @@ class SiteSounding:
 
 @dataclass(frozen=True)
 class Site:
-    """A site's soil units (``[top, bottom]`` at the reference sounding's depths, m) and its soundings."""
+    """A site's soil units (``[top, bottom]`` at the reference sounding's depths, m) and its soundings.  ``units_m``
+    is None where the file says ``"units_m": "layers"``: the units are the layers found on the reference
+    sounding (:func:`pencli.api.site_unit_means`)."""
 
     name: str
     reference_sounding: str
     reference_rate_mm_s: float
-    units_m: tuple[tuple[float, float], ...]
+    units_m: tuple[tuple[float, float], ...] | None
     soundings: tuple[SiteSounding, ...]
+
+
+LAYERS = "layers"
+"""``"units_m": "layers"``: the units are the layers found on the reference sounding."""
 
 
 def _pairs(source: str, where: str, value, *, ordered: bool) -> tuple[tuple[float, float], ...]:
@@ -86,6 +92,10 @@ def read_units_file(path: str | Path) -> dict[str, Site]:
             raise DataError(f"{source}: {where}.reference_rate_mm_s: expected a number [mm/s]") from None
         if not reference_rate > 0:
             raise DataError(f"{source}: {where}.reference_rate_mm_s: {reference_rate:g}; expected a rate above 0 [mm/s]")
-        out[name] = Site(name, str(site["reference_sounding"]), reference_rate,
-                         _pairs(source, f"{where}.units_m", site["units_m"], ordered=True), tuple(soundings))
+        units = (None if site["units_m"] == LAYERS else
+                 _pairs(source, f"{where}.units_m", site["units_m"], ordered=True))
+        if units is None and str(site["reference_sounding"]) not in {s.name for s in soundings}:
+            raise DataError(f"{source}: {where}.reference_sounding: {site['reference_sounding']!r} is not one of the "
+                            f"site's soundings; its layers are the units")
+        out[name] = Site(name, str(site["reference_sounding"]), reference_rate, units, tuple(soundings))
     return out
