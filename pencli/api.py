@@ -1327,6 +1327,26 @@ def plot_sounding(sounding, path: str | Path, layers=None) -> str:
     return _save_captioned(fig, caption, path, fontsize=8, dpi=150, top=0.9)
 
 
+def report_soundings(paths: Sequence[str | Path], out: str | Path, *, pdf: bool = True,
+                     min_thickness_m: float | None = None) -> list[Path]:
+    """``pen soundings report``: one section per sounding of the files (its header, layers and profile), written
+    as self-contained HTML (and a PDF beside it); returns the files written."""
+    from pencli.filter.rate import push_rate_mm_s
+    from pencli.report.build import write_report
+    from pencli.report.sections import sounding_section
+
+    sections = []
+    for sounding in read_soundings(paths):
+        q, quantity = sounding_resistance_mpa(sounding)
+        cut = sounding_layers(sounding, min_thickness_m=min_thickness_m)
+        rate = (push_rate_mm_s(sounding.columns["depth_m"], sounding.time_s) if sounding.time_s is not None
+                else None)
+        sections.append(sounding_section(sounding, cut, q, quantity,
+                                         rate if rate is not None and math.isfinite(rate) else None))
+    title = f"pen soundings report: {len(sections)} sounding{'s' if len(sections) != 1 else ''}"
+    return write_report(title, sections, out, pdf=pdf)
+
+
 SOUNDING_READERS = {".gef": "pencli.io.gef:read_gef", ".ags": "pencli.io.ags:read_ags"}
 """Readers of sounding files by suffix (``.gz`` aside), as ``module:function`` returning one sounding or a list of
 them; any other suffix is read as SGF (``pencli.io.sgf.read_sgf``, one or more soundings)."""

@@ -140,3 +140,22 @@ def test_six_soundings_without_a_rate_effect_are_none(tmp_path, runner):
     result = invoke(runner, "soundings", "diagnose", units, "--site", "sim", "--json")
     assert result.exit_code == 0, result.output
     assert json.loads(result.stdout)["verdict"] == "none"
+
+
+def test_a_report_of_soundings_of_three_formats_gives_each_its_layers_and_profile(tmp_path, runner):
+    from tests.conftest import REPO
+
+    field = REPO / "examples" / "field"
+    files = [field / "gef" / "cpt.gef", *sorted((field / "ags").glob("*CPT01*.ags.gz")),
+             field / "ntnu-cptu-rate" / "soundings" / "TILC57.cpt.gz"]
+    out = tmp_path / "soundings.html"
+    result = invoke(runner, "soundings", "report", *map(str, files), "--out", str(out))
+    assert result.exit_code == 0, result.output
+    page = out.read_text()
+    assert out.with_suffix(".pdf").stat().st_size > 10_000
+    assert page.count("layers of qt") == 3 and page.count("<svg") == 3
+    for name in ("CPTU17.8 + 83BITE", "HKZ1-CPT01.000", "sounding 57"):
+        assert name in page
+    assert "pushed at a nominal 20 mm/s" in page and "mm/s (from its clock)" in page
+    result = invoke(runner, "soundings", "report", str(files[0]), "--out", str(tmp_path / "x.txt"))
+    assert result.exit_code == 2 and not (tmp_path / "x.txt").exists()

@@ -140,6 +140,25 @@ def layers_command(
         console.print(table)
 
 
+@soundings_app.command("report")
+def report(
+    files: List[Path] = typer.Argument(..., help="Sounding files (SGF, GEF or AGS4; plain or .gz)."),
+    out: Path = typer.Option(..., "--out", help="The report to write (.html; a PDF is written beside it)."),
+    pdf: bool = typer.Option(True, "--pdf/--no-pdf", help="Also write the report as PDF beside the HTML."),
+    min_thickness: float = MIN_THICKNESS,
+) -> None:
+    """A report of field soundings: per sounding, what it is, its file's header, its layers and its profile with
+    them, as one self-contained HTML file (and a PDF).
+
+    Example: pen soundings report examples/field/gef/cpt.gef examples/field/ags/*.ags.gz --out soundings.html
+    """
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise typer.BadParameter(f"'{out}' must end in .html", param_hint="--out")
+    api.check_output(out, db_path(None), "--out")  # never onto the default workspace
+    for written in api.report_soundings(files, out, pdf=pdf, min_thickness_m=min_thickness):
+        console.print(f"wrote {escape(str(written))}")
+
+
 @soundings_app.command("fit")
 def fit(
     units: Path = UNITS_FILE,

@@ -308,5 +308,35 @@ def diagnosis_section(result) -> Section:
     return section
 
 
+def sounding_section(sounding, cut, resistance_mpa: np.ndarray, quantity: str, rate_mm_s: float | None) -> Section:
+    """A field sounding: what it is, its header as the file gives it, its layers (``cut``, a
+    :class:`pencli.fit.layers.Cut` of ``resistance_mpa``, qt or qc) and its profile with the layers drawn."""
+    from pencli.report import figures
+
+    c = sounding.columns
+    depth = c["depth_m"]
+    rate = "no clock" if rate_mm_s is None else f"pushed at {rate_mm_s:.1f} mm/s (from its clock)"
+    nominal = sounding.header_number("push_rate_mm_s")
+    if rate_mm_s is None and nominal is not None:
+        rate = f"pushed at a nominal {nominal:g} mm/s (its file's)"
+    section = Section(f"sounding {sounding.name}",
+                      text=f"{sounding.kind}, {depth.size} rows from {depth[0]:.2f} to {depth[-1]:.2f} m, {rate}; "
+                           f"read from {sounding.source}. Its {quantity} is cut into {len(cut.layers)} layers, each "
+                           f"a straight line in depth (scatter about the lines {100 * cut.scatter:.1f} %, row-to-row "
+                           f"correlation {cut.correlation:.2f}).",
+                      provenance={"source": sounding.source, "method": sounding.method})
+    fs = c.get("fs_kpa")
+    section.tables.append((f"layers of {quantity}", ["top [m]", "bottom [m]", f"{quantity} top [MPa]",
+                                                     f"{quantity} bottom [MPa]", "fs mean [kPa]"],
+                           [[layer.top_m, layer.bottom_m, layer.q_top, layer.q_bottom,
+                             float(np.nanmean(fs[slice(*layer.rows)]))
+                             if fs is not None and np.isfinite(fs[slice(*layer.rows)]).any() else None]
+                            for layer in cut.layers]))
+    section.tables.append(("the file's header", ["key", "value"], [[k, v] for k, v in sounding.header.items()]))
+    section.add_figure(*figures.sounding_profile(sounding.name, depth, c["qc_mpa"], fs, c.get("u2_kpa"),
+                                                 resistance_mpa if quantity == "qt" else None, layers=cut))
+    return section
+
+
 __all__ = ["REFERENCE_ESTIMATES", "campaign_sections", "diagnosis_section", "latest_fit_with", "material_section", "parameter_rows",
-           "run_section", "sweep_section"]
+           "run_section", "sounding_section", "sweep_section"]
