@@ -42,18 +42,23 @@ def world_from(penetrator: ParameterSet, material: ParameterSet, energizing: Par
         raise RigError(f"the simulated rig needs a true material with coefficients; {truth_material.source} lacks "
                        f"{missing[0]} (set true_material in the rig file)")
     pv, ev = penetrator.values, energizing.values
-    cone = None
+    cone = taper = None
     if penetrator.geometry == "cone":
         cone = (math.radians(pv["cone_half_angle_deg"]), pv["shaft_diameter_mm"] / 2e3,
                 pv.get("tip_flat_diameter_mm", 0.0) / 2e3, penetrator.choice("cone_area"))
+    elif penetrator.geometry == "tapered_blade":
+        if any(name == "plug_growth" for name, _ in rig.effects):
+            raise RigError(f"{penetrator.source}: the simulated rig's plug growth widens a plain blade; this one "
+                           f"tapers")
+        taper = (pv["tip_thickness_mm"] / 1e3, pv["taper_length_mm"] / 1e3)
     elif penetrator.geometry != "blade":
-        raise RigError(f"{penetrator.source}: the simulated rig fires a blade or a cone, not a "
+        raise RigError(f"{penetrator.source}: the simulated rig fires a blade, a tapered blade or a cone, not a "
                        f"{penetrator.geometry.replace('_', ' ')}")
     return TrueWorld(
         blade_width_m=pv.get("blade_width_mm", math.nan) * 1e-3,
         blade_thickness_m=pv.get("blade_thickness_mm", math.nan) * 1e-3,
         tip_angle_rad=math.radians(pv.get("tip_angle_deg", math.nan)),
-        penetration_depth_m=pv["penetration_depth_mm"] * 1e-3, cone=cone,
+        penetration_depth_m=pv["penetration_depth_mm"] * 1e-3, cone=cone, taper=taper,
         sprung_mass_kg=pv["sprung_mass_kg"], load_cell_mass_kg=pv["load_cell_mass_kg"],
         density_kg_m3=mv["density_kg_m3"],
         strength_pa=mv["microstructure_strength_kpa"] * 1e3 * float(rig["strength_scale"]),

@@ -168,6 +168,9 @@ class TrueWorld:
     cone: tuple[float, float, float, str] | None = None
     """A cone tip in place of the blade: (half-angle [rad], shaft radius [m], flat tip radius [m], ``projected`` or
     ``mantle``); the blade's dimensions are then unused."""
+    taper: tuple[float, float] | None = None
+    """The blade's thickness grows from the first [m] at its tip to its full thickness over the second [m]
+    (a tapered blade); None: a plain blade."""
 
     def effect(self, name: str) -> dict[str, float] | None:
         """Parameters of effect ``name`` when present."""
@@ -273,6 +276,9 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
         return P0 * (x + x ** (n + 1) / ((n + 1) * a ** n))
 
     def thickness(x: float) -> float:
+        if world.taper is not None:  # the edge in the material: thinner while the taper enters
+            tip, length = world.taper
+            return min(tip + (T - tip) * x / length, T)
         if plug:
             ratio = x / (plug["length_mm"] * 1e-3)
             shape = plug["shape"]
@@ -297,6 +303,7 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
         return resistance
     if plug or pgrowth:
         raise ParameterError("the simulated cone carries no plug growth or sidewall pressure growth (blade effects)")
+    # (a tapered blade is the blade's law with its thickness from :func:`thickness`, above)
     alpha, r_shaft, r_tip, area = world.cone
     slope = math.tan(alpha)
     cone_length = (r_shaft - r_tip) / slope
