@@ -1515,6 +1515,19 @@ def write_columns_csv(path: str | Path, columns: Mapping[str, np.ndarray]) -> Pa
                                                      comments="", fmt="%.9g"))
 
 
+def report_snow(paths: Sequence[str | Path], out: str | Path, *, layers: Sequence[tuple[float, float]] = (),
+                pdf: bool = True, window_mm: float | None = None, overlap: float | None = None) -> list[Path]:
+    """``pen snow report``: one section per SnowMicroPen profile (its snow, each layer's medians, its figure), as
+    self-contained HTML (and a PDF beside it); returns the files written."""
+    from pencli.report.build import write_report
+    from pencli.report.sections import snow_section
+
+    sections = [snow_section(estimate_snow_profile(path, window_mm=window_mm, overlap=overlap, layers=layers))
+                for path in paths]
+    title = f"pen snow report: {len(sections)} SnowMicroPen profile{'s' if len(sections) != 1 else ''}"
+    return write_report(title, sections, out, pdf=pdf)
+
+
 def plot_snow_profile(result: SnowProfile, path: str | Path) -> str:
     """Draw a profile's estimates (``pen snow estimate --plot``) to a PNG, SVG or PDF file; returns the caption."""
     from pencli.report.figures import snow_profile

@@ -179,3 +179,18 @@ def test_the_commands_on_the_bundled_profiles(runner, tmp_path):
         assert r.exit_code != 0 and expected in r.stderr and "Traceback" not in r.output, (args, r.output)
         assert len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["profile.png", "windows.csv"]
+
+
+def test_a_report_of_profiles_gives_each_its_layers_and_figure(tmp_path, runner):
+    files = sorted(FIELD.glob("*.pnt.gz"))[:2]
+    out = tmp_path / "smp.html"
+    result = invoke(runner, "snow", "report", *map(str, files), "--layer", "0:150", "--layer", "150:500",
+                    "--out", str(out))
+    assert result.exit_code == 0, result.output
+    page = out.read_text()
+    assert out.with_suffix(".pdf").stat().st_size > 10_000
+    assert page.count("<svg") == 2 and page.count("each layer&#x27;s medians") + page.count("each layer's medians") == 2
+    for profile in api.read_snow_profiles(files):
+        assert f"SnowMicroPen profile {profile.name}" in page
+    result = invoke(runner, "snow", "report", str(files[0]), "--layer", "150:50", "--out", str(tmp_path / "b.html"))
+    assert result.exit_code == 1 and not (tmp_path / "b.html").exists()

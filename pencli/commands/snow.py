@@ -133,3 +133,27 @@ def estimate(
         console.print(f"windows written to {escape(str(out))}")
     if caption is not None:
         console.print(f"figure written to {escape(str(plot))}: {escape(caption)}")
+
+
+@snow_app.command("report")
+def report(
+    files: List[Path] = typer.Argument(..., help="SnowMicroPen files (.pnt, plain or .gz)."),
+    out: Path = typer.Option(..., "--out", help="The report to write (.html; a PDF is written beside it)."),
+    layers: List[str] = typer.Option([], "--layer", help="A layer TOP:BOTTOM [mm below the surface] whose medians "
+                                     "each profile's section gives (repeatable)."),
+    window_mm: float = typer.Option(WINDOW_MM, "--window-mm", min=0.05, help="Window of each estimate [mm]."),
+    overlap: float = typer.Option(OVERLAP, "--overlap", min=0.0, max=0.95,
+                                  help="Share of a window the next one overlaps [–]."),
+    pdf: bool = typer.Option(True, "--pdf/--no-pdf", help="Also write the report as PDF beside the HTML."),
+) -> None:
+    """A report of SnowMicroPen profiles: per profile, where its snow is, the shot-noise estimates' medians of each
+    layer and the profile's figure, as one self-contained HTML file (and a PDF).
+
+    Example: pen snow report examples/field/snowex-smp/*.pnt.gz --layer 0:150 --layer 150:500 --out smp.html
+    """
+    bounds = [_layer(text) for text in layers]
+    if out.suffix.lower() not in (".html", ".htm"):
+        raise typer.BadParameter(f"'{out}' must end in .html", param_hint="--out")
+    api.check_output(out, db_path(None), "--out")  # never onto the default workspace
+    for written in api.report_snow(files, out, layers=bounds, pdf=pdf, window_mm=window_mm, overlap=overlap):
+        console.print(f"wrote {escape(str(written))}")

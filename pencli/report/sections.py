@@ -338,5 +338,27 @@ def sounding_section(sounding, cut, resistance_mpa: np.ndarray, quantity: str, r
     return section
 
 
+def snow_section(result) -> Section:
+    """A SnowMicroPen profile (:class:`pencli.api.SnowProfile`): where the snow is, the shot-noise windows, each
+    given layer's medians and the profile's figure."""
+    from pencli.report import figures
+
+    est = result.estimates
+    section = Section(f"SnowMicroPen profile {result.profile.name}",
+                      text=f"Snow from {result.surface_mm:.1f} to {result.bottom_mm:.1f} mm after the motor's start; "
+                           f"{est.depth_mm.size} windows of the shot-noise estimates (Löwe and van Herwijnen 2012), "
+                           f"{int(est.clipped.sum())} of them at the sensor's range and left out of the medians.",
+                      provenance={"source": str(result.profile.source)})
+    if result.layers:
+        section.tables.append(("each layer's medians over its windows",
+                               ["layer [mm below the surface]", "windows", "strength [kPa]", "f₀ [N]", "δ [mm]",
+                                "λ [1/mm]", "L [mm]"],
+                               [[f"{layer.top_mm:g}–{layer.bottom_mm:g}", layer.windows, layer.strength_kpa,
+                                 layer.rupture_force_n, layer.deflection_mm, layer.intensity_per_mm,
+                                 layer.element_size_mm] for layer in result.layers]))
+    section.add_figure(*figures.snow_profile(result.profile.name, est, result.layers))
+    return section
+
+
 __all__ = ["REFERENCE_ESTIMATES", "campaign_sections", "diagnosis_section", "latest_fit_with", "material_section", "parameter_rows",
-           "run_section", "sounding_section", "sweep_section"]
+           "run_section", "snow_section", "sounding_section", "sweep_section"]
