@@ -80,8 +80,6 @@ class Layer:
     """Its line's q at its top."""
     gradient_per_m: float
     """dq/dz. [q's unit per m]"""
-    mean: float
-    """Its rows' mean q."""
 
     @property
     def q_bottom(self) -> float:
@@ -110,7 +108,8 @@ class Cut:
 def detect_layers(depth_m: np.ndarray, q: np.ndarray, *, min_thickness_m: float = MIN_THICKNESS_M,
                   penalty: float | None = None) -> Cut:
     """The optimal cut of the profile ``q`` (> 0; NaN rows are left out) against ``depth_m`` (increasing) into
-    straight lines in ln q (module docstring).  ``penalty``: β in (ln q)² instead of the criterion's."""
+    straight lines of q, each row's residual relative to its reading (module docstring).  ``penalty``: β, in
+    relative squares, instead of the criterion's (then no second cut)."""
     depth_m, q = np.asarray(depth_m, dtype=float), np.asarray(q, dtype=float)
     keep = np.isfinite(depth_m) & np.isfinite(q) & (q > 0)
     z, y = depth_m[keep], q[keep]
@@ -224,8 +223,7 @@ def _line(z: np.ndarray, y: np.ndarray, start: int, end: int, keep: np.ndarray) 
     top = float(zz[0]) if start == 0 else 0.5 * float(z[start - 1] + zz[0])
     bottom = float(zz[-1]) if end == z.size else 0.5 * float(zz[-1] + z[end])
     slope, level = np.polyfit(zz - top, yy, 1, w=1.0 / yy) if zz.size > 1 else (0.0, float(yy[0]))
-    return Layer(top, bottom, (int(index[start]), int(index[end - 1]) + 1), float(level), float(slope),
-                 float(np.mean(yy)))
+    return Layer(top, bottom, (int(index[start]), int(index[end - 1]) + 1), float(level), float(slope))
 
 
 __all__ = ["Cut", "Layer", "MIN_THICKNESS_M", "detect_layers"]

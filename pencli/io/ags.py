@@ -75,6 +75,8 @@ def read_ags(path: str | Path) -> list[Sounding]:
     if data.empty:
         raise DataError(f"{path}: its SCPT group has no DATA rows")
     keys = [k for k in KEYS if k in data.columns]
+    if KEYS[0] not in keys:
+        raise DataError(f"{path}: its SCPT group has no {KEYS[0]} heading (which location each reading is of)")
     groups = [((key if isinstance(key, tuple) else (key,)), rows) for key, rows in data.groupby(keys, sort=False)]
     locations = [key[0] for key, _ in groups]
     out = []
