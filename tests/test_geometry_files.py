@@ -49,7 +49,8 @@ def cone_resistance(x: float, v: float) -> float:
     v = max(v, 0.0)
     return (c["strength_factor"] * m["microstructure_strength_kpa"] * 1e3 * bearing
             + mu * c["sidewall_pressure_kpa"] * 1e3 * side
-            + c["damping_kpa_s_m"] * 1e3 * v * frontal + c["inertia_coefficient"] * m["density_kg_m3"] * v * v * frontal)
+            + c["damping_kpa_s_m"] * 1e3 * v * frontal
+            + c["inertia_coefficient"] * m["density_kg_m3"] * v * v * frontal)
 
 
 def test_a_cone_file_predicts_what_an_integration_of_its_areas_gives(tmp_path, runner):
@@ -301,8 +302,9 @@ def test_a_sweep_of_cones_gives_each_design_what_predict_gives_it_and_marks_the_
         if row["shaft_diameter_mm"] <= CONE["tip_flat_diameter_mm"]:
             assert row["end"] == "invalid" and math.isnan(row["final_depth_mm"])
             continue
-        alone = invoke(runner, "predict", "-p", files[0], "-m", files[1], "-e", files[2], "--json", "--set",
-                       f"shaft_diameter_mm={row['shaft_diameter_mm']}", "--set", f"spring_count={row['spring_count']:g}")
+        alone = invoke(runner, "predict", "-p", files[0], "-m", files[1], "-e", files[2], "--json",
+                       "--set", f"shaft_diameter_mm={row['shaft_diameter_mm']}",
+                       "--set", f"spring_count={row['spring_count']:g}")
         expected = json.loads(alone.stdout)
         for key in ("final_depth_mm", "penetration_time_s", "peak_resistance_n", "energy_other_j"):
             assert row[key] == pytest.approx(expected[key], rel=1e-9), key

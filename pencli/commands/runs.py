@@ -132,7 +132,8 @@ def runs(
     columns = (("run", "left"), ("date", "left"), ("material", "left"), ("blade", "left"), ("T [mm]", "right"),
                ("springs", "right"), ("rate [kHz]", "right"), ("duration [s]", "right"), ("stage", "left"),
                ("tags", "left"))
-    cells = [[r["run_id"], str(r["run_date"] or ""), r["material"], r["penetrator"], _thickness(r["blade_thickness_mm"]),
+    cells = [[r["run_id"], str(r["run_date"] or ""), r["material"], r["penetrator"],
+              _thickness(r["blade_thickness_mm"]),
               str(r["spring_count"]), f"{r['sampling_rate_hz'] / 1e3:.1f}", f"{r['duration_s']:.3f}",
               r["latest_stage"] or "", ", ".join(r["tags"] or [])] for r in rows]
     if not console.is_terminal:  # piped: plain tab-separated text, nothing cut

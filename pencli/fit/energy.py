@@ -64,8 +64,8 @@ def measured_energy(run: Run, values: Mapping[str, float],
     x, v = depth[inside], np.maximum(speed[inside], 0.0)
     d = run.design
     m, g = d.effective_mass_kg, d.gravity_m_s2
-    per_unit = {term: float(np.trapezoid(column, x)) if x.size > 1 else 0.0
-                for term, column in zip(TERMS, np.broadcast_arrays(*run.geometry.unit_terms(d, np.maximum(x, 1e-12), v)))}
+    columns = np.broadcast_arrays(*run.geometry.unit_terms(d, np.maximum(x, 1e-12), v))
+    per_unit = {term: float(np.trapezoid(column, x)) if x.size > 1 else 0.0 for term, column in zip(TERMS, columns)}
     terms = {term: values[COEFFICIENT_OF[term]] * per_unit[term] for term in TERMS}
     ranges = {}
     for term in TERMS:

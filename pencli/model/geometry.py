@@ -34,7 +34,8 @@ from typing import Callable, Protocol
 
 from pencli.errors import ModelError
 from pencli.model.design import Design
-from pencli.model.resistance import TERMS, ResistanceLaw, coefficient_of, parse_terms, reduced, resistance_law, unit_terms
+from pencli.model.resistance import (TERMS, ResistanceLaw, coefficient_of, parse_terms, reduced, resistance_law,
+                                     unit_terms)
 from pencli.params.definitions import choices_of, params_of
 from pencli.params.validate import ParameterSet
 

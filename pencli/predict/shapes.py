@@ -34,9 +34,10 @@ _RATE_HZ = 1000.0
 def run_chunk_shaped(base: Mapping[str, float], columns: Mapping[str, np.ndarray], geometry: str,
                      choices: Mapping[str, str]) -> dict:
     """One chunk (varied columns, file units) of a ``geometry`` penetrator, design by design: the batch's
-    figures and ``energy_other_j`` (what the resistance dissipated outside Eq. 9's terms: all of a cone's), ``end`` codes into :data:`~pencli.predict.batch.ENDS` and ``near_critical``.  A design a parameter
-    rule or the geometry refuses is ``invalid``, one whose forces overflow float64 ``overflow``; their figures
-    are NaN.  ``choices``: the penetrator's named choices (``cone_area``).  Top level, so dask can ship it."""
+    figures and ``energy_other_j`` (what the resistance dissipated outside Eq. 9's terms: all of a cone's),
+    ``end`` codes into :data:`~pencli.predict.batch.ENDS` and ``near_critical``.  A design a parameter rule or
+    the geometry refuses is ``invalid``, one whose forces overflow float64 ``overflow``; their figures are NaN.
+    ``choices``: the penetrator's named choices (``cone_area``).  Top level, so dask can ship it."""
     designs, speed = si_designs(base, columns)
     n = len(next(iter(columns.values())))
     every = {name: np.broadcast_to(np.asarray(value, dtype=float).reshape(-1) if np.ndim(value) else value, (n,))
