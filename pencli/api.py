@@ -1281,10 +1281,14 @@ def gate_section(results: Sequence[CheckResult]) -> Any:
 
 
 # ---------------------------------------------------------------------------- field soundings
-SOUNDING_QUANTITIES = {"qt": ("qc_mpa", "u2_kpa"), "qc": ("qc_mpa",), "fs": ("fs_kpa",), "u2": ("u2_kpa",)}
-"""Quantities of a CPTu sounding a rate effect is fitted to (each in kPa), and the columns each is made from:
-qt = qc + (1 − a)·u₂ (a, the net area ratio, from the header's MA), qc the cone resistance, fs the sleeve
-friction, u2 the pore pressure."""
+SOUNDING_QUANTITIES = {"qt": ("qc_mpa", "u2_kpa"), "qc": ("qc_mpa",), "fs": ("fs_kpa",), "u2": ("u2_kpa",),
+                       "push_force": ("push_force_kn",)}
+"""Quantities of a sounding a rate effect is fitted to, and the columns each is made from: qt = qc + (1 − a)·u₂
+(a, the net area ratio, from the header's MA), qc the cone resistance, fs the sleeve friction, u2 the pore
+pressure (a CPTu's, in kPa); push_force the force on a total sounding's rods (in kN)."""
+
+QUANTITY_UNITS = {"qt": "kPa", "qc": "kPa", "fs": "kPa", "u2": "kPa", "push_force": "kN"}
+"""The unit each of :data:`SOUNDING_QUANTITIES` is fitted in."""
 
 
 def sounding_resistance_mpa(sounding) -> tuple[np.ndarray, str]:

@@ -24,7 +24,7 @@ MIN_THICKNESS = typer.Option(MIN_THICKNESS_M, "--min-thickness", min=0.02, max=5
 UNITS_FILE = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps.")
 SITE = typer.Option(..., "--site", help="The site of the units file whose soundings are taken.")
 QUANTITY = typer.Option("qt", "--quantity", help="qt (cone resistance corrected by u₂ on the net area ratio), qc, "
-                                                 "fs or u2; all in kPa.")
+                                                 "fs or u2, in kPa; push_force (a total sounding's), in kN.")
 
 
 @soundings_app.command("show")
@@ -174,7 +174,8 @@ def fit(
     effect = api.fit_soundings(units, site, quantity)
     record = {"site": site, "quantity": quantity, "per_decade": effect.per_decade,
               "per_decade_se": effect.per_decade_se, "reference_rate_mm_s": effect.reference_rate_mm_s,
-              "reference_values_kpa": {str(u): v for u, v in effect.reference_values.items()},
+              f"reference_values_{api.QUANTITY_UNITS[quantity].lower()}": {str(u): v for u, v in
+                                                                          effect.reference_values.items()},
               "residual_sd": effect.residual_sd, "unit_means": effect.samples}
     if json_out:
         print_json(record)
@@ -184,7 +185,8 @@ def fit(
                   + ("faster is stronger" if effect.per_decade > 0 else "faster is weaker"))
     table = Table(header_style="bold")
     table.add_column("unit")
-    table.add_column(escape(f"{quantity} at {effect.reference_rate_mm_s:g} mm/s [kPa]"), justify="right")
+    unit = api.QUANTITY_UNITS[quantity]
+    table.add_column(escape(f"{quantity} at {effect.reference_rate_mm_s:g} mm/s [{unit}]"), justify="right")
     for u, v in effect.reference_values.items():
         table.add_row(str(u), f"{v:.1f}")
     console.print(table)

@@ -40,7 +40,13 @@ CHANNELS: dict[str, tuple[str, str, str]] = {
     "O": ("temperature_c", "°C", "temperature in the cone"),
 }
 """SGF data codes pen names: code → (column name, unit, meaning).  Codes not here are kept as ``sgf_<code>``,
-except ``F``, a row's event codes (one or several), kept in :attr:`Sounding.row_events`."""
+except ``F`` and ``K``, a row's event and comment codes (one or several of each), kept in
+:attr:`Sounding.row_events` and :attr:`Sounding.row_comments`, and ``AK``, the logger's clock as a time of day
+(``hh:mm:ss.sss``), kept as ``clock_ms`` (milliseconds since midnight, a day added where it wraps) where a row
+has no ``%`` clock."""
+
+CODES_PER_ROW = {"F": "event", "K": "comment"}
+"""Data codes a row may give several times: code numbers, not values."""
 
 METHODS: dict[str, str] = {"07": "cptu", "24": "total_sounding"}
 """The header's ``HM`` method codes pen knows: code → kind of sounding."""
@@ -59,6 +65,8 @@ class Sounding:
     """The file's event legend: code → text (``14`` → "Transmission lost")."""
     row_events: tuple[tuple[int, int], ...] = ()
     """(row, code) of each event a data row carries (rows from 0), in the file's order."""
+    row_comments: tuple[tuple[int, int], ...] = ()
+    """(row, code) of each comment code (``K``) a data row carries, in the file's order."""
     row_text: tuple[tuple[int, str, str], ...] = ()
     """(row, code, text) of each field of a data row whose value is text (a remark such as ``T=...``) and whose
     code is not one of :data:`CHANNELS`."""
@@ -74,7 +82,8 @@ class Sounding:
 
     @property
     def time_s(self) -> np.ndarray | None:
-        """Time since the first row from the logger's clock (the ``%`` field), or None where the rows carry none. [s]"""
+        """Time since the first row from the logger's clock (the ``%`` field, or the ``AK`` time of day), or None
+        where the rows carry none. [s]"""
         clock = self.columns.get("clock_ms")
         if clock is None or not np.isfinite(clock).any():
             return None
@@ -200,16 +209,21 @@ def _sounding(path: Path, start: int, header: dict[str, str], rows, events) -> S
         raise DataError(f"{path}: line {start}: sounding {name or '(unnamed)'} has no data rows after its '#' line")
     values: dict[str, np.ndarray] = {}
     row_events: list[tuple[int, int]] = []
+    row_comments: list[tuple[int, int]] = []
+    time_of_day: list[tuple[int, float]] = []
     row_text: list[tuple[int, str, str]] = []
     for r, (number, fields) in enumerate(rows):
         seen = set()
         for key, text in fields:
-            if key == "F":
+            if key in CODES_PER_ROW:
                 try:
-                    row_events.append((r, int(text)))
+                    (row_events if key == "F" else row_comments).append((r, int(text)))
                 except ValueError:
-                    raise DataError(f"{path}: line {number}: field F is {text!r}; expected an event code (a whole "
-                                    "number)") from None
+                    raise DataError(f"{path}: line {number}: field {key} is {text!r}; expected {CODES_PER_ROW[key]} "
+                                    "code (a whole number)") from None
+                continue
+            if key == "AK":
+                time_of_day.append((r, _time_of_day_ms(path, number, text)))
                 continue
             column = "clock_ms" if key == "%" else CHANNELS[key][0] if key in CHANNELS else f"sgf_{key}"
             if column in seen:
@@ -240,7 +254,32 @@ def _sounding(path: Path, start: int, header: dict[str, str], rows, events) -> S
         k = int(back[0]) + 1
         raise DataError(f"{path}: line {rows[k][0]}: depth {depth[k]:g} m after {depth[k - 1]:g} m; "
                         "expected depths that do not go back up")
+    if time_of_day and "clock_ms" not in values:
+        clock = np.full(len(rows), np.nan)
+        for r, ms in time_of_day:
+            clock[r] = ms
+        finite = np.isfinite(clock)
+        wraps = np.concatenate([[0], np.cumsum(np.diff(clock[finite]) < -DAY_MS / 2)])  # past midnight
+        clock[finite] += wraps * DAY_MS
+        values["clock_ms"] = clock
     method = header.get("HM", "").strip()
-    return Sounding(name=name, method=f"{int(method):02d}" if method.isdigit() else method, header=header, columns=values, events=events,
-                    row_events=tuple(row_events), row_text=tuple(row_text),
-                    source=str(path))
+    return Sounding(name=name, method=f"{int(method):02d}" if method.isdigit() else method, header=header,
+                    columns=values, events=events, row_events=tuple(row_events), row_text=tuple(row_text),
+                    row_comments=tuple(row_comments), source=str(path))
+
+
+DAY_MS = 86_400_000.0
+"""Milliseconds in a day: a time-of-day clock that goes back by more than half of one has passed midnight."""
+
+
+def _time_of_day_ms(path: Path, number: int, text: str) -> float:
+    """The ``AK`` clock field ``hh:mm:ss[.sss]`` in milliseconds since midnight."""
+    parts = text.strip().split(":")
+    try:
+        hours, minutes, seconds = (float(v) for v in parts)
+        if len(parts) != 3 or not (0 <= hours < 24 and 0 <= minutes < 60 and 0 <= seconds < 61):
+            raise ValueError
+    except ValueError:
+        raise DataError(f"{path}: line {number}: field AK is {text!r}; expected the logger's time of day "
+                        "hh:mm:ss.sss") from None
+    return 1e3 * (3600.0 * hours + 60.0 * minutes + seconds)
