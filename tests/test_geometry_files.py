@@ -221,6 +221,18 @@ def test_diagnose_says_in_one_line_that_it_models_the_blade_only(tmp_path, runne
     assert result.exit_code == 1
     line = result.stderr.strip()
     assert "\n" not in line and "cone" in line and "blade" in line, line
+    # a cone run's report calls it a cone
+    run = api_runs(db)[0]
+    assert invoke(runner, "report", run, "--db", str(db), "--out", str(tmp_path / "one.html"),
+                  "--no-pdf").exit_code == 0
+    page = (tmp_path / "one.html").read_text()
+    assert "the cone " in page and "the blade " not in page
+
+
+def api_runs(db) -> list[str]:
+    from pencli import api
+
+    return [row["run_id"] for row in api.list_runs(db)]
 
 
 @pytest.mark.parametrize("shape", ["blade", "cone", "tapered_blade"])

@@ -80,7 +80,8 @@ def raw_channels(run_id: str, raw: Mapping[str, np.ndarray], events: Mapping[str
     return fig, caption
 
 
-def kinematics_panels(run_id: str, stage: Mapping[str, np.ndarray], events: Mapping[str, float]):
+def kinematics_panels(run_id: str, stage: Mapping[str, np.ndarray], events: Mapping[str, float],
+                      shape: str = "blade"):
     """Fig. 12: depth, force and resistance, speed and acceleration against time around the penetration.
 
     Returns the figure and its caption (contact, speed at contact, how and where the motion stopped)."""
@@ -107,7 +108,8 @@ def kinematics_panels(run_id: str, stage: Mapping[str, np.ndarray], events: Mapp
         ax.set_xlabel(label("time_s"))
     how = "was arrested" if events.get("end") == "arrest" else "reached the hard stops"
     caption = (f"{run_id}: contact (dashed) at {events['contact_s'] * 1e3:.1f} ms at "
-               f"{events['contact_speed_m_s']:.2f} m/s; the blade {how} (dotted) at {events['stop_s'] * 1e3:.1f} ms, "
+               f"{events['contact_speed_m_s']:.2f} m/s; the {shape.replace('_', ' ')} {how} (dotted) at "
+               f"{events['stop_s'] * 1e3:.1f} ms, "
                f"{events['final_depth_m'] * 1e3:.1f} mm deep; shaded: the analysis window.")
     return fig, caption
 
@@ -163,7 +165,7 @@ def model_vs_data(run_id: str, data: Mapping[str, np.ndarray]):
     return fig, caption
 
 
-def energy_balance(run_id: str, balance, fit_name: str = ""):
+def energy_balance(run_id: str, balance, fit_name: str = "", shape: str = "blade"):
     """Fig. 14 (measured): where a run's energy went.  The launcher's side (what the file's launcher delivers over
     the stand-off against the kinetic energy measured at contact), then what the springs and gravity add in the
     material, each Eq. 9 term with its 95 % interval from the fit, what was left at the stop, and what the fit
@@ -192,7 +194,8 @@ def energy_balance(run_id: str, balance, fit_name: str = ""):
     supplied = balance.supplied_j
     shares = ", ".join(f"{term} {100 * value / supplied:.0f} %" for term, value in balance.terms_j.items()) \
         if supplied > 0 else ""
-    caption = (f"{run_id}: the blade reached the surface with {balance.contact_ke_j:.1f} J (the launcher file "
+    caption = (f"{run_id}: the {shape.replace('_', ' ')} reached the surface with {balance.contact_ke_j:.1f} J "
+               f"(the launcher file "
                f"gives {balance.launcher_j:.1f} J) and the springs and gravity added {balance.drive_in_material_j:.1f} "
                f"J; of these {supplied:.1f} J{(' the fit ' + fit_name) if fit_name else ''} puts {shares}; "
                f"{balance.left_ke_j:.1f} J were left at the stop and {balance.unaccounted_j:+.1f} J "

@@ -112,7 +112,8 @@ def run_section(ws, run_id: str, versions: Sequence[dict], figures: bool = True,
         return section
     section.add_figure(*draw.raw_channels(run_id, run.raw.columns, events), paper="Fig. 11")
     if run.conditioned is not None:
-        section.add_figure(*draw.kinematics_panels(run_id, run.conditioned.columns, events), paper="Fig. 12")
+        section.add_figure(*draw.kinematics_panels(run_id, run.conditioned.columns, events,
+                                                   run.raw.penetrator.geometry), paper="Fig. 12")
     fit = run.fit
     if fit is not None and fit["model_data_path"]:
         table = ws.read_table(fit["model_data_path"], "fit's model-vs-data table",
@@ -121,7 +122,8 @@ def run_section(ws, run_id: str, versions: Sequence[dict], figures: bool = True,
                            paper="Fig. 13")
         balance = run.balance()
         if balance is not None:
-            fig, caption = draw.energy_balance(run_id, balance, f"{fit['material']} v{fit['version']}")
+            fig, caption = draw.energy_balance(run_id, balance, f"{fit['material']} v{fit['version']}",
+                                               run.raw.penetrator.geometry)
             section.add_figure(fig, caption, paper="Fig. 14")
     return section
 
