@@ -1291,26 +1291,28 @@ QUANTITY_UNITS = {"qt": "kPa", "qc": "kPa", "fs": "kPa", "u2": "kPa", "push_forc
 """The unit each of :data:`SOUNDING_QUANTITIES` is fitted in."""
 
 
-def sounding_resistance_mpa(sounding) -> tuple[np.ndarray, str]:
-    """A sounding's cone resistance and its name: qt = qc + (1 − a)·u₂ where the sounding has u₂ and its net area
-    ratio, else qc. [MPa]"""
+def sounding_resistance(sounding) -> tuple[np.ndarray, str, str]:
+    """A sounding's resistance to penetration, its name and unit: a cone's qt = qc + (1 − a)·u₂ where the sounding
+    has u₂ and its net area ratio, else qc [MPa]; a total sounding's push force on the rods [kN]."""
     from pencli.fit.rate_effect import qt_kpa
 
     c = sounding.columns
     if "qc_mpa" not in c:
-        raise DataError(f"{sounding.source}: sounding {sounding.name} has no cone resistance (qc)")
+        if "push_force_kn" in c:
+            return c["push_force_kn"], "push_force", "kN"
+        raise DataError(f"{sounding.source}: sounding {sounding.name} has no cone resistance (qc) and no push force "
+                        f"(A)")
     ratio = sounding.header_number("MA")
     if "u2_kpa" in c and ratio is not None:
-        return qt_kpa(c["qc_mpa"], c["u2_kpa"], ratio) / 1e3, "qt"
-    return c["qc_mpa"], "qc"
+        return qt_kpa(c["qc_mpa"], c["u2_kpa"], ratio) / 1e3, "qt", "MPa"
+    return c["qc_mpa"], "qc", "MPa"
 
 
 def sounding_layers(sounding, *, min_thickness_m: float | None = None):
-    """The layers of a sounding's cone resistance (qt where it can be had, else qc;
-    :func:`pencli.fit.layers.detect_layers`)."""
+    """The layers of a sounding's resistance (:func:`sounding_resistance`; :func:`pencli.fit.layers.detect_layers`)."""
     from pencli.fit.layers import MIN_THICKNESS_M, detect_layers
 
-    q, _ = sounding_resistance_mpa(sounding)
+    q, _, _ = sounding_resistance(sounding)
     try:
         return detect_layers(sounding.columns["depth_m"], q,
                              min_thickness_m=MIN_THICKNESS_M if min_thickness_m is None else min_thickness_m)
@@ -1324,11 +1326,17 @@ def plot_sounding(sounding, path: str | Path, layers=None) -> str:
     from pencli.report.figures import sounding_profile
 
     c = sounding.columns
-    q, name = sounding_resistance_mpa(sounding)
-    qt = q if name == "qt" else None
-    fig, caption = sounding_profile(sounding.name, c["depth_m"], c["qc_mpa"], c.get("fs_kpa"), c.get("u2_kpa"), qt,
-                                    layers=layers)
+    q, name, unit = sounding_resistance(sounding)
+    fig, caption = sounding_profile(sounding.name, c["depth_m"], c.get("qc_mpa", q), c.get("fs_kpa"), c.get("u2_kpa"),
+                                    q if name == "qt" else None, layers=layers,
+                                    resistance=PUSH_FORCE if name == "push_force" else CONE_RESISTANCE)
     return _save_captioned(fig, caption, path, fontsize=8, dpi=150, top=0.9)
+
+
+CONE_RESISTANCE = ("cone resistance", "MPa", "qc")
+"""How a sounding figure names a cone's resistance: (what, unit, symbol)."""
+PUSH_FORCE = ("push force on the rods", "kN", "A")
+"""How it names a total sounding's."""
 
 
 def report_soundings(paths: Sequence[str | Path], out: str | Path, *, pdf: bool = True,
@@ -1341,12 +1349,13 @@ def report_soundings(paths: Sequence[str | Path], out: str | Path, *, pdf: bool 
 
     sections = []
     for sounding in read_soundings(paths):
-        q, quantity = sounding_resistance_mpa(sounding)
+        q, quantity, unit = sounding_resistance(sounding)
         cut = sounding_layers(sounding, min_thickness_m=min_thickness_m)
         rate = (push_rate_mm_s(sounding.columns["depth_m"], sounding.time_s) if sounding.time_s is not None
                 else None)
-        sections.append(sounding_section(sounding, cut, q, quantity,
-                                         rate if rate is not None and math.isfinite(rate) else None))
+        sections.append(sounding_section(sounding, cut, q, quantity, unit,
+                                         rate if rate is not None and math.isfinite(rate) else None,
+                                         PUSH_FORCE if quantity == "push_force" else CONE_RESISTANCE))
     title = f"pen soundings report: {len(sections)} sounding{'s' if len(sections) != 1 else ''}"
     return write_report(title, sections, out, pdf=pdf)
 

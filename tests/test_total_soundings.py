@@ -111,3 +111,16 @@ def test_a_broken_time_of_day_is_one_line_naming_the_file_and_row(tmp_path):
         read_sgf(path)
     message = str(error.value)
     assert "\n" not in message and "broken.std: line 5" in message and "AK" in message, message
+
+
+def test_a_total_soundings_layers_are_cut_in_its_push_force_near_the_authors_depths(runner):
+    """The layers of KJTS01's push force [kN]: boundaries within 0.3 m of the authors' 0.84, 2.31, 8.02, 8.76 and
+    17.26 m (their 15.16 m, a change of slope the cut does not need, is not found)."""
+    path = FIELD / "soundings" / "KJTS01-Tot.std.gz"
+    result = invoke(runner, "soundings", "layers", str(path), "--json")
+    assert result.exit_code == 0, result.output
+    (record,) = json.loads(result.stdout)
+    assert record["quantity"] == "push_force" and record["unit"] == "kN"
+    tops = [layer["top_m"] for layer in record["layers"][1:]]
+    for depth in (0.84, 2.31, 8.02, 8.76, 17.26):
+        assert min(abs(t - depth) for t in tops) <= 0.3, (depth, tops)

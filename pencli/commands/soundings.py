@@ -100,9 +100,10 @@ def layers_command(
     min_thickness: float = MIN_THICKNESS,
     json_out: bool = typer.Option(False, "--json", help='Print [{"file", "name", "layers": [...], ...}].'),
 ) -> None:
-    """The layers of each sounding: where its cone resistance (qt, or qc without u₂) changes from one straight
-    line in depth to another, by optimal partitioning with a penalty set from the sounding's own scatter. Per
-    layer: its top and bottom [m], the resistance at both [MPa] and the mean sleeve friction [kPa].
+    """The layers of each sounding: where its resistance (a cone's qt, or qc without u₂, in MPa; a total
+    sounding's push force, in kN) changes from one straight line in depth to another, by optimal partitioning
+    with a penalty set from the sounding's own scatter. Per layer: its top and bottom [m], the resistance at both
+    and the mean sleeve friction [kPa].
 
     Example: pen soundings layers examples/field/ags/HKZ_20161114_FEBV_HKZ1-CPT01_AGS4.0_V03_F.ags.gz
     """
@@ -112,12 +113,12 @@ def layers_command(
     for path in files:
         for sounding in api.read_soundings([path]):
             cut = api.sounding_layers(sounding, min_thickness_m=min_thickness)
-            _, quantity = api.sounding_resistance_mpa(sounding)
+            _, quantity, unit = api.sounding_resistance(sounding)
             fs = sounding.columns.get("fs_kpa")
-            records.append({"file": str(path), "name": sounding.name, "quantity": quantity,
+            records.append({"file": str(path), "name": sounding.name, "quantity": quantity, "unit": unit,
                             "scatter": cut.scatter, "correlation": cut.correlation, "penalty": cut.penalty,
                             "layers": [{"top_m": layer.top_m, "bottom_m": layer.bottom_m,
-                                        "q_top_mpa": layer.q_top, "q_bottom_mpa": layer.q_bottom,
+                                        "q_top": layer.q_top, "q_bottom": layer.q_bottom,
                                         "fs_mean_kpa": (float(np.nanmean(fs[slice(*layer.rows)]))
                                                         if fs is not None and np.isfinite(fs[slice(*layer.rows)]).any()
                                                         else None)}
@@ -130,12 +131,12 @@ def layers_command(
                                                         f"layers of {r['quantity']}"),
                       caption=f"scatter about the layers' lines {100 * r['scatter']:.1f} % (row to row "
                               f"correlation {r['correlation']:.2f})")
-        for column in ("top [m]", "bottom [m]", f"{r['quantity']} top [MPa]", f"{r['quantity']} bottom [MPa]",
-                       "fs mean [kPa]"):
+        for column in ("top [m]", "bottom [m]", f"{r['quantity']} top [{r['unit']}]",
+                       f"{r['quantity']} bottom [{r['unit']}]", "fs mean [kPa]"):
             table.add_column(escape(column), justify="right")
         for layer in r["layers"]:
-            table.add_row(f"{layer['top_m']:.2f}", f"{layer['bottom_m']:.2f}", f"{layer['q_top_mpa']:.3g}",
-                          f"{layer['q_bottom_mpa']:.3g}",
+            table.add_row(f"{layer['top_m']:.2f}", f"{layer['bottom_m']:.2f}", f"{layer['q_top']:.3g}",
+                          f"{layer['q_bottom']:.3g}",
                           "–" if layer["fs_mean_kpa"] is None else f"{layer['fs_mean_kpa']:.1f}")
         console.print(table)
 

@@ -5,10 +5,12 @@ A profile is cut into layers, each a straight line of q against depth
 consolidated clay's does, or stays level, as a sand's about does), by
 optimal partitioning: the cut that minimises
 
-.. math:: \sum_\text{layers} \sum_\text{rows} \left(\frac{q - q_\text{line}}{q}\right)^2 + \beta \cdot (\text{layers})
+.. math:: \sum_\text{layers} \sum_\text{rows} \left(\frac{q - q_\text{line}}{\tilde q}\right)^2 + \beta \cdot (\text{layers})
 
-(each row's residual relative to its reading, a weighted least-squares
-line per layer: the sensors' scatter is a share of the reading)
+(each row's residual relative to the resistance there, :math:`\tilde q`
+the running median over the thinnest layer's rows, a weighted
+least-squares line per layer: the sensors' scatter is a share of the
+reading, and a single reading near 0 does not outweigh the rest)
 
 over every cut whose layers are at least ``min_thickness_m`` thick,
 found exactly by dynamic programming over the rows (the lines' sums of
@@ -123,29 +125,31 @@ def detect_layers(depth_m: np.ndarray, q: np.ndarray, *, min_thickness_m: float 
     second = np.diff(np.log(y), 2)
     scatter = MAD_TO_SD * float(np.median(np.abs(second - np.median(second)))) / SCATTER_FROM_SECOND_DIFFERENCES
     beta = PARAMETERS_PER_LAYER * max(scatter, 1e-6) ** 2 * math.log(n) if penalty is None else float(penalty)
-    layers = _cut(z, y, keep, shortest, beta)
+    w = _weights(y, shortest)
+    layers = _cut(z, y, w, keep, shortest, beta)
     correlation = 0.0
     if penalty is None:  # the residuals' own variance, stretched by how far they run together (AR(1))
-        residual = np.concatenate([(y[a:b] - (layer.q_top + layer.gradient_per_m * (z[a:b] - layer.top_m))) / y[a:b]
-                                   for layer in layers for a, b in [_kept(layer, keep)]])
+        residual = np.concatenate([(y[a:b] - (layer.q_top + layer.gradient_per_m * (z[a:b] - layer.top_m)))
+                                   * np.sqrt(w[a:b]) for layer in layers for a, b in [_kept(layer, keep)]])
         correlation = float(np.clip(np.corrcoef(residual[:-1], residual[1:])[0, 1], 0.0, MAX_CORRELATION))
         if correlation > 0.0:
             scatter = float(np.sqrt(np.mean(residual * residual)))
             beta = max(beta, PARAMETERS_PER_LAYER * scatter ** 2 * (1 + correlation) / (1 - correlation) * math.log(n))
-            layers = _cut(z, y, keep, shortest, beta)
+            layers = _cut(z, y, w, keep, shortest, beta)
     return Cut(layers, scatter, beta, correlation)
 
 
-def _cut(z: np.ndarray, y: np.ndarray, keep: np.ndarray, shortest: int, beta: float) -> tuple[Layer, ...]:
+def _cut(z: np.ndarray, y: np.ndarray, w: np.ndarray, keep: np.ndarray, shortest: int, beta: float
+         ) -> tuple[Layer, ...]:
     """The optimal cut at penalty ``beta``, transitions made boundaries."""
-    starts = _optimal_starts(z, y, shortest, beta)
+    starts = _optimal_starts(z, y, w, shortest, beta)
     layers = []
     end = z.size
     while end > 0:
         start = starts[end]
-        layers.append(_line(z, y, start, end, keep))
+        layers.append(_line(z, y, w, start, end, keep))
         end = start
-    return _without_transitions(list(reversed(layers)), z, y, keep)
+    return _without_transitions(list(reversed(layers)), z, y, w, keep)
 
 
 def _kept(layer: Layer, keep: np.ndarray) -> tuple[int, int]:
@@ -154,7 +158,8 @@ def _kept(layer: Layer, keep: np.ndarray) -> tuple[int, int]:
     return int(before[layer.rows[0]]) - 1, int(before[layer.rows[1] - 1])
 
 
-def _without_transitions(layers: list[Layer], z: np.ndarray, y: np.ndarray, keep: np.ndarray) -> tuple[Layer, ...]:
+def _without_transitions(layers: list[Layer], z: np.ndarray, y: np.ndarray, w: np.ndarray, keep: np.ndarray
+                         ) -> tuple[Layer, ...]:
     """The cut with each transition made a boundary: one or two thin layers (each at most :data:`TRANSITION_M`)
     between two others, rising or falling as the step between those does and passing the level half-way between
     them (a large step's ramp is not one straight line).  The boundary is where the ramp passes that level; the
@@ -179,18 +184,26 @@ def _without_transitions(layers: list[Layer], z: np.ndarray, y: np.ndarray, keep
             split = int(np.searchsorted(z, depth))
             first, past = index[above.rows[0]], index[below.rows[1] - 1] + 1
             split = min(max(split, first + 1), past - 1)
-            out[k - 1:k + size + 1] = [_line(z, y, first, split, keep), _line(z, y, split, past, keep)]
+            out[k - 1:k + size + 1] = [_line(z, y, w, first, split, keep), _line(z, y, w, split, past, keep)]
             break
         else:
             k += 1
     return tuple(out)
 
 
-def _optimal_starts(z: np.ndarray, y: np.ndarray, shortest: int, beta: float) -> np.ndarray:
+def _weights(y: np.ndarray, shortest: int) -> np.ndarray:
+    """1/q̃² per row, q̃ the running median of q over the thinnest layer's rows: each row's residual relative to the
+    reading there, without a single reading near 0 (a pause, a rod added) weighing thousands of times the rest."""
+    from scipy.ndimage import median_filter
+
+    level = median_filter(y, size=shortest | 1, mode="nearest")
+    return 1.0 / np.maximum(level, np.max(level) * 1e-6) ** 2
+
+
+def _optimal_starts(z: np.ndarray, y: np.ndarray, w: np.ndarray, shortest: int, beta: float) -> np.ndarray:
     """For each end row e, the start of the last layer of the best cut of rows [0, e) (dynamic programming over
-    weighted least-squares lines, weights 1/q²)."""
+    weighted least-squares lines, weights ``w`` from :func:`_weights`)."""
     n = z.size
-    w = 1.0 / (y * y)
 
     def sums(values):
         return np.concatenate([[0.0], np.cumsum(values)])
@@ -216,13 +229,13 @@ def _optimal_starts(z: np.ndarray, y: np.ndarray, shortest: int, beta: float) ->
     return starts
 
 
-def _line(z: np.ndarray, y: np.ndarray, start: int, end: int, keep: np.ndarray) -> Layer:
+def _line(z: np.ndarray, y: np.ndarray, w: np.ndarray, start: int, end: int, keep: np.ndarray) -> Layer:
     """The layer of rows [start, end) of the kept rows, with its rows numbered in the whole profile."""
     zz, yy = z[start:end], y[start:end]
     index = np.flatnonzero(keep)
     top = float(zz[0]) if start == 0 else 0.5 * float(z[start - 1] + zz[0])
     bottom = float(zz[-1]) if end == z.size else 0.5 * float(zz[-1] + z[end])
-    slope, level = np.polyfit(zz - top, yy, 1, w=1.0 / yy) if zz.size > 1 else (0.0, float(yy[0]))
+    slope, level = np.polyfit(zz - top, yy, 1, w=np.sqrt(w[start:end])) if zz.size > 1 else (0.0, float(yy[0]))
     return Layer(top, bottom, (int(index[start]), int(index[end - 1]) + 1), float(level), float(slope))
 
 

@@ -310,9 +310,11 @@ def diagnosis_section(result) -> Section:
     return section
 
 
-def sounding_section(sounding, cut, resistance_mpa: np.ndarray, quantity: str, rate_mm_s: float | None) -> Section:
+def sounding_section(sounding, cut, resistance: np.ndarray, quantity: str, unit: str, rate_mm_s: float | None,
+                     described: tuple[str, str, str]) -> Section:
     """A field sounding: what it is, its header as the file gives it, its layers (``cut``, a
-    :class:`pencli.fit.layers.Cut` of ``resistance_mpa``, qt or qc) and its profile with the layers drawn."""
+    :class:`pencli.fit.layers.Cut` of ``resistance``: qt or qc [MPa], or a total sounding's push force [kN]) and
+    its profile with the layers drawn (``described``: the resistance's (what, unit, symbol) for the figure)."""
     from pencli.report import figures
 
     c = sounding.columns
@@ -328,15 +330,16 @@ def sounding_section(sounding, cut, resistance_mpa: np.ndarray, quantity: str, r
                            f"correlation {cut.correlation:.2f}).",
                       provenance={"source": sounding.source, "method": sounding.method})
     fs = c.get("fs_kpa")
-    section.tables.append((f"layers of {quantity}", ["top [m]", "bottom [m]", f"{quantity} top [MPa]",
-                                                     f"{quantity} bottom [MPa]", "fs mean [kPa]"],
+    section.tables.append((f"layers of {quantity}", ["top [m]", "bottom [m]", f"{quantity} top [{unit}]",
+                                                     f"{quantity} bottom [{unit}]", "fs mean [kPa]"],
                            [[layer.top_m, layer.bottom_m, layer.q_top, layer.q_bottom,
                              float(np.nanmean(fs[slice(*layer.rows)]))
                              if fs is not None and np.isfinite(fs[slice(*layer.rows)]).any() else None]
                             for layer in cut.layers]))
     section.tables.append(("the file's header", ["key", "value"], [[k, v] for k, v in sounding.header.items()]))
-    section.add_figure(*figures.sounding_profile(sounding.name, depth, c["qc_mpa"], fs, c.get("u2_kpa"),
-                                                 resistance_mpa if quantity == "qt" else None, layers=cut))
+    section.add_figure(*figures.sounding_profile(sounding.name, depth, c.get("qc_mpa", resistance), fs,
+                                                 c.get("u2_kpa"), resistance if quantity == "qt" else None, layers=cut,
+                                                 resistance=described))
     return section
 
 
