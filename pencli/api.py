@@ -1405,9 +1405,10 @@ def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
         record = records[0]
         columns = record.columns
         missing = [c for c in needed if c not in columns]
-        if missing or record.time_s is None:
-            raise DataError(f"{entry.path}: no {', '.join(missing) or 'clock (%)'} column; a rate effect of "
-                            f"{quantity} needs it")
+        if not missing and record.time_s is None and "rate_mm_s" not in columns:
+            missing = ["clock (% or AK) or logger's rate (B)"]
+        if missing:
+            raise DataError(f"{entry.path}: no {', '.join(missing)} column; a rate effect of {quantity} needs it")
         if quantity == "qt":
             area_ratio = record.header_number("MA")
             if area_ratio is None or not 0.0 < area_ratio <= 1.0:
@@ -1417,7 +1418,7 @@ def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
         else:
             values = columns[needed[0]] * (1e3 if quantity == "qc" else 1.0)
         means.append(unit_means(columns["depth_m"], record.time_s, values, chosen.units_m, entry.warp_m,
-                                entry.drop_m))
+                                entry.drop_m, logger_rate_mm_s=columns.get("rate_mm_s")))
     return chosen, means
 
 

@@ -1,6 +1,6 @@
-"""Norwegian total soundings (SGF method 24) of the NTNU rate study at Kjellstad, against the authors' published
-unit forces and rate factors (``examples/field/ntnu-tot-rate/``): the reader (repeated comment codes, the
-logger's time of day as the clock), the push force's unit means and the rate effect across the soundings."""
+"""Norwegian total soundings (SGF method 24) of the NTNU rate study at Kjellstad and Øysand, against the authors'
+published unit forces and rate factors (``examples/field/ntnu-tot-rate/``): the reader (repeated comment codes,
+the logger's time of day as the clock), the push force's unit means and the rate effect across the soundings."""
 
 from __future__ import annotations
 
@@ -29,24 +29,29 @@ LEFT_OUT = ("KJTS08", "KJTS10")
 """The soundings the authors' table does not average (its values are the other sounding's of each class)."""
 
 
-def authors() -> list[dict]:
+def authors(site: str = "Kjellstad") -> list[dict]:
+    """The authors' rows of one site (the file's ``site`` column, pen's reading of their units)."""
     with open(FIELD / "authors_results.csv", newline="") as handle:
-        return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(handle)]
+        return [{k: float(v) for k, v in row.items() if k != "site"} for row in csv.DictReader(handle)
+                if row["site"] == site]
 
 
 def test_the_committed_files_are_the_originals_listed_with_their_licence():
-    listed = dict(re.findall(r"^\| (\S+\.std) \| ([0-9a-f]{64}) \|$", (FIELD / "README.md").read_text(), re.MULTILINE))
-    files = sorted((FIELD / "soundings").glob("*.std.gz"))
-    assert len(files) == 13 and sorted(listed) == [p.name[:-3] for p in files]
-    for path in files:
-        assert hashlib.sha256(gzip.decompress(path.read_bytes())).hexdigest() == listed[path.name[:-3]]
+    listed = dict(re.findall(r"^\| (\S.*?\.(?:std|TOT)) \| ([0-9a-f]{64}) \|$", (FIELD / "README.md").read_text(),
+                             re.MULTILINE))
+    files = sorted((FIELD / "soundings").glob("*.gz"))
+    committed = {path.name[:-3].replace("-", " ") if path.name.startswith("oysts") else path.name[:-3]: path
+                 for path in files}
+    assert len(files) == 26 and sorted(listed) == sorted(committed)
+    for original, path in committed.items():
+        assert hashlib.sha256(gzip.decompress(path.read_bytes())).hexdigest() == listed[original]
     assert "MIT License" in (FIELD / "LICENSE").read_text()
 
 
 def test_every_sounding_reads_with_its_comment_codes_and_its_clock_gives_the_loggers_rate():
     """Rows give the comment code K twice (``K=1,K=74``); the clock is the time of day (``AK=15:49:54.335``).
     The rate from that clock is the logger's own B column's median (within 1 %)."""
-    for path in sorted((FIELD / "soundings").glob("*.std.gz")):
+    for path in sorted((FIELD / "soundings").glob("KJTS*.std.gz")):
         (sounding,) = read_sgf(path)
         assert sounding.kind == "total_sounding" and sounding.row_comments and sounding.time_s is not None
         logger = sounding.columns["rate_mm_s"]
@@ -124,3 +129,18 @@ def test_a_total_soundings_layers_are_cut_in_its_push_force_near_the_authors_dep
     tops = [layer["top_m"] for layer in record["layers"][1:]]
     for depth in (0.84, 2.31, 8.02, 8.76, 17.26):
         assert min(abs(t - depth) for t in tops) <= 0.3, (depth, tops)
+
+
+def test_the_rate_effect_at_oysand_from_the_loggers_rate_agrees_with_the_authors_factors(runner):
+    """Øysand's files carry no clock: each unit's rate is the logger's B; the units are the layers of oysts45.
+    K against K fitted to the authors' eight sand units' factors: each inside the other's 95 % interval."""
+    result = invoke(runner, "soundings", "fit", str(UNITS), "--site", "Oysand", "--quantity", "push_force", "--json")
+    assert result.exit_code == 0, result.output
+    pen = json.loads(result.stdout)
+    rows = authors("Oysand")
+    x = np.log10(np.array([r["rate_mm_s"] for r in rows]) / 50.0)
+    y = np.array([r["factor_k"] for r in rows]) - 1.0
+    theirs = float(x @ y / (x @ x))
+    theirs_se = float(np.sqrt(np.sum((y - theirs * x) ** 2) / (y.size - 1) / (x @ x)))
+    assert len(rows) == 40 and pen["per_decade"] > 0 and theirs > 0
+    assert abs(pen["per_decade"] - theirs) <= 1.96 * min(pen["per_decade_se"], theirs_se), (pen, theirs)

@@ -17,6 +17,8 @@ strength, as ratios k = value/q_u do.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -56,13 +58,14 @@ class UnitMean:
     rows: int
 
 
-def unit_means(depth_m: np.ndarray, time_s: np.ndarray, values: np.ndarray, units_m: Sequence[Sequence[float]],
+def unit_means(depth_m: np.ndarray, time_s: np.ndarray | None, values: np.ndarray, units_m: Sequence[Sequence[float]],
                warp_m: Sequence[Sequence[float]] = (), drop_m: Sequence[Sequence[float]] = (),
-               min_rows: int = 10) -> list[UnitMean]:
-    """Each unit's mean of ``values`` and the push rate over its rows (:func:`pencli.filter.rate.push_rate_mm_s`),
-    the units given as [top, bottom] at the reference's depths (``warp_m`` maps this sounding's onto them; rows in a
-    ``drop_m`` range, also at the reference's depths, are left out).  A unit with fewer than ``min_rows`` finite rows
-    is left out."""
+               min_rows: int = 10, logger_rate_mm_s: np.ndarray | None = None) -> list[UnitMean]:
+    """Each unit's mean of ``values`` and the push rate over its rows (:func:`pencli.filter.rate.push_rate_mm_s`
+    from the clock, or where ``time_s`` is None the median of the logger's own positive rates
+    ``logger_rate_mm_s``), the units given as [top, bottom] at the reference's depths (``warp_m`` maps this
+    sounding's onto them; rows in a ``drop_m`` range, also at the reference's depths, are left out).  A unit with
+    fewer than ``min_rows`` finite rows is left out."""
     from pencli.filter.rate import push_rate_mm_s
 
     d = np.asarray(depth_m, dtype=float)
@@ -71,13 +74,18 @@ def unit_means(depth_m: np.ndarray, time_s: np.ndarray, values: np.ndarray, unit
     keep = np.isfinite(y) & np.isfinite(d)
     for lo, hi in drop_m:
         keep &= ~((at >= lo) & (at <= hi))
-    t = np.asarray(time_s, dtype=float)
+    t = None if time_s is None else np.asarray(time_s, dtype=float)
     out = []
     for u, (top, bottom) in enumerate(units_m):
         rows = keep & (at >= top) & (at <= bottom)
         if rows.sum() < min_rows:
             continue
-        rate = push_rate_mm_s(d[rows], t[rows])
+        if t is not None:
+            rate = push_rate_mm_s(d[rows], t[rows])
+        else:
+            logged = np.asarray(logger_rate_mm_s, dtype=float)[rows]
+            logged = logged[np.isfinite(logged) & (logged > 0)]
+            rate = float(np.median(logged)) if logged.size else math.nan
         if np.isfinite(rate) and rate > 0:
             out.append(UnitMean(u, rate, float(np.mean(y[rows])), int(rows.sum())))
     return out
