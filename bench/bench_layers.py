@@ -12,14 +12,12 @@ at 5-65 mm/s with a rate effect of K per decade, the units the 20 mm/s sounding'
 
 from __future__ import annotations
 
-import json
 import statistics
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 
 from pencli.testing.options import check_options
 
@@ -29,39 +27,12 @@ def _value(args: list[str], option: str, count: int = 1):
     return args[i + 1:i + 1 + count]
 
 
-def _ground(seed: int, layered: bool):
-    from pencli.acquire.sounding import SoilLayer, random_layers, simulate_sounding
-    from pencli.fit.rate_effect import qt_kpa
-
-    rng = np.random.default_rng(seed if layered else [seed, 99])
-    if layered:
-        layers = random_layers(rng, 1.0, 15.0)
-    else:
-        qt = float(np.exp(rng.uniform(np.log(0.5), np.log(15.0))))
-        layers = [SoilLayer(1.0, qt, float(rng.uniform(0, 0.15) * qt), 0.01 if qt > 4 else 0.04,
-                            -0.01 if qt > 4 else 0.4)]
-    sounding = simulate_sounding(layers, 15.0, rng, noise=float(rng.uniform(0.01, 0.06)),
-                                 rate_mm_s=float(rng.choice([10, 20, 40])))
-    c = sounding.columns
-    return [layer.top_m for layer in layers[1:]], c["depth_m"], qt_kpa(c["qc_mpa"], c["u2_kpa"], sounding.area_ratio)
-
-
 def _rate(seed: int, per_decade: float) -> float:
     from pencli import api
-    from pencli.acquire.sounding import random_layers, sgf_text, simulate_sounding
+    from pencli.testing.soundings import six_rate_site
 
-    rng = np.random.default_rng(seed)
-    layers = random_layers(rng, 1.0, 12.0)
     with tempfile.TemporaryDirectory() as tmp:
-        soundings = {}
-        for rate in (5, 10, 20, 35, 50, 65):
-            sounding = simulate_sounding(layers, 12.0, rng, rate_mm_s=rate, rate_effect=per_decade, noise=0.03)
-            (Path(tmp) / f"r{rate}.cpt").write_text(sgf_text(f"r{rate}", sounding))
-            soundings[f"r{rate}"] = {"file": f"r{rate}.cpt", "nominal_rate_mm_s": rate}
-        units = Path(tmp) / "units.json"
-        units.write_text(json.dumps({"sites": {"sim": {"reference_sounding": "r20", "units_m": "layers",
-                                                       "soundings": soundings}}}))
-        return api.fit_soundings(units, "sim").per_decade
+        return api.fit_soundings(six_rate_site(Path(tmp), seed, per_decade), "sim").per_decade
 
 
 def main() -> None:
@@ -70,18 +41,19 @@ def main() -> None:
     start, end = (int(v) for v in _value(args, "--seeds", 2)) if "--seeds" in args else (1000, 1100)
     tolerance = float(_value(args, "--tolerance")[0]) if "--tolerance" in args else 0.15
     from pencli.fit.layers import detect_layers
+    from pencli.testing.soundings import random_sounding
 
     found = true = invented = reported = cut_nulls = 0
     times = []
     for seed in range(start, end):
-        truth, depth, qt = _ground(seed, True)
+        truth, depth, qt = random_sounding(seed)
         began = time.perf_counter()
         got = detect_layers(depth, qt).boundaries_m
         times.append(time.perf_counter() - began)
         found += sum(any(abs(g - b) <= tolerance for g in got) for b in truth)
         invented += sum(not any(abs(g - b) <= tolerance for b in truth) for g in got)
         true, reported = true + len(truth), reported + len(got)
-        cut_nulls += len(detect_layers(*_ground(seed, False)[1:]).layers) > 1
+        cut_nulls += len(detect_layers(*random_sounding(seed, layered=False)[1:]).layers) > 1
     print(f"seeds {start}-{end - 1}: {found} of {true} boundaries found within {tolerance:g} m, {invented} of "
           f"{reported} reported invented; {cut_nulls} of {end - start} single layers cut; the cut takes "
           f"{statistics.median(times) * 1e3:.0f} ms (median)")

@@ -12,28 +12,12 @@ import pytest
 from pencli.acquire.sounding import SoilLayer, random_layers, sgf_text, simulate_sounding
 from pencli.filter.rate import push_rate_mm_s
 from pencli.fit.layers import detect_layers
-from pencli.fit.rate_effect import qt_kpa
 from pencli.io.sgf import read_sgf
+from pencli.testing.soundings import random_sounding, six_rate_site
 from tests.conftest import invoke
 
 TOLERANCE_M = 0.15
 """A boundary is found when the cut puts one this close: about four diameters of a 10 cm² cone. [m]"""
-
-
-def simulated(seed: int, layered: bool = True):
-    """(true boundaries [m], depth [m], qt [kPa]) of hold-out sounding ``seed``: 1 to 6 random layers (or one
-    layer with a gradient), noise 1–6 %, pushed at 10, 20 or 40 mm/s."""
-    rng = np.random.default_rng(seed if layered else [seed, 99])
-    if layered:
-        layers = random_layers(rng, 1.0, 15.0)
-    else:
-        qt = float(np.exp(rng.uniform(np.log(0.5), np.log(15.0))))
-        layers = [SoilLayer(1.0, qt, float(rng.uniform(0, 0.15) * qt), 0.01 if qt > 4 else 0.04,
-                            -0.01 if qt > 4 else 0.4)]
-    sounding = simulate_sounding(layers, 15.0, rng, noise=float(rng.uniform(0.01, 0.06)),
-                                 rate_mm_s=float(rng.choice([10, 20, 40])))
-    c = sounding.columns
-    return [layer.top_m for layer in layers[1:]], c["depth_m"], qt_kpa(c["qc_mpa"], c["u2_kpa"], sounding.area_ratio)
 
 
 def test_the_boundaries_of_random_layered_ground_are_found_and_few_are_invented():
@@ -41,7 +25,7 @@ def test_the_boundaries_of_random_layered_ground_are_found_and_few_are_invented(
     invented): at least 95 % of the true boundaries within 0.15 m, at most 3 % of those reported invented."""
     found = true = invented = reported = 0
     for seed in range(1000, 1060):
-        truth, depth, qt = simulated(seed)
+        truth, depth, qt = random_sounding(seed)
         got = detect_layers(depth, qt).boundaries_m
         found += sum(any(abs(g - b) <= TOLERANCE_M for g in got) for b in truth)
         invented += sum(not any(abs(g - b) <= TOLERANCE_M for b in truth) for g in got)
@@ -54,7 +38,7 @@ def test_the_boundaries_of_random_layered_ground_are_found_and_few_are_invented(
 def test_one_layer_with_a_gradient_is_one_layer():
     """Hold-out nulls (seeds 1000–1099 measured 0 of 100 cut): a single layer whose resistance grows with depth,
     at any noise, is at most rarely cut (here at most 1 of 40)."""
-    cut = [len(detect_layers(*simulated(seed, layered=False)[1:]).layers) > 1 for seed in range(1000, 1040)]
+    cut = [len(detect_layers(*random_sounding(seed, layered=False)[1:]).layers) > 1 for seed in range(1000, 1040)]
     assert sum(cut) <= 1
 
 
@@ -102,28 +86,12 @@ def test_the_layers_command_reads_a_sounding_and_draws_its_layers(tmp_path, runn
     assert result.exit_code == 1 and "short.cpt" in result.stderr and "at least 8" in result.stderr
 
 
-def site_of_six_rates(tmp_path, seed: int, per_decade: float) -> str:
-    """Six simulated soundings through the same layered ground (hold-out ``seed``) at 5–65 mm/s with a rate
-    effect of ``per_decade``, as SGF files and a units file whose units are the 20 mm/s sounding's layers."""
-    rng = np.random.default_rng(seed)
-    layers = random_layers(rng, 1.0, 12.0)
-    soundings = {}
-    for rate in (5, 10, 20, 35, 50, 65):
-        sounding = simulate_sounding(layers, 12.0, rng, rate_mm_s=rate, rate_effect=per_decade, noise=0.03)
-        (tmp_path / f"r{rate}.cpt").write_text(sgf_text(f"r{rate}", sounding))
-        soundings[f"r{rate}"] = {"file": f"r{rate}.cpt", "nominal_rate_mm_s": rate}
-    units = tmp_path / "units.json"
-    units.write_text(json.dumps({"sites": {"sim": {"reference_sounding": "r20", "units_m": "layers",
-                                                   "soundings": soundings}}}))
-    return str(units)
-
-
 @pytest.mark.parametrize("seed, per_decade", [(1001, -0.15), (1002, 0.10), (1004, -0.15)])
 def test_a_rate_effect_of_either_sign_is_recovered_from_six_soundings_on_their_own_layers(tmp_path, runner, seed,
                                                                                          per_decade):
     """The rate effect's sign and size from six soundings at 5–65 mm/s, the units found as the reference's
     layers (all six hold-out grounds 1000–1005, both signs: within 1.8 %), and the diagnosis names it."""
-    units = site_of_six_rates(tmp_path, seed, per_decade)
+    units = str(six_rate_site(tmp_path, seed, per_decade))
     result = invoke(runner, "soundings", "fit", units, "--site", "sim", "--json")
     assert result.exit_code == 0, result.output
     fitted = json.loads(result.stdout)
@@ -136,7 +104,7 @@ def test_a_rate_effect_of_either_sign_is_recovered_from_six_soundings_on_their_o
 
 
 def test_six_soundings_without_a_rate_effect_are_none(tmp_path, runner):
-    units = site_of_six_rates(tmp_path, 1003, 0.0)
+    units = str(six_rate_site(tmp_path, 1003, 0.0))
     result = invoke(runner, "soundings", "diagnose", units, "--site", "sim", "--json")
     assert result.exit_code == 0, result.output
     assert json.loads(result.stdout)["verdict"] == "none"
