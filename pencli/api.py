@@ -1308,11 +1308,12 @@ def sounding_resistance(sounding) -> tuple[np.ndarray, str, str]:
     return c["qc_mpa"], "qc", "MPa"
 
 
-def sounding_layers(sounding, *, min_thickness_m: float | None = None):
-    """The layers of a sounding's resistance (:func:`sounding_resistance`; :func:`pencli.fit.layers.detect_layers`)."""
+def sounding_layers(sounding, *, min_thickness_m: float | None = None, resistance: tuple | None = None):
+    """The layers of a sounding's resistance (``resistance``, :func:`sounding_resistance`'s, computed when not
+    given; :func:`pencli.fit.layers.detect_layers`)."""
     from pencli.fit.layers import MIN_THICKNESS_M, detect_layers
 
-    q, _, _ = sounding_resistance(sounding)
+    q, _, _ = resistance or sounding_resistance(sounding)
     try:
         return detect_layers(sounding.columns["depth_m"], q,
                              min_thickness_m=MIN_THICKNESS_M if min_thickness_m is None else min_thickness_m)
@@ -1320,23 +1321,23 @@ def sounding_layers(sounding, *, min_thickness_m: float | None = None):
         raise DataError(f"{sounding.source}: sounding {sounding.name}: {error}") from None
 
 
-def plot_sounding(sounding, path: str | Path, layers=None) -> str:
+def plot_sounding(sounding, path: str | Path, layers=None, resistance: tuple | None = None) -> str:
     """Draw a sounding (``pen soundings plot``) against depth to a PNG, SVG or PDF file, with ``layers`` (a
-    :class:`~pencli.fit.layers.Cut`) drawn where given; returns the caption."""
+    :class:`~pencli.fit.layers.Cut`) drawn where given; returns the caption.  ``resistance``:
+    :func:`sounding_resistance`'s, computed when not given."""
     from pencli.report.figures import sounding_profile
 
     c = sounding.columns
-    q, name, unit = sounding_resistance(sounding)
+    q, name, _ = resistance or sounding_resistance(sounding)
     fig, caption = sounding_profile(sounding.name, c["depth_m"], c.get("qc_mpa", q), c.get("fs_kpa"), c.get("u2_kpa"),
-                                    q if name == "qt" else None, layers=layers,
-                                    resistance=PUSH_FORCE if name == "push_force" else CONE_RESISTANCE)
+                                    q if name == "qt" else None, layers=layers, resistance=RESISTANCE_LABELS[name])
     return _save_captioned(fig, caption, path, fontsize=8, dpi=150, top=0.9)
 
 
-CONE_RESISTANCE = ("cone resistance", "MPa", "qc")
-"""How a sounding figure names a cone's resistance: (what, unit, symbol)."""
-PUSH_FORCE = ("push force on the rods", "kN", "A")
-"""How it names a total sounding's."""
+RESISTANCE_LABELS = {"qt": ("cone resistance", "MPa", "qc"), "qc": ("cone resistance", "MPa", "qc"),
+                     "push_force": ("push force on the rods", "kN", "A")}
+"""How a sounding figure names each resistance :func:`sounding_resistance` gives: (what, unit, symbol of the
+drawn curve)."""
 
 
 def report_soundings(paths: Sequence[str | Path], out: str | Path, *, pdf: bool = True,
@@ -1349,13 +1350,13 @@ def report_soundings(paths: Sequence[str | Path], out: str | Path, *, pdf: bool 
 
     sections = []
     for sounding in read_soundings(paths):
-        q, quantity, unit = sounding_resistance(sounding)
-        cut = sounding_layers(sounding, min_thickness_m=min_thickness_m)
+        resistance = q, quantity, unit = sounding_resistance(sounding)
+        cut = sounding_layers(sounding, min_thickness_m=min_thickness_m, resistance=resistance)
         rate = (push_rate_mm_s(sounding.columns["depth_m"], sounding.time_s) if sounding.time_s is not None
                 else None)
         sections.append(sounding_section(sounding, cut, q, quantity, unit,
                                          rate if rate is not None and math.isfinite(rate) else None,
-                                         PUSH_FORCE if quantity == "push_force" else CONE_RESISTANCE))
+                                         RESISTANCE_LABELS[quantity]))
     title = f"pen soundings report: {len(sections)} sounding{'s' if len(sections) != 1 else ''}"
     return write_report(title, sections, out, pdf=pdf)
 

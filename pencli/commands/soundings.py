@@ -89,8 +89,9 @@ def plot(
     soundings = api.read_soundings([file])
     for k, sounding in enumerate(soundings):
         target = out if len(soundings) == 1 else out.with_name(f"{out.stem}-{k + 1}{out.suffix}")
-        cut = api.sounding_layers(sounding, min_thickness_m=min_thickness) if layers else None
-        caption = api.plot_sounding(sounding, target, cut)
+        resistance = api.sounding_resistance(sounding)
+        cut = api.sounding_layers(sounding, min_thickness_m=min_thickness, resistance=resistance) if layers else None
+        caption = api.plot_sounding(sounding, target, cut, resistance)
         console.print(f"figure written to {escape(str(target))}: {escape(caption)}")
 
 
@@ -112,8 +113,8 @@ def layers_command(
     records = []
     for path in files:
         for sounding in api.read_soundings([path]):
-            cut = api.sounding_layers(sounding, min_thickness_m=min_thickness)
-            _, quantity, unit = api.sounding_resistance(sounding)
+            resistance = _, quantity, unit = api.sounding_resistance(sounding)
+            cut = api.sounding_layers(sounding, min_thickness_m=min_thickness, resistance=resistance)
             fs = sounding.columns.get("fs_kpa")
             records.append({"file": str(path), "name": sounding.name, "quantity": quantity, "unit": unit,
                             "scatter": cut.scatter, "correlation": cut.correlation, "penalty": cut.penalty,

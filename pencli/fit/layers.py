@@ -129,8 +129,10 @@ def detect_layers(depth_m: np.ndarray, q: np.ndarray, *, min_thickness_m: float 
     layers = _cut(z, y, w, keep, shortest, beta)
     correlation = 0.0
     if penalty is None:  # the residuals' own variance, stretched by how far they run together (AR(1))
+        before = np.cumsum(keep)  # kept rows up to and including each profile row
+        spans = [(int(before[layer.rows[0]]) - 1, int(before[layer.rows[1] - 1])) for layer in layers]
         residual = np.concatenate([(y[a:b] - (layer.q_top + layer.gradient_per_m * (z[a:b] - layer.top_m)))
-                                   * np.sqrt(w[a:b]) for layer in layers for a, b in [_kept(layer, keep)]])
+                                   * np.sqrt(w[a:b]) for layer, (a, b) in zip(layers, spans)])
         correlation = float(np.clip(np.corrcoef(residual[:-1], residual[1:])[0, 1], 0.0, MAX_CORRELATION))
         if correlation > 0.0:
             scatter = float(np.sqrt(np.mean(residual * residual)))
@@ -150,12 +152,6 @@ def _cut(z: np.ndarray, y: np.ndarray, w: np.ndarray, keep: np.ndarray, shortest
         layers.append(_line(z, y, w, start, end, keep))
         end = start
     return _without_transitions(list(reversed(layers)), z, y, w, keep)
-
-
-def _kept(layer: Layer, keep: np.ndarray) -> tuple[int, int]:
-    """A layer's rows as kept-row indices [first, past)."""
-    before = np.cumsum(keep)  # kept rows up to and including each profile row
-    return int(before[layer.rows[0]]) - 1, int(before[layer.rows[1] - 1])
 
 
 def _without_transitions(layers: list[Layer], z: np.ndarray, y: np.ndarray, w: np.ndarray, keep: np.ndarray

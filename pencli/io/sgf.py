@@ -45,7 +45,7 @@ except ``F`` and ``K``, a row's event and comment codes (one or several of each)
 (``hh:mm:ss.sss``), kept as ``clock_ms`` (milliseconds since midnight, a day added where it wraps) where a row
 has no ``%`` clock."""
 
-CODES_PER_ROW = {"F": "event", "K": "comment"}
+CODES_PER_ROW = {"F": "an event", "K": "a comment"}
 """Data codes a row may give several times: code numbers, not values."""
 
 METHODS: dict[str, str] = {"07": "cptu", "24": "total_sounding"}

@@ -249,7 +249,6 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
 
 def _choices(data: Mapping, kind: Kind, source: str) -> tuple[str, dict[str, str]]:
     """(the geometry, the named choices the file gives), each checked against its options."""
-    geometry = DEFAULT_GEOMETRY
     given: dict[str, str] = {}
     for choice in choices_of(kind):
         if choice.key not in data:
@@ -259,7 +258,7 @@ def _choices(data: Mapping, kind: Kind, source: str) -> tuple[str, dict[str, str
             raise ParameterError(f"{source}: key '{choice.key}': got {value!r}; expected one of "
                                  f"{', '.join(choice.options)} ({choice.meaning})")
         given[choice.key] = str(value)
-    geometry = given.get("geometry", geometry)
+    geometry = given.get("geometry", DEFAULT_GEOMETRY)
     for key in given:
         if not CHOICE_BY_KEY[key].belongs_to(geometry):
             raise ParameterError(f"{source}: {_unknown(key, kind, geometry)}")
