@@ -108,7 +108,6 @@ def layers_command(
 
     Example: pen soundings layers examples/field/ags/HKZ_20161114_FEBV_HKZ1-CPT01_AGS4.0_V03_F.ags.gz
     """
-    import numpy as np
 
     records = []
     for path in files:
@@ -120,9 +119,7 @@ def layers_command(
                             "scatter": cut.scatter, "correlation": cut.correlation, "penalty": cut.penalty,
                             "layers": [{"top_m": layer.top_m, "bottom_m": layer.bottom_m,
                                         "q_top": layer.q_top, "q_bottom": layer.q_bottom,
-                                        "fs_mean_kpa": (float(np.nanmean(fs[slice(*layer.rows)]))
-                                                        if fs is not None and np.isfinite(fs[slice(*layer.rows)]).any()
-                                                        else None)}
+                                        "fs_mean_kpa": layer.mean_of(fs)}
                                        for layer in cut.layers]})
     if json_out:
         print_json(records)

@@ -87,6 +87,14 @@ class Layer:
     def q_bottom(self) -> float:
         return self.q_top + self.gradient_per_m * (self.bottom_m - self.top_m)
 
+    def mean_of(self, values: np.ndarray | None) -> float | None:
+        """The mean of another column of the profile (the sleeve friction) over the layer's rows; None where the
+        profile has no such column or the layer no finite value of it."""
+        if values is None:
+            return None
+        inside = np.asarray(values, dtype=float)[slice(*self.rows)]
+        return float(np.nanmean(inside)) if np.isfinite(inside).any() else None
+
 
 @dataclass(frozen=True)
 class Cut:

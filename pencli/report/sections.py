@@ -332,9 +332,7 @@ def sounding_section(sounding, cut, resistance: np.ndarray, quantity: str, unit:
     fs = c.get("fs_kpa")
     section.tables.append((f"layers of {quantity}", ["top [m]", "bottom [m]", f"{quantity} top [{unit}]",
                                                      f"{quantity} bottom [{unit}]", "fs mean [kPa]"],
-                           [[layer.top_m, layer.bottom_m, layer.q_top, layer.q_bottom,
-                             float(np.nanmean(fs[slice(*layer.rows)]))
-                             if fs is not None and np.isfinite(fs[slice(*layer.rows)]).any() else None]
+                           [[layer.top_m, layer.bottom_m, layer.q_top, layer.q_bottom, layer.mean_of(fs)]
                             for layer in cut.layers]))
     section.tables.append(("the file's header", ["key", "value"], [[k, v] for k, v in sounding.header.items()]))
     section.add_figure(*figures.sounding_profile(sounding.name, depth, c.get("qc_mpa", resistance), fs,
