@@ -59,6 +59,7 @@ def test_a_cone_file_predicts_what_an_integration_of_its_areas_gives(tmp_path, r
     assert result.exit_code == 0, result.output
     s = json.loads(result.stdout)
     assert s["geometry"] == "cone" and s["end"] == "arrest"
+    assert s["model"] == "pen-1dof/cone+springs"  # not the contract's blade model (CONTRACT §2: say which model)
     e = LAUNCHER
     mass = CONE["sprung_mass_kg"] + e["spring_count"] * e["spring_mass_kg"] / 3.0
     kd = e["propulsion_efficiency_pct"] / 100 * e["spring_count"] * e["spring_stiffness_kn_m"] * 1e3

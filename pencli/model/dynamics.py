@@ -32,7 +32,7 @@ Pure: numpy and scipy only, SI units.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Iterable
 
 import numpy as np
@@ -48,7 +48,16 @@ from pencli.model.geometry import BLADE, Geometry
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, term_keys
 
 MODEL_NAME = "contract-2/eq9-1dof"
-"""Identifier of the reference dynamic model, recorded with every result."""
+"""Identifier of the reference dynamic model (CONTRACT §2: the blade's Eq. 9 on the springs), recorded with every
+result it produced."""
+
+
+def model_name(geometry: Geometry, drive: Drive) -> str:
+    """The model a result came from: :data:`MODEL_NAME` for the contract's blade on its springs, else the same one
+    degree of freedom with the geometry's resistance and the drive's push named (``pen-1dof/cone+springs``)."""
+    if geometry.name == BLADE.name and drive.name == SPRINGS.name:
+        return MODEL_NAME
+    return f"pen-1dof/{geometry.name}+{drive.name}"
 
 PHASES: tuple[str, ...] = ("flight", "penetration")
 """Phase codes used in :attr:`Trajectory.phase` (index into this tuple)."""
@@ -437,7 +446,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
     if speed_at_contact_m_s is None:
         t_contact, v_contact = flight.reach(design.surface_offset_m)
         if not math.isfinite(t_contact):
-            return _no_contact(design, chosen, flight, drive)
+            return replace(_no_contact(design, chosen, flight, drive), model=model_name(geometry, drive))
         u_start, initial_ke = 0.0, 0.0
     else:
         t_contact, v_contact = 0.0, float(speed_at_contact_m_s)
@@ -519,7 +528,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
                      f"(tolerance {ENERGY_TOLERANCE:g}); the design's scales strain float64, treat the figures "
                      f"with care")
     message = "; ".join(notes)
-    return SimulationResult(design, chosen, speed_at_contact_m_s, summary, trajectory,
+    return SimulationResult(design, chosen, speed_at_contact_m_s, summary, trajectory, model_name(geometry, drive),
                             success=True, message=message)
 
 
@@ -589,5 +598,5 @@ def _sum(first, second):
     return lambda x, v: first(x, v) + second(x, v)
 
 
-__all__ = ["CREEP_DISTANCE_M", "MODEL_NAME", "PHASES", "TERMS", "Flight", "SimulationResult", "Summary", "Trajectory",
+__all__ = ["CREEP_DISTANCE_M", "MODEL_NAME", "model_name", "PHASES", "TERMS", "Flight", "SimulationResult", "Summary", "Trajectory",
            "creep_target", "flight_of", "simulate"]
