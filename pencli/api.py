@@ -272,6 +272,7 @@ def expand_sources(paths: Iterable[str | Path]) -> list[tuple[str, Path | None, 
     Returns (argument, folder or None, problem) triples; a problem names an
     argument that matched nothing.
     """
+    from pencli.io.field import format_of, known_suffixes
     from pencli.io.runfolder import is_run_folder
 
     out: list[tuple[str, Path | None, str]] = []
@@ -287,17 +288,22 @@ def expand_sources(paths: Iterable[str | Path]) -> list[tuple[str, Path | None, 
             elif path.is_file():
                 if path.name in ("data.csv", "data.xlsx"):
                     out.append((text, path.parent, ""))
+                elif format_of(path) is not None:
+                    out.append((text, path, ""))  # a field record's file
                 else:
-                    out.append((text, None, f"{path}: expected a run folder (holding data.csv or data.xlsx), "
-                                            f"not a file"))
+                    out.append((text, None, f"{path}: expected a run folder (holding data.csv or data.xlsx) or a "
+                                            f"field record ({known_suffixes()}, plain or .gz)"))
             elif is_run_folder(path):
                 out.append((text, path, ""))
             else:
                 # run folders below: CONTRACT §3 ones (data.csv, data.xlsx) and BAM-era ones (one workbook or
                 # CSV of any name, read with --columns)
-                found = {p.parent for p in path.rglob("*") if p.is_file() and p.suffix.lower() in (".csv", ".xlsx")}
+                files = [p for p in path.rglob("*") if p.is_file()]
+                found = {p.parent for p in files if p.suffix.lower() in (".csv", ".xlsx")}
+                found |= {p for p in files if format_of(p) is not None}
                 if not found:
-                    out.append((text, None, f"{path}: no run folders (data.csv, data.xlsx or a BAM workbook) inside"))
+                    out.append((text, None, f"{path}: no run folders (data.csv, data.xlsx or a BAM workbook) or "
+                                            f"field records ({known_suffixes()}) inside"))
                 for folder in sorted(found):
                     out.append((text, folder, ""))
     return out
@@ -307,12 +313,16 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
            position_unit: str = "mm", force_unit: str = "N", torque_unit: str = "Nm",
            parameter_refs: Mapping[str, str] | None = None, command: str = "pen ingest",
            progress: Progress | None = None,
-           allow_out_of_range: bool = False, allow_implausible_units: bool = False) -> list[IngestOutcome]:
-    """Ingest run folders into the workspace; each source is accepted or rejected on its own.
+           allow_out_of_range: bool = False, allow_implausible_units: bool = False,
+           calibration: str | Path | None = None) -> list[IngestOutcome]:
+    """Ingest run folders and field records into the workspace; each source is accepted or rejected on its own.
 
     ``allow_implausible_units`` takes runs whose travel or force is far off their parameter files' scale
-    (:func:`pencli.io.checks.check_units`); the raw stage's provenance records that it was given.
+    (:func:`pencli.io.checks.check_units`); the raw stage's provenance records that it was given.  A field file
+    (:mod:`pencli.io.field`) gives one record per sounding, profile or drop it holds; ``calibration`` is the
+    probe's calibration sheet a BlueDrop record needs.
     """
+    from pencli.io.field import format_of, read_field_file
     from pencli.io.runfolder import ReadOptions, ignored_columns_warning, parse_column_map, read_run_folder, unit_factor
 
     options = ReadOptions(parse_column_map(columns), time_unit, position_unit, force_unit, torque_unit,
@@ -328,6 +338,8 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
         if folder is None:
             return None, problem
         try:
+            if folder.is_file() and format_of(folder) is not None:
+                return read_field_file(folder, {"calibration": calibration}), ""
             return read_run_folder(folder, options, parameter_refs), ""
         except PenError as exc:
             return None, str(exc)
@@ -355,6 +367,11 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
                 outcome = IngestOutcome(problem.split(":")[0], "rejected", message=problem)
             elif run is None:
                 outcome = IngestOutcome(str(folder), "rejected", message=error)
+            elif isinstance(run, list):  # a field file's records
+                outcomes += _add_records(ws, folder, run, command)
+                if progress is not None:
+                    progress(str(folder), len(outcomes), len(sources))
+                continue
             else:
                 try:
                     added = ws.add_run(run, command=command)
@@ -373,6 +390,29 @@ def ingest(paths: Sequence[str | Path], db: str | Path, *, columns: str | None =
             if progress is not None:
                 progress(outcome.source, len(outcomes), len(sources))
     return outcomes
+
+
+def _add_records(ws, path: Path, records: list, command: str) -> list[IngestOutcome]:
+    """Store a field file's records, each on its own (one outcome each)."""
+    from pencli.store.records import add_record, file_sha256
+
+    try:
+        source_sha256 = file_sha256(path)
+    except OSError as exc:
+        return [IngestOutcome(str(path), "rejected", message=f"{path}: cannot read it: {describe_os_error(exc)}")]
+    out = []
+    for record in records:
+        source = f"{path}#{record.name}" if len(records) > 1 else str(path)
+        try:
+            added = add_record(ws, record, several=len(records) > 1, source_sha256=source_sha256, command=command)
+        except PenError as exc:
+            out.append(IngestOutcome(source, "rejected", message=str(exc)))
+        except OSError as exc:  # a full disk: this record, not the batch
+            out.append(IngestOutcome(source, "rejected", message=f"{source}: not stored: {describe_os_error(exc)}"))
+        else:
+            out.append(IngestOutcome(source, "added" if added.created else "existing", added.record_id,
+                                     warnings=(added.renamed,) if added.renamed else ()))
+    return out
 
 
 MAX_NAME_LENGTH = 80
@@ -1341,7 +1381,7 @@ drawn curve)."""
 
 
 def report_soundings(paths: Sequence[str | Path], out: str | Path, *, pdf: bool = True,
-                     min_thickness_m: float | None = None) -> list[Path]:
+                     min_thickness_m: float | None = None, db: str | Path | None = None) -> list[Path]:
     """``pen soundings report``: one section per sounding of the files (its header, layers and profile), written
     as self-contained HTML (and a PDF beside it); returns the files written."""
     from pencli.filter.rate import push_rate_mm_s
@@ -1349,7 +1389,7 @@ def report_soundings(paths: Sequence[str | Path], out: str | Path, *, pdf: bool 
     from pencli.report.sections import sounding_section
 
     sections = []
-    for sounding in read_soundings(paths):
+    for sounding in read_soundings(paths, db):
         resistance = q, quantity, unit = sounding_resistance(sounding)
         cut = sounding_layers(sounding, min_thickness_m=min_thickness_m, resistance=resistance)
         rate = (push_rate_mm_s(sounding.columns["depth_m"], sounding.time_s) if sounding.time_s is not None
@@ -1361,27 +1401,65 @@ def report_soundings(paths: Sequence[str | Path], out: str | Path, *, pdf: bool 
     return write_report(title, sections, out, pdf=pdf)
 
 
-SOUNDING_READERS = {".gef": "pencli.io.gef:read_gef", ".ags": "pencli.io.ags:read_ags"}
-"""Readers of sounding files by suffix (``.gz`` aside), as ``module:function`` returning one sounding or a list of
-them; any other suffix is read as SGF (``pencli.io.sgf.read_sgf``, one or more soundings)."""
+def field_records(refs: Sequence[str | Path], family: str, db: str | Path | None = None) -> list:
+    """The records ``refs`` name, as their format's reader returns them (one or more per file), in order.
 
+    A ref is a file (read by its format, :data:`pencli.io.field.FORMATS`; a sounding file of another suffix is
+    read as SGF), or, where no such file exists, a record id of workspace ``db`` (a pattern with ``*`` or ``?``
+    matches ids).  ``family`` (``sounding``, ``snow``, ``drop``) is what the command takes: a record of another
+    family is refused in one line.
+    """
+    import fnmatch
 
-def read_soundings(paths: Sequence[str | Path]):
-    """The soundings of SGF, GEF or AGS4 files (``pencli.io.sgf.Sounding``), in the files' order."""
-    import importlib
-
-    from pencli.io.sgf import read_sgf
+    from pencli.io.field import FAMILY_TITLES, FORMATS, format_of
 
     out = []
-    for path in paths:
-        suffix = Path(str(path).removesuffix(".gz")).suffix.lower()
-        if suffix in SOUNDING_READERS:
-            module, function = SOUNDING_READERS[suffix].split(":")
-            read = getattr(importlib.import_module(module), function)(path)
-            out.extend(read if isinstance(read, list) else [read])
-        else:
-            out.extend(read_sgf(path))
+    ws = workspace(db) if db is not None else None
+    for ref in refs:
+        path = Path(ref)
+        if path.is_file():
+            fmt = format_of(path) or (FORMATS["sgf"] if family == "sounding" else None)
+            if fmt is None or fmt.family != family:
+                raise DataError(f"{path}: expected {FAMILY_TITLES[family]}")
+            out += fmt.read(path, {})
+            continue
+        if ws is None or not ws.exists():
+            raise DataError(f"{ref}: no such file" + (f", and no workspace at {db} to find it in" if db else ""))
+        from pencli.store.records import load_record, record_rows
+
+        text = str(ref)
+        ids = ([r["record_id"] for r in record_rows(ws) if fnmatch.fnmatchcase(r["record_id"], text)]
+               if any(c in text for c in "*?[") else [text])
+        if not ids:
+            raise DataError(f"{ref}: no such file, and no record id in {db} matches it")
+        for record_id in ids:
+            try:
+                record = load_record(ws, record_id)
+            except StoreError as error:
+                raise StoreError(f"{ref}: no such file, and {error}") from None
+            if FORMATS[record.format].family != family:
+                raise DataError(f"record '{record_id}' is a {FORMATS[record.format].title}; expected "
+                                f"{FAMILY_TITLES[family]}")
+            out.append(record.to_object())
     return out
+
+
+def list_records(db: str | Path, *, kind: str | None = None) -> list[dict]:
+    """``pen records``: the catalog rows of the workspace's field records (a kind's only, when given)."""
+    from pencli.io.field import KINDS
+    from pencli.store.records import record_rows
+
+    ws = workspace(db)
+    rows = record_rows(ws)
+    if kind is not None and kind not in {r["kind"] for r in rows} | set(KINDS):
+        raise ParameterError(f"--kind {kind!r}: expected one of {', '.join(KINDS)}")
+    return [r for r in rows if kind is None or r["kind"] == kind]
+
+
+def read_soundings(paths: Sequence[str | Path], db: str | Path | None = None):
+    """The soundings (``pencli.io.sgf.Sounding``) of SGF, GEF or AGS4 files, or of records of workspace ``db``,
+    in order (:func:`field_records`)."""
+    return field_records(paths, "sounding", db)
 
 
 def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
@@ -1484,23 +1562,28 @@ class SnowProfile:
     layers: tuple
 
 
-def read_snow_profiles(paths: Sequence[str | Path]):
-    """The profiles of SnowMicroPen ``.pnt`` files (``pencli.io.pnt.SmpProfile``), in the given order."""
-    from pencli.io.pnt import read_pnt
+def read_snow_profiles(paths: Sequence[str | Path], db: str | Path | None = None):
+    """The profiles (``pencli.io.pnt.SmpProfile``) of SnowMicroPen ``.pnt`` files, or of records of workspace
+    ``db``, in order (:func:`field_records`)."""
+    return field_records(paths, "snow", db)
 
-    return [read_pnt(p) for p in paths]
 
-
-def estimate_snow_profile(path: str | Path, *, window_mm: float | None = None, overlap: float | None = None,
+def estimate_snow_profile(profile, *, window_mm: float | None = None, overlap: float | None = None,
                           surface_mm: float | None = None, bottom_mm: float | None = None,
-                          layers: Sequence[tuple[float, float]] = ()) -> SnowProfile:
-    """``pen snow estimate``: a ``.pnt`` profile's shot-noise estimates (Löwe and van Herwijnen 2012) per window
-    below the snow surface (found in the force unless given) down to ``bottom_mm`` (the profile's end unless
-    given), and the medians of each layer (top, bottom) [mm below the surface]."""
+                          layers: Sequence[tuple[float, float]] = (), db: str | Path | None = None) -> SnowProfile:
+    """``pen snow estimate``: a profile's shot-noise estimates (Löwe and van Herwijnen 2012) per window below the
+    snow surface (found in the force unless given) down to ``bottom_mm`` (the profile's end unless given), and the
+    medians of each layer (top, bottom) [mm below the surface].  ``profile``: an ``SmpProfile``, a ``.pnt`` file,
+    or a record id of workspace ``db``."""
     from pencli.fit import shot_noise as sn
-    from pencli.io.pnt import read_pnt
+    from pencli.io.pnt import SmpProfile
 
-    profile = read_pnt(path)
+    if not isinstance(profile, SmpProfile):
+        found_profiles = read_snow_profiles([profile], db)
+        if len(found_profiles) != 1:
+            raise DataError(f"{profile}: names {len(found_profiles)} profiles; give one")
+        profile = found_profiles[0]
+    path = profile.source
     found = sn.surface_mm(profile.force_n, profile.step_mm) if surface_mm is None else surface_mm
     if found is None:
         raise DataError(f"{path}: no snow surface in the force (no 1-mm mean {sn.SURFACE_RISE_N} N above the "
@@ -1531,14 +1614,16 @@ def write_columns_csv(path: str | Path, columns: Mapping[str, np.ndarray]) -> Pa
 
 
 def report_snow(paths: Sequence[str | Path], out: str | Path, *, layers: Sequence[tuple[float, float]] = (),
-                pdf: bool = True, window_mm: float | None = None, overlap: float | None = None) -> list[Path]:
+                pdf: bool = True, window_mm: float | None = None, overlap: float | None = None,
+                db: str | Path | None = None) -> list[Path]:
     """``pen snow report``: one section per SnowMicroPen profile (its snow, each layer's medians, its figure), as
-    self-contained HTML (and a PDF beside it); returns the files written."""
+    self-contained HTML (and a PDF beside it); returns the files written.  ``paths``: files or record ids of
+    workspace ``db``."""
     from pencli.report.build import write_report
     from pencli.report.sections import snow_section
 
-    sections = [snow_section(estimate_snow_profile(path, window_mm=window_mm, overlap=overlap, layers=layers))
-                for path in paths]
+    sections = [snow_section(estimate_snow_profile(profile, window_mm=window_mm, overlap=overlap, layers=layers))
+                for profile in read_snow_profiles(paths, db)]
     title = f"pen snow report: {len(sections)} SnowMicroPen profile{'s' if len(sections) != 1 else ''}"
     return write_report(title, sections, out, pdf=pdf)
 

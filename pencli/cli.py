@@ -11,6 +11,7 @@ from pencli.commands import diagnose as diagnose_cmd
 from pencli.commands import fit as fit_cmd
 from pencli.commands import params as params_cmd
 from pencli.commands import predict as predict_cmd
+from pencli.commands import records as records_cmd
 from pencli.commands import report as report_cmd
 from pencli.commands import runs as runs_cmd
 from pencli.commands import snow as snow_cmd
@@ -30,7 +31,7 @@ app.add_typer(params_cmd.app, name="params")
 app.add_typer(runs_cmd.runs_app, name="runs")
 app.add_typer(soundings_cmd.soundings_app, name="soundings")
 app.add_typer(snow_cmd.snow_app, name="snow")
-for module in (predict_cmd, runs_cmd, acquire_cmd, condition_cmd, fit_cmd, diagnose_cmd, sweep_cmd, report_cmd):
+for module in (predict_cmd, runs_cmd, records_cmd, acquire_cmd, condition_cmd, fit_cmd, diagnose_cmd, sweep_cmd, report_cmd):
     app.registered_commands.extend(module.app.registered_commands)
 
 

@@ -54,13 +54,20 @@ def ingest(
         False, "--allow-implausible-units",
         help="Accept runs whose travel or axial force is far off the scale their parameter files set "
              "(travel within 2× of stand-off … stand-off + full depth [mm]; peak force within 30× of S·w·T [N]); recorded in the raw stage's provenance."),
+    calibration: Optional[Path] = typer.Option(None, "--calibration", help="A free-fall probe's calibration "
+                                                                           "sheet (CSV channel,offset,scale,unit), "
+                                                                           "for BlueDrop records (.bin)."),
     json_out: bool = typer.Option(False, "--json", help='Print [{"id": ..., "source": ...}, ...] (CONTRACT §6).'),
     db: Optional[Path] = DbOption,
 ) -> None:
-    """Add recorded runs to the workspace; each bad run is rejected on its own.
+    """Add recorded runs and field records to the workspace; each bad one is rejected on its own.
 
-    Raw data is stored immutably and content-hashed: the same data ingested
-    twice is the same run. Exit code 1 when any source was rejected.
+    Run folders (data.csv or data.xlsx with parameter files) become runs;
+    field files become one record per sounding, profile or drop they hold:
+    SGF (.cpt, .std, .tot, .sgf), GEF (.gef), AGS4 (.ags), SnowMicroPen
+    (.pnt), BlueDrop (.bin, with --calibration); plain or .gz. Raw data is
+    stored immutably and content-hashed: the same data ingested twice is
+    the same run or record. Exit code 1 when any source was rejected.
     Example: pen ingest lab/2026-11-20/* --json
     """
     catalog = db_path(db)
@@ -68,13 +75,14 @@ def ingest(
     if json_out:
         outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range,
                               allow_implausible_units=allow_implausible_units, columns=columns, time_unit=time_unit, position_unit=position_unit,
-                              force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs)
+                              force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs,
+                              calibration=calibration)
     else:
         with progress_bar("ingesting") as progress:
             outcomes = api.ingest(paths, catalog, allow_out_of_range=allow_out_of_range,
                               allow_implausible_units=allow_implausible_units, columns=columns, time_unit=time_unit, position_unit=position_unit,
                                   force_unit=force_unit, torque_unit=torque_unit, parameter_refs=refs,
-                                  progress=progress)
+                                  progress=progress, calibration=calibration)
     rejected = [o for o in outcomes if o.status == "rejected"]
     if json_out:
         print_json([{"id": o.id, "source": o.source, "status": o.status, **({"error": o.message} if o.message else {}),

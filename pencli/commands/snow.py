@@ -9,7 +9,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from pencli.commands.common import PenTyper, console, db_path, print_json
+from pencli.commands.common import DbOption, PenTyper, console, db_path, print_json
 from pencli.errors import ParameterError
 from pencli.fit import SNOW_OVERLAP as OVERLAP
 from pencli.fit import SNOW_WINDOW_MM as WINDOW_MM
@@ -17,14 +17,18 @@ from pencli.lazy import lazy
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
+PROFILES_HELP = ("SnowMicroPen files (.pnt, plain or .gz), or record ids of the workspace (pen records; a quoted "
+                 "pattern such as 'SNEX*' matches ids).")
+
 snow_app = PenTyper(help="SnowMicroPen profiles (.pnt files): read them, estimate the snow's micro-mechanics "
                          "(Löwe and van Herwijnen 2012) and pen's strength term per window and per layer.")
 
 
 @snow_app.command("show")
 def show(
-    files: List[Path] = typer.Argument(..., help="SnowMicroPen files (.pnt, plain or .gz)."),
+    files: List[str] = typer.Argument(..., help=PROFILES_HELP),
     json_out: bool = typer.Option(False, "--json", help='Print [{"file", "name", "samples", ...}].'),
+    db: Optional[Path] = DbOption,
 ) -> None:
     """One line per profile: samples, step [µm], length [mm], where the snow starts [mm], the largest force [N],
     samples at the sensor's range, push rate [mm/s] and cone diameter [mm].
@@ -36,7 +40,7 @@ def show(
     from pencli.fit.shot_noise import surface_mm
 
     records = []
-    for profile in api.read_snow_profiles(files):
+    for profile in api.read_snow_profiles(files, db_path(db)):
         surface = surface_mm(profile.force_n, profile.step_mm)
         records.append({"file": profile.source, "name": profile.name, "samples": int(profile.force_n.size),
                         "step_mm": profile.step_mm, "length_mm": float(profile.depth_mm[-1]),
@@ -73,7 +77,8 @@ def _layer(text: str) -> tuple[float, float]:
 
 @snow_app.command("estimate")
 def estimate(
-    file: Path = typer.Argument(..., help="A SnowMicroPen file (.pnt, plain or .gz)."),
+    file: str = typer.Argument(..., help="A SnowMicroPen file (.pnt, plain or .gz), or a record id of the "
+                                         "workspace."),
     window_mm: float = typer.Option(WINDOW_MM, "--window-mm", min=0.05, help="Window of each estimate [mm]."),
     overlap: float = typer.Option(OVERLAP, "--overlap", min=0.0, max=0.95,
                                   help="Share of a window the next one overlaps [–]."),
@@ -87,6 +92,7 @@ def estimate(
     plot: Optional[Path] = typer.Option(None, "--plot", help="Draw the strength term and element size against "
                                         "depth to this PNG, SVG or PDF file."),
     json_out: bool = typer.Option(False, "--json", help='Print {"name", "surface_mm", "windows", "layers", ...}.'),
+    db: Optional[Path] = DbOption,
 ) -> None:
     """Per window below the snow surface: the mean force and pen's strength term (mean force over the cone's
     frontal area [kPa]), and the shot-noise estimates of Löwe and van Herwijnen (2012): deflection at rupture δ
@@ -98,9 +104,9 @@ def estimate(
     bounds = [_layer(text) for text in layers]
     for target, option in ((out, "--out"), (plot, "--plot")):
         if target is not None:
-            api.check_output(target, db_path(None), option)  # never onto the default workspace
+            api.check_output(target, db_path(db), option)  # never onto the workspace
     result = api.estimate_snow_profile(file, window_mm=window_mm, overlap=overlap, surface_mm=surface,
-                                       bottom_mm=bottom, layers=bounds)
+                                       bottom_mm=bottom, layers=bounds, db=db_path(db))
     est = result.estimates
     columns = {"depth_mm": est.depth_mm, "mean_force_n": est.mean_force_n, "strength_kpa": est.strength_kpa,
                "deflection_mm": est.deflection_mm, "rupture_force_n": est.rupture_force_n,
@@ -111,7 +117,7 @@ def estimate(
     caption = api.plot_snow_profile(result, plot) if plot is not None else None
     layer_records = [vars(layer) for layer in result.layers]
     if json_out:
-        print_json({"name": result.profile.name, "file": str(file), "surface_mm": result.surface_mm,
+        print_json({"name": result.profile.name, "file": result.profile.source, "surface_mm": result.surface_mm,
                     "bottom_mm": result.bottom_mm, "windows": int(est.depth_mm.size),
                     "clipped_windows": int(est.clipped.sum()), "window_mm": window_mm, "overlap": overlap,
                     "layers": layer_records, "out": str(out) if out else None, "plot": str(plot) if plot else None,
@@ -137,7 +143,7 @@ def estimate(
 
 @snow_app.command("report")
 def report(
-    files: List[Path] = typer.Argument(..., help="SnowMicroPen files (.pnt, plain or .gz)."),
+    files: List[str] = typer.Argument(..., help=PROFILES_HELP),
     out: Path = typer.Option(..., "--out", help="The report to write (.html; a PDF is written beside it)."),
     layers: List[str] = typer.Option([], "--layer", help="A layer TOP:BOTTOM [mm below the surface] whose medians "
                                      "each profile's section gives (repeatable)."),
@@ -145,6 +151,7 @@ def report(
     overlap: float = typer.Option(OVERLAP, "--overlap", min=0.0, max=0.95,
                                   help="Share of a window the next one overlaps [–]."),
     pdf: bool = typer.Option(True, "--pdf/--no-pdf", help="Also write the report as PDF beside the HTML."),
+    db: Optional[Path] = DbOption,
 ) -> None:
     """A report of SnowMicroPen profiles: per profile, where its snow is, the shot-noise estimates' medians of each
     layer and the profile's figure, as one self-contained HTML file (and a PDF).
@@ -154,6 +161,7 @@ def report(
     bounds = [_layer(text) for text in layers]
     if out.suffix.lower() not in (".html", ".htm"):
         raise typer.BadParameter(f"'{out}' must end in .html", param_hint="--out")
-    api.check_output(out, db_path(None), "--out")  # never onto the default workspace
-    for written in api.report_snow(files, out, layers=bounds, pdf=pdf, window_mm=window_mm, overlap=overlap):
+    api.check_output(out, db_path(db), "--out")  # never onto the workspace
+    for written in api.report_snow(files, out, layers=bounds, pdf=pdf, window_mm=window_mm, overlap=overlap,
+                                   db=db_path(db)):
         console.print(f"wrote {escape(str(written))}")

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import List
+from typing import List, Optional
 
 import typer
 from rich.markup import escape
 from rich.table import Table
 
-from pencli.commands.common import PenTyper, console, db_path, print_json
+from pencli.commands.common import DbOption, PenTyper, console, db_path, print_json
 from pencli.diagnose import FALSE_ALARM, SHUFFLES
 from pencli.fit import LAYER_MIN_THICKNESS_M as MIN_THICKNESS_M
 from pencli.lazy import lazy
@@ -19,6 +19,8 @@ api = lazy("pencli.api")  # loaded when a command runs, not for --help
 soundings_app = PenTyper(help="Field soundings (SGF, GEF and AGS4 files): read and draw them, find their layers, fit a "
                               "rate effect across a site's soundings, diagnose whether the push rate matters.")
 
+SOUNDINGS_HELP = ("Sounding files (SGF: .cpt, .std, .tot, .sgf; GEF: .gef; AGS4: .ags; plain or .gz), or record ids "
+                  "of the workspace (pen records; a quoted pattern such as 'HALS*' matches ids).")
 MIN_THICKNESS = typer.Option(MIN_THICKNESS_M, "--min-thickness", min=0.02, max=50.0,
                              help="Thinnest layer kept [m]; the default is about eight diameters of a 10 cm² cone.")
 UNITS_FILE = typer.Argument(..., help="Soil-units file (JSON): a site's units, soundings and depth warps.")
@@ -29,9 +31,9 @@ QUANTITY = typer.Option("qt", "--quantity", help="qt (cone resistance corrected 
 
 @soundings_app.command("show")
 def show(
-    files: List[Path] = typer.Argument(..., help="SGF files (.cpt, .std, .tot), GEF files (.gef) or AGS4 files "
-                                                 "(.ags); plain or .gz."),
+    files: List[str] = typer.Argument(..., help=SOUNDINGS_HELP),
     json_out: bool = typer.Option(False, "--json", help='Print [{"file", "name", "kind", "rows", ...}].'),
+    db: Optional[Path] = DbOption,
 ) -> None:
     """One line per sounding: its kind, depth range, rows, the push rate from its clock [mm/s] and the logger's
     (an AGS4 test's nominal rate, which its file states instead).
@@ -44,14 +46,14 @@ def show(
 
     records = []
     for path in files:
-        for sounding in api.read_soundings([path]):
+        for sounding in api.read_soundings([path], db_path(db)):
             depth = sounding.columns["depth_m"]
             logger = sounding.columns.get("rate_mm_s")
             nominal = sounding.header_number("push_rate_mm_s")
             if logger is None and nominal is not None:
                 logger = np.array([nominal])
             moving = logger[logger > 0] if logger is not None else np.array([])
-            records.append({"file": str(path), "name": sounding.name, "kind": sounding.kind, "rows": int(depth.size),
+            records.append({"file": sounding.source, "name": sounding.name, "kind": sounding.kind, "rows": int(depth.size),
                             "top_m": float(depth[0]), "bottom_m": float(depth[-1]),
                             "rate_mm_s": (push_rate_mm_s(depth, sounding.time_s) if sounding.time_s is not None
                                           else None),
@@ -73,20 +75,21 @@ def show(
 
 @soundings_app.command("plot")
 def plot(
-    file: Path = typer.Argument(..., help="A sounding file (SGF: .cpt, .std, .tot; GEF: .gef; AGS4: .ags; plain "
-                                          "or .gz)."),
+    file: str = typer.Argument(..., help="A sounding file (SGF: .cpt, .std, .tot, .sgf; GEF: .gef; AGS4: .ags; "
+                                         "plain or .gz), or a record id of the workspace."),
     out: Path = typer.Option(..., "--out", help="Figure to write (PNG, SVG or PDF); a file of several soundings "
                                                 "gets one figure each, numbered."),
     layers: bool = typer.Option(False, "--layers", help="Draw the layers `pen soundings layers` finds."),
     min_thickness: float = MIN_THICKNESS,
+    db: Optional[Path] = DbOption,
 ) -> None:
     """Draw a sounding against depth: qc (and qt where u₂ and the net area ratio correct it) [MPa], fs [kPa],
     u₂ [kPa]; with --layers, the layers of its resistance.
 
     Example: pen soundings plot examples/field/gef/cpt.gef --out cpt.png
     """
-    api.check_output(out, db_path(None), "--out")  # never onto the default workspace
-    soundings = api.read_soundings([file])
+    api.check_output(out, db_path(db), "--out")  # never onto the workspace
+    soundings = api.read_soundings([file], db_path(db))
     for k, sounding in enumerate(soundings):
         target = out if len(soundings) == 1 else out.with_name(f"{out.stem}-{k + 1}{out.suffix}")
         resistance = api.sounding_resistance(sounding)
@@ -97,9 +100,10 @@ def plot(
 
 @soundings_app.command("layers")
 def layers_command(
-    files: List[Path] = typer.Argument(..., help="Sounding files (SGF, GEF or AGS4; plain or .gz)."),
+    files: List[str] = typer.Argument(..., help=SOUNDINGS_HELP),
     min_thickness: float = MIN_THICKNESS,
     json_out: bool = typer.Option(False, "--json", help='Print [{"file", "name", "layers": [...], ...}].'),
+    db: Optional[Path] = DbOption,
 ) -> None:
     """The layers of each sounding: where its resistance (a cone's qt, or qc without u₂, in MPa; a total
     sounding's push force, in kN) changes from one straight line in depth to another, by optimal partitioning
@@ -111,11 +115,11 @@ def layers_command(
 
     records = []
     for path in files:
-        for sounding in api.read_soundings([path]):
+        for sounding in api.read_soundings([path], db_path(db)):
             resistance = _, quantity, unit = api.sounding_resistance(sounding)
             cut = api.sounding_layers(sounding, min_thickness_m=min_thickness, resistance=resistance)
             fs = sounding.columns.get("fs_kpa")
-            records.append({"file": str(path), "name": sounding.name, "quantity": quantity, "unit": unit,
+            records.append({"file": sounding.source, "name": sounding.name, "quantity": quantity, "unit": unit,
                             "scatter": cut.scatter, "correlation": cut.correlation, "penalty": cut.penalty,
                             "layers": [{"top_m": layer.top_m, "bottom_m": layer.bottom_m,
                                         "q_top": layer.q_top, "q_bottom": layer.q_bottom,
@@ -141,10 +145,11 @@ def layers_command(
 
 @soundings_app.command("report")
 def report(
-    files: List[Path] = typer.Argument(..., help="Sounding files (SGF, GEF or AGS4; plain or .gz)."),
+    files: List[str] = typer.Argument(..., help=SOUNDINGS_HELP),
     out: Path = typer.Option(..., "--out", help="The report to write (.html; a PDF is written beside it)."),
     pdf: bool = typer.Option(True, "--pdf/--no-pdf", help="Also write the report as PDF beside the HTML."),
     min_thickness: float = MIN_THICKNESS,
+    db: Optional[Path] = DbOption,
 ) -> None:
     """A report of field soundings: per sounding, what it is, its file's header, its layers and its profile with
     them, as one self-contained HTML file (and a PDF).
@@ -153,8 +158,8 @@ def report(
     """
     if out.suffix.lower() not in (".html", ".htm"):
         raise typer.BadParameter(f"'{out}' must end in .html", param_hint="--out")
-    api.check_output(out, db_path(None), "--out")  # never onto the default workspace
-    for written in api.report_soundings(files, out, pdf=pdf, min_thickness_m=min_thickness):
+    api.check_output(out, db_path(db), "--out")  # never onto the workspace
+    for written in api.report_soundings(files, out, pdf=pdf, min_thickness_m=min_thickness, db=db_path(db)):
         console.print(f"wrote {escape(str(written))}")
 
 

@@ -148,6 +148,28 @@ MIGRATIONS: tuple[tuple[int, str, str], ...] = (
         DROP TABLE keep_parameters;
         DROP TABLE keep_runs;
     """),
+    (5, "field records: soundings, snow profiles, free-fall drops", """
+        CREATE TABLE records (
+            record_id       VARCHAR PRIMARY KEY,
+            content_sha256  VARCHAR NOT NULL UNIQUE,
+            kind            VARCHAR NOT NULL,
+            geometry        VARCHAR,
+            drive           VARCHAR NOT NULL,
+            sensors         VARCHAR NOT NULL,
+            name            VARCHAR NOT NULL,
+            source          VARCHAR NOT NULL,
+            source_sha256   VARCHAR NOT NULL,
+            source_format   VARCHAR NOT NULL,
+            n_rows          BIGINT NOT NULL,
+            depth_max_m     DOUBLE,
+            channels        VARCHAR[] NOT NULL,
+            header          JSON NOT NULL,
+            path            VARCHAR NOT NULL,
+            ingested_at     TIMESTAMP NOT NULL,
+            command         VARCHAR NOT NULL,
+            pen_version     VARCHAR NOT NULL
+        );
+    """),
 )
 
 LATEST = MIGRATIONS[-1][0]

@@ -6,6 +6,7 @@ Layout (documented in ``schema/catalog.md``)::
     runs/<run_id>/00-raw.parquet       immutable, content-hashed
     runs/<run_id>/01-tare.parquet      each conditioning stage, numbered
     ...
+    records/<record_id>.parquet        a field record (sounding, snow profile, drop), immutable
 
 Every write is atomic: the Parquet file is written under a temporary name,
 the catalog rows are inserted in a transaction, the file is renamed into
@@ -43,7 +44,9 @@ from pencli.errors import PenError, PenNotice, StoreError
 from pencli.io.atomic import make_parents, remove_made
 from pencli.params.validate import validate_mapping
 from pencli.run import RAW_COLUMNS, RAW_STAGE, Run, Stage
+from pencli.store import records as field_store
 from pencli.store.migrations import LATEST, MIGRATIONS
+from pencli.store.records import RECORDS_DIR
 from pencli.store.rundata import content_hash, raw_table, table_hash
 
 DEFAULT_LOCK_TIMEOUT_S = 30.0
@@ -360,7 +363,7 @@ class Workspace:
                                     f"interrupted pen ({', '.join(str(p.relative_to(root)) for p in removed)})"),
                           stacklevel=2)
         adopters = {"stage": lambda path: self._adopt_stage(con, path), "fit": lambda path: self._adopt_fit(con, path),
-                    "sweep": lambda path: None}
+                    "sweep": lambda path: None, "record": lambda path: field_store.adopt_record(self, con, path)}
         for kind, path in strays:
             if kind != "temporary":
                 self._settle(path, kind, lambda: adopters[kind](path))
@@ -374,7 +377,7 @@ class Workspace:
         ``temporary`` (of a pen process that is gone), ``stage``, ``fit`` or ``sweep``; stages in stage order."""
         root = self.db_path.parent
         run_folders = sorted(p for p in self.runs_dir.iterdir() if p.is_dir()) if self.runs_dir.is_dir() else []
-        for folder in [root, root / "fits", root / "sweeps", *run_folders]:
+        for folder in [root, root / "fits", root / "sweeps", root / RECORDS_DIR, *run_folders]:
             for path in sorted(folder.iterdir()) if folder.is_dir() else ():
                 match = _TEMPORARY.match(path.name)
                 if match is None or (folder == root and not path.name.startswith(f".{self.db_path.name}.")):
@@ -383,8 +386,10 @@ class Workspace:
                     yield "temporary", path
         catalogued = {r[0] for sql in ("SELECT path FROM stages", "SELECT model_data_path FROM materials",
                                        "SELECT path FROM sweeps") for r in con.execute(sql).fetchall()}
+        catalogued |= field_store.catalogued_paths(con)
         listed = [("stage", p) for folder in run_folders for p in sorted(folder.iterdir()) if _STAGE_FILE.match(p.name)]
-        listed += [(kind, p) for kind, folder in (("fit", root / "fits"), ("sweep", root / "sweeps"))
+        listed += [(kind, p) for kind, folder in (("fit", root / "fits"), ("sweep", root / "sweeps"),
+                                                  ("record", root / RECORDS_DIR))
                    for p in (sorted(folder.glob("[!.]*.parquet")) if folder.is_dir() else ())]
         for kind, path in listed:
             if str(path.relative_to(root)) not in catalogued:
@@ -413,6 +418,7 @@ class Workspace:
                         self._read_record(record)
                     except StoreError as exc:
                         problems.append(str(exc))
+            problems += field_store.check_records(self, con)
             for what, sql in (("fitted material's model-vs-data table", "SELECT model_data_path FROM materials"),
                               ("sweep", "SELECT path FROM sweeps")):
                 for (relative,) in con.execute(sql).fetchall():
@@ -465,6 +471,8 @@ class Workspace:
                 warnings.warn(PenNotice(f"{root / relative}: missing, so version {version} of fitted material "
                                         f"'{material}' keeps its coefficients without its model-vs-data table"),
                               stacklevel=3)
+        for note in field_store.repair_records(self, con):
+            warnings.warn(PenNotice(note), stacklevel=3)
         for sweep_id, relative in con.execute("SELECT sweep_id, path FROM sweeps").fetchall():
             if not (root / relative).is_file():
                 con.execute("DELETE FROM sweeps WHERE sweep_id = ?", [sweep_id])
@@ -619,7 +627,7 @@ class Workspace:
                 self._check_same_parameters(con, row[0], run)
                 return AddedRun(row[0], False, run.source)
             run_id = wanted
-            if con.execute("SELECT 1 FROM runs WHERE run_id = ?", [run_id]).fetchone() is not None:
+            if field_store.id_taken(con, run_id):
                 run_id = f"{wanted}-{digest[:8]}"
             asked = str(run.info.get("id") or Path(run.source).name or "run")
             table = raw_table(run)
