@@ -55,7 +55,7 @@ def _command_page(path: tuple[str, ...], command) -> str:
 
 
 def _parameters_page() -> str:
-    from pencli.params.definitions import KINDS, PARAMETERS, choices_of
+    from pencli.params.definitions import KINDS, PARAMETERS, VARIANTS, choices_of
 
     lines = ["# Parameter keys", "",
              "Every key of the three parameter files (penetrator, material, energizing), generated from pen's one "
@@ -71,11 +71,12 @@ def _parameters_page() -> str:
             lines += [f"- `{o}`{' (default)' if o == c.default else ''}: {h}" for o, h in zip(c.options, c.option_help)]
             lines.append("")
         shaped = any(p.geometries for p in PARAMETERS if p.kind == kind)
+        variants = {"geometry": "geometries", "drive": "drives"}[VARIANTS[kind][0]] if kind in VARIANTS else ""
         if shaped:
-            lines += ["A key whose *geometries* column names some is held by files of those geometries only "
-                      "(another geometry's key is an error); its *required* holds within them.", ""]
+            lines += [f"A key whose *{variants}* column names some is held by files of those {variants} only "
+                      f"(another's key is an error); its *required* holds within them.", ""]
         lines += ["| key | symbol | unit | documented range | hard limits | required | " +
-                  ("geometries | " if shaped else "") + "meaning |",
+                  (f"{variants} | " if shaped else "") + "meaning |",
                   "|---|---|---|---|---|---|" + ("---|" if shaped else "") + "---|"]
         for p in (p for p in PARAMETERS if p.kind == kind):
             required = "yes" if p.required else (f"no (default {p.default:g})" if p.default is not None else "no")

@@ -63,7 +63,7 @@ class Prediction:
         mean = {name: self.material.values[f"coefficients.{name}"] for name in COEFFICIENT_NAMES}
         return prediction_band(self.design, mean, covariance, self.result, terms=self.terms,
                                speed_at_contact_m_s=self.speed_at_contact_m_s, draws=draws or BAND_DRAWS,
-                               geometry=self.geometry)
+                               geometry=self.geometry, drive=self.drive)
 
     @property
     def geometry(self):
@@ -72,12 +72,20 @@ class Prediction:
 
         return geometry_of(self.penetrator)
 
+    @property
+    def drive(self):
+        """The launcher's drive (:func:`pencli.model.drive.drive_of`)."""
+        from pencli.model.drive import drive_of
+
+        return drive_of(self.energizing, self.design, self.geometry)
+
     def to_dict(self) -> dict:
         """CONTRACT §5 record plus where the parameters came from."""
         record = self.result.to_dict()
         record["warnings"] = list(self.warnings) + ([self.result.message] if self.result.message else [])
         record["penetrator"] = self.penetrator.name
         record["geometry"] = self.penetrator.geometry
+        record["drive"] = self.energizing.drive
         record["material"] = self.material.name
         record["energizing"] = self.energizing.name
         overrides = {**self.penetrator.overrides, **self.material.overrides, **self.energizing.overrides}
@@ -109,6 +117,10 @@ def load_parameter_sets(penetrator: str | Path, material: str | Path, energizing
     for kind, updates in parse_overrides(overrides).items():
         sets[kind] = sets[kind].with_values(updates, allow_out_of_range=allow_out_of_range)
     shape = sets["penetrator"].geometry
+    if blade_only and sets["energizing"].drive != "springs":
+        raise ParameterError(f"{sets['energizing'].source}: drive {sets['energizing'].drive}: {blade_only} "
+                             f"integrates the spring launcher only so far; `pen predict` simulates a "
+                             f"{sets['energizing'].drive.replace('_', ' ')}, one design at a time")
     if blade_only and shape != "blade":
         raise ParameterError(f"{sets['penetrator'].source}: geometry {shape}: {blade_only} integrates the blade's "
                              f"Eq. 9 law only so far; `pen predict` simulates a {shape.replace('_', ' ')}, one design "
@@ -123,11 +135,13 @@ def predict(penetrator: str | Path, material: str | Path, energizing: str | Path
     """Simulate one design from presets or files (``pen predict``)."""
     p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
                                   allow_out_of_range=allow_out_of_range)
+    from pencli.model.drive import drive_of
     from pencli.model.geometry import geometry_of
 
     design = design_from_sets(p, m, e)
+    geometry = geometry_of(p)
     result = simulate(design, terms, speed_at_contact_m_s=speed_at_contact_m_s, output_rate_hz=output_rate_hz,
-                      geometry=geometry_of(p))
+                      geometry=geometry, drive=drive_of(e, design, geometry))
     return Prediction(p, m, e, design, result, outside_fitted_ranges(p, m, result),
                       tuple(terms) if terms is not None and not isinstance(terms, str) else terms, speed_at_contact_m_s)
 
@@ -171,7 +185,9 @@ def plot_prediction(prediction: Prediction, path: str | Path) -> str:
 
     title = f"{prediction.penetrator.name} · {prediction.material.name} · {prediction.energizing.name}"
     fig, caption = prediction_figure(title, prediction.result.trajectory, prediction.result.summary,
-                                     prediction.band(), shape=prediction.penetrator.geometry)
+                                     prediction.band(), shape=prediction.penetrator.geometry,
+                                     drive_work="springs" if prediction.energizing.drive == "springs" else
+                                     "buoyancy and drag")
     return _save_captioned(fig, caption, path, fontsize=9, dpi=200)
 
 
@@ -894,6 +910,9 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
 
     p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
                                   allow_out_of_range=allow_out_of_range)
+    if e.drive != "springs":
+        raise ParameterError(f"{e.source}: drive {e.drive}: pen sweep integrates the spring launcher only so far; "
+                             f"`pen predict` simulates a {e.drive.replace('_', ' ')}, one design at a time")
     base = {**p.values, **m.values, **e.values}
     base[SPEED] = (float(speed_at_contact_m_s) if speed_at_contact_m_s is not None else
                    float(simulate(design_from_sets(p, m, e), output_rate_hz=1000.0,

@@ -47,6 +47,12 @@ FIGURES: dict[str, Quantity] = {
 }
 """The figures of one predicted run (CONTRACT §5 and the energy balance), as shown."""
 
+DRIVE_WORK: dict[str, Quantity] = {
+    "springs": FIGURES["spring_energy_j"],
+    "free_fall": Quantity("work of buoyancy and drag", "J"),
+}
+"""How ``spring_energy_j`` (the drive's work, CONTRACT §5's name) is shown for each drive."""
+
 CHANNELS: dict[str, Quantity] = {
     "time_s": Quantity("time since release", "ms", 1e3),
     "position_mm": Quantity("position", "mm"),

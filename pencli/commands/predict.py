@@ -13,7 +13,7 @@ from rich.table import Table
 from pencli.lazy import lazy
 from pencli.commands.common import DbOption, PenTyper, console, db_path, err_console, print_json, usage_check
 from pencli.model.resistance import TERMS, parse_terms
-from pencli.labels import FIGURES
+from pencli.labels import DRIVE_WORK, FIGURES
 from pencli.params.overrides import parse_overrides
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
@@ -87,8 +87,10 @@ def predict(
 def render(prediction: api.Prediction, out: Path | None) -> None:
     """A rich summary table with units."""
     record = prediction.to_dict()
+    drive = prediction.energizing.drive
     title = f"{prediction.penetrator.name} ({prediction.penetrator.geometry.replace('_', ' ')}) · " \
-            f"{prediction.material.name} · {prediction.energizing.name}"
+            f"{prediction.material.name} · {prediction.energizing.name}" + \
+            ("" if drive == "springs" else f" ({drive.replace('_', ' ')})")
     table = Table(title=title, caption=f"terms: {', '.join(prediction.result.terms)}", show_header=True,
                   header_style="bold")
     table.add_column("figure")
@@ -97,7 +99,7 @@ def render(prediction: api.Prediction, out: Path | None) -> None:
     for key, fmt in SUMMARY_FORMATS:
         if key == "energy_other_j" and not record[key]:
             continue  # every joule booked by Eq. 9's terms (a blade)
-        shown = FIGURES[key]
+        shown = DRIVE_WORK[prediction.energizing.drive] if key == "spring_energy_j" else FIGURES[key]
         value = record[key] * shown.scale if shown.scale != 1.0 else record[key]
         finite = not isinstance(value, float) or math.isfinite(value)
         table.add_row(shown.name, fmt.format(value) if finite else "not defined", shown.unit)

@@ -214,8 +214,11 @@ def design_from_sets(penetrator: ParameterSet, material: ParameterSet, energizin
     for param in PARAMETERS:
         if not param.si_name or param.builds != "design":  # an alternative input (EITHER_OR), whose primary
             continue  # carries the value, or a geometry's dimension (pencli.model.geometry.geometry_of)
-        raw = by_kind[param.kind].get(param.key)
-        if raw is None:
+        held = by_kind[param.kind]
+        raw = held.get(param.key)
+        if raw is None and held.variant is not None and not param.belongs_to(held.variant):
+            values[param.si_name] = int(param.absent) if param.dtype is int else param.absent  # no springs: 0
+        elif raw is None:
             values[param.si_name] = math.nan
         elif param.dtype is int:
             values[param.si_name] = int(raw)

@@ -73,6 +73,9 @@ class Drive(Protocol):
     def flight(self, design: Design) -> FlightPath:
         """The motion from release to contact (no resistance above the surface)."""
 
+    # optional: added_mass_kg(design) -> float, mass the drive adds to the body's inertia but not to its weight
+    # (fluid carried along) [kg]; a drive without it adds none (:func:`inertia_of`)
+
 
 # --------------------------------------------------------------------------- CONTRACT §2: springs
 @dataclass(frozen=True)
@@ -165,8 +168,45 @@ class Springs:
     def flight(self, design: Design) -> Flight:
         return flight_of(design)
 
+    def added_mass_kg(self, design: Design) -> float:
+        return 0.0
+
 
 SPRINGS = Springs()
 """The contract's drive, the default of every simulation."""
 
-__all__ = ["SPRINGS", "Drive", "Flight", "FlightPath", "Springs", "flight_of"]
+
+def inertia_of(drive: Drive, design: Design) -> float:
+    """What the forces accelerate: the body's effective mass and any mass its drive adds (fluid carried along,
+    which has no weight). [kg]"""
+    added = getattr(drive, "added_mass_kg", None)
+    return design.effective_mass_kg + (added(design) if added is not None else 0.0)
+
+
+def _free_fall(**kwargs):
+    from pencli.model.freefall import FreeFall
+
+    return FreeFall(**kwargs)
+
+
+DRIVES = {"springs": Springs, "free_fall": _free_fall}
+"""Every drive by the name a launcher file's ``drive:`` gives it; its constructor's keywords are the SI names of
+the parameters that build it (``builds="drive"`` in :data:`pencli.params.definitions.PARAMETERS`) and, for a
+drive that drags the body through a fluid, ``drag_area_m2``."""
+
+
+def drive_of(energizing, design: Design, geometry) -> Drive:
+    """The drive a launcher file names, built from its keys (SI, by each definition's scale); a drive in a fluid
+    drags on the geometry's largest frontal area (at full depth)."""
+    from pencli.params.definitions import params_of
+
+    name = energizing.drive
+    if name == "springs":
+        return SPRINGS
+    kwargs = {p.si_name: float(energizing.values[p.key]) * p.si_scale
+              for p in params_of("energizing", name) if p.builds == "drive" and p.key in energizing.values}
+    kwargs["drag_area_m2"] = float(geometry.frontal_area_m2(design, float(design.penetration_depth_m)))
+    return DRIVES[name](**kwargs)
+
+
+__all__ = ["DRIVES", "SPRINGS", "Drive", "Flight", "FlightPath", "Springs", "drive_of", "flight_of", "inertia_of"]

@@ -43,7 +43,7 @@ from pencli.errors import ModelError
 from pencli.model.design import (CREEP_DISTANCE_M, FORCE_LIMIT_N, Design, beyond_limit, creep_point,
                                  creep_time_constant, damping_ratio_at_rest, force_scales,
                                  near_critical, static_work)
-from pencli.model.drive import SPRINGS, Drive, Flight, FlightPath, flight_of
+from pencli.model.drive import SPRINGS, Drive, Flight, FlightPath, flight_of, inertia_of
 from pencli.model.geometry import BLADE, Geometry
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, term_keys
 
@@ -224,10 +224,11 @@ class SimulationResult:
 
 # --------------------------------------------------------------------------- penetration
 def _make_rhs(law: ResistanceLaw, mass: float, push, offset: float, gravity: float, extra=None,
-              budget: int = MAX_EVALUATIONS):
-    """``push(u)``: the drive's force at travel u from release (floats). [N]; ``budget``: evaluations allowed."""
+              budget: int = MAX_EVALUATIONS, weight: float | None = None):
+    """``push(u)``: the drive's force at travel u from release (floats). [N]; ``budget``: evaluations allowed;
+    ``weight``: the body's weight when ``mass`` holds more inertia than weighs (fluid carried along). [N]"""
     a0, a1, b, d = law.strength_n, law.friction_n_m, law.damping_n_s_m, law.inertia_n_s2_m2
-    weight = mass * gravity
+    weight = mass * gravity if weight is None else weight
     calls = [0]
 
     def rhs(_t, y):
@@ -266,10 +267,11 @@ def _root(fn, lo: float, hi: float) -> float:
 def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float, rtol: float = _RTOL,
                            extra=None, drive: Drive = SPRINGS, budget: int = MAX_EVALUATIONS):
     """Integrate from contact; returns (segments, end, t_end, y_end)."""
-    mass = design.effective_mass_kg
+    mass = inertia_of(drive, design)
     offset = design.surface_offset_m
     depth = design.penetration_depth_m
-    rhs = _make_rhs(law, mass, lambda u: drive.force(design, u), offset, design.gravity_m_s2, extra, budget)
+    rhs = _make_rhs(law, mass, lambda u: drive.force(design, u), offset, design.gravity_m_s2, extra, budget,
+                    weight=design.effective_mass_kg * design.gravity_m_s2)
     y = np.array([0.0, v0, 0.0, 0.0] + ([0.0] if extra is not None else []))
     t = t0
     segments = []
@@ -440,7 +442,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         law = ResistanceLaw(0.0, 0.0, 0.0, 0.0)
         other = geometry.resistance(design, chosen)
         extra_resistance = other if extra_resistance is None else _sum(other, extra_resistance)
-    mass = design.effective_mass_kg
+    mass = inertia_of(drive, design)  # inertia; the weight is the body's own
     flight = drive.flight(design)
 
     if speed_at_contact_m_s is None:
@@ -467,7 +469,7 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
     e_damping, e_inertia = max(float(y_end[2]), 0.0), max(float(y_end[3]), 0.0)
     u_end = x_end + design.surface_offset_m
     spring_j = drive.work(design, u_start, u_end)
-    gravity_j = mass * design.gravity_m_s2 * (u_end - u_start)
+    gravity_j = design.effective_mass_kg * design.gravity_m_s2 * (u_end - u_start)
     final_ke = 0.5 * mass * v_end ** 2
     e_extra = float(y_end[4]) if len(y_end) > 4 else 0.0
     balance = initial_ke + spring_j + gravity_j - (final_ke + e_strength + e_friction + e_damping + e_inertia
@@ -533,8 +535,8 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
 
 
 def _no_contact(design: Design, chosen: tuple[str, ...], flight: FlightPath, drive: Drive) -> SimulationResult:
-    """The body never reaches the surface (no gravity and no push left)."""
-    mass = design.effective_mass_kg
+    """The body never reaches the surface (no gravity and no push left, or it floats)."""
+    mass = inertia_of(drive, design)
     t = np.linspace(0.0, flight.release_time_s, 2)
     u, v, a = flight.state(t)
     spring_j = drive.work(design, 0.0, float(u[-1]))
@@ -545,14 +547,15 @@ def _no_contact(design: Design, chosen: tuple[str, ...], flight: FlightPath, dri
     summary = Summary(0.0, 0.0, 0.0, False, 0.0, 0.0, 0.0, spring_j, 0.0, 0.0, 0.0, 0.0, math.inf,
                       "no_contact", 0.0, 0.0, spring_j - 0.5 * mass * float(v[-1]) ** 2)
     return SimulationResult(design, chosen, None, summary, trajectory, success=True,
-                            message="the body never reaches the surface")
+                            message="the body never reaches the surface (nothing pushes it there, or it floats)")
 
 
 def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_end, y_end, rate_hz, extra=None,
             drive: Drive = SPRINGS):
     """Uniformly sampled trajectory, with contact and the end included exactly."""
     step = 1.0 / rate_hz
-    mass = design.effective_mass_kg
+    mass = inertia_of(drive, design)
+    weight = design.effective_mass_kg * design.gravity_m_s2
     parts_t, parts_x, parts_v, parts_a, parts_phase = [], [], [], [], []
     if with_flight and t_contact > 0.0:
         tf = np.arange(0.0, t_contact, step)
@@ -588,7 +591,7 @@ def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_
     if extra is not None:
         resistance = resistance + mask * np.vectorize(extra, otypes=[float])(x, np.maximum(v, 0.0))
     spring = drive.force(design, x + design.surface_offset_m)
-    a = np.where(in_material, (spring + mass * design.gravity_m_s2 - resistance) / mass, a_flight)
+    a = np.where(in_material, (spring + weight - resistance) / mass, a_flight)
     load_cell = resistance + design.load_cell_mass_kg * a
     return Trajectory(t, x, v, a, strength, friction, damping, inertia, resistance, spring, load_cell, phase)
 

@@ -80,15 +80,20 @@ class Param:
     required: bool = True
     default: float | None = None
     geometries: tuple[str, ...] = ()
-    """The penetrator geometries (:data:`GEOMETRY_NAMES`) whose files hold this key; empty: every file of its
-    kind.  A key of one geometry in another's file is an error, and its ``required`` holds within the geometry."""
+    """The penetrator geometries (:data:`GEOMETRY_NAMES`) or launcher drives (:data:`DRIVE_NAMES`) whose files
+    hold this key; empty: every file of its kind.  A key of one geometry (drive) in another's file is an error,
+    and its ``required`` holds within the geometry (drive)."""
     builds: str = "design"
-    """What the SI value fills: ``design`` (the field ``si_name`` of :class:`pencli.model.design.Design`) or
-    ``geometry`` (the keyword ``si_name`` of the geometry's class in :data:`pencli.model.geometry.GEOMETRIES`)."""
+    """What the SI value fills: ``design`` (the field ``si_name`` of :class:`pencli.model.design.Design`),
+    ``geometry`` (the keyword ``si_name`` of the geometry's class in :data:`pencli.model.geometry.GEOMETRIES`) or
+    ``drive`` (likewise of the drive's class in :data:`pencli.model.drive.DRIVES`)."""
+    absent: float = math.nan
+    """The SI value a design takes when its file's geometry or drive does not hold the key (a drop has no
+    springs: their count, stiffness and mass are 0); NaN: the simulator must not use it."""
 
-    def belongs_to(self, geometry: str) -> bool:
-        """Whether a file of ``geometry`` may hold this key."""
-        return not self.geometries or geometry in self.geometries
+    def belongs_to(self, variant: str) -> bool:
+        """Whether a file of ``variant`` (its geometry or drive) may hold this key."""
+        return not self.geometries or variant in self.geometries
 
     @property
     def hard_text(self) -> str:
@@ -140,7 +145,12 @@ GEOMETRY_NAMES: tuple[str, ...] = ("blade", "cone", "tapered_blade")
 """The penetrator geometries a file's ``geometry:`` may name (default ``blade``, CONTRACT §2's); each is a class
 in :data:`pencli.model.geometry.GEOMETRIES` (a test checks the two agree)."""
 DEFAULT_GEOMETRY = "blade"
+DRIVE_NAMES: tuple[str, ...] = ("springs", "free_fall")
+"""The drives a launcher (energizing) file's ``drive:`` may name (default ``springs``, CONTRACT §2's); each is a
+class in :data:`pencli.model.drive.DRIVES` (a test checks the two agree)."""
+DEFAULT_DRIVE = "springs"
 _BLADES = ("blade", "tapered_blade")
+_SPRINGS = ("springs",)
 
 
 @dataclass(frozen=True)
@@ -176,10 +186,21 @@ CHOICES: tuple[Choice, ...] = (
            ("the frontal area times (sin α + μ·cos α), the blade's convention",
             "the face normal to it, with friction along it (a flat tip presses with the strength alone)"),
            geometries=("cone",), si_name="area"),
+    Choice("drive", "energizing", "what drives the body into the material", DRIVE_NAMES, DEFAULT_DRIVE,
+           ("the spring launcher (CONTRACT §2)",
+            "a free fall from a height through a fluid (air, water): weight, buoyancy, drag to the surface, added "
+            "mass")),
 )
 """The named-choice parameters, by kind; values are the option names as written."""
 
 CHOICE_BY_KEY: dict[str, Choice] = {c.key: c for c in CHOICES}
+
+VARIANTS: dict[str, tuple[str, tuple[str, ...], str]] = {
+    "penetrator": ("geometry", GEOMETRY_NAMES, DEFAULT_GEOMETRY),
+    "energizing": ("drive", DRIVE_NAMES, DEFAULT_DRIVE),
+}
+"""Kinds whose files come in variants, each holding its own keys: kind → (the choice naming the variant, the
+variants, the default)."""
 
 
 _P = Param
@@ -233,23 +254,44 @@ PARAMETERS: tuple[Param, ...] = (
        "inertia_coefficient", 1.0, hard_min=0, range_min=0, range_max=1000, required=False),
     # --- energizing: the spring launcher --------------------------------------------
     _P("spring_count", "energizing", "n", "number of parallel springs (2, 4 or 6 on the reference rig)",
-       "–", "spring_count", 1.0, dtype=int, hard_min=1, range_min=1, range_max=12),
+       "–", "spring_count", 1.0, dtype=int, hard_min=1, range_min=1, range_max=12,
+       geometries=_SPRINGS, absent=0.0),
     _P("spring_stiffness_kn_m", "energizing", "k", "stiffness per spring", "kN/m",
-       "spring_stiffness_n_m", 1e3, hard_min=0, hard_min_exclusive=True, range_min=0.01, range_max=1000),
+       "spring_stiffness_n_m", 1e3, hard_min=0, hard_min_exclusive=True, range_min=0.01, range_max=1000,
+       geometries=_SPRINGS, absent=0.0),
     _P("spring_mass_kg", "energizing", "m_s", "mass per spring", "kg",
-       "spring_mass_kg", 1.0, hard_min=0, range_min=0, range_max=50),
+       "spring_mass_kg", 1.0, hard_min=0, range_min=0, range_max=50,
+       geometries=_SPRINGS, absent=0.0),
     _P("spring_nominal_length_mm", "energizing", "L0", "spring free length", "mm",
-       "nominal_length_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000),
+       "nominal_length_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000,
+       geometries=_SPRINGS, absent=0.0),
     _P("spring_compressed_length_mm", "energizing", "Lc", "spring length at release", "mm",
-       "compressed_length_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000),
+       "compressed_length_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000,
+       geometries=_SPRINGS, absent=0.0),
     _P("spring_length_at_contact_mm", "energizing", "Lc + s0",
        "spring length when the tip reaches the surface (BAM's input): give it or spring_compressed_length_mm, "
        "never both; compressed length = this − surface_offset_mm", "mm",
-       "", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000, required=False),
-    _P("surface_offset_mm", "energizing", "s0", "blade tip to surface at release (stand-off)", "mm",
+       "", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=1, range_max=5000, required=False,
+       geometries=_SPRINGS, absent=0.0),
+    _P("surface_offset_mm", "energizing", "s0", "tip to surface at release (stand-off; a drop's height above the "
+                                                "bed)", "mm",
        "surface_offset_m", 1e-3, hard_min=0, range_min=0, range_max=2000),
     _P("propulsion_efficiency_pct", "energizing", "η", "propulsion efficiency", "%",
-       "efficiency", 1e-2, hard_min=0, hard_max=100, hard_min_exclusive=True, range_min=1, range_max=100),
+       "efficiency", 1e-2, hard_min=0, hard_max=100, hard_min_exclusive=True, range_min=1, range_max=100,
+       geometries=_SPRINGS, absent=0.0),
+    # --- energizing: a free fall through a fluid --------------------------------------
+    _P("fluid_density_kg_m3", "energizing", "ρ_f", "density of the fluid the body falls through (1.2 air, 1025 "
+       "seawater, 0 a vacuum)", "kg/m³", "fluid_density_kg_m3", 1.0, hard_min=0, range_min=0, range_max=1100,
+       geometries=("free_fall",), builds="drive"),
+    _P("drag_coefficient", "energizing", "C_D", "the body's drag coefficient in the fluid, on its largest frontal "
+       "area (acts until the tip meets the surface)", "–", "drag_coefficient", 1.0, hard_min=0, range_min=0,
+       range_max=3, geometries=("free_fall",), builds="drive"),
+    _P("added_mass_coefficient", "energizing", "C_a", "fluid carried along by the body, as a share of the fluid "
+       "mass it displaces", "–", "added_mass_coefficient", 1.0, hard_min=0, range_min=0, range_max=2,
+       required=False, default=0.0, geometries=("free_fall",), builds="drive"),
+    _P("displaced_volume_l", "energizing", "V", "the body's volume, which the fluid buoys and accelerates", "L",
+       "displaced_volume_m3", 1e-3, hard_min=0, range_min=0, range_max=1000, geometries=("free_fall",),
+       builds="drive"),
 )
 
 EITHER_OR: dict[str, tuple[str, Callable[[dict[str, float]], float]]] = {
@@ -291,7 +333,8 @@ coefficients the fit held are absent).  ``pen predict --plot`` draws a predictio
 
 
 def params_of(kind: Kind, geometry: str | None = None) -> tuple[Param, ...]:
-    """The parameters of one kind, in definition order; with ``geometry``, those a file of it holds."""
+    """The parameters of one kind, in definition order; with ``geometry`` (a penetrator's geometry or a launcher's
+    drive, :data:`VARIANTS`), those a file of it holds."""
     return tuple(p for p in PARAMETERS if p.kind == kind and (geometry is None or p.belongs_to(geometry)))
 
 

@@ -13,9 +13,8 @@ from typing import Any
 from pencli.params.definitions import (
     COEFFICIENT_NAMES,
     COVARIANCE_KEY,
-    DEFAULT_GEOMETRY,
     EITHER_OR,
-    GEOMETRY_NAMES,
+    VARIANTS,
     OPTIONAL_TOP_KEYS,
     RANGE_KEYS,
     Kind,
@@ -77,10 +76,10 @@ def json_schema(kind: Kind) -> dict[str, Any]:
             "additionalProperties": {"type": "object", "propertyNames": {"enum": coefficients},
                                      "additionalProperties": {"type": "number"}}}
     either = [(primary, alternative) for primary, (alternative, _) in EITHER_OR.items()
-              if any(p.key == primary for p in params_of(kind))]
-    rules = [{"oneOf": [{"required": [a]}, {"required": [b]}]} for a, b in either]
-    if choices_of(kind):
-        rules += [_geometry_rule(kind, name) for name in GEOMETRY_NAMES]
+              if any(p.key == primary and not p.geometries for p in params_of(kind))]
+    rules = [_one_of(a, b) for a, b in either]  # a variant's own pairs are in its rule
+    if kind in VARIANTS:
+        rules += [_variant_rule(kind, name) for name in VARIANTS[kind][1]]
     extra = {"allOf": rules} if rules else {}
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -94,15 +93,21 @@ def json_schema(kind: Kind) -> dict[str, Any]:
     }
 
 
-def _geometry_rule(kind: Kind, geometry: str) -> dict[str, Any]:
-    """A file of ``geometry`` (``geometry:`` names it, or, for the default, gives none) must give that geometry's
-    required keys and none of another's."""
-    named = {"properties": {"geometry": {"const": geometry}}, "required": ["geometry"]}
-    condition = ({"anyOf": [{"not": {"required": ["geometry"]}}, named]} if geometry == DEFAULT_GEOMETRY
-                 else named)
+def _variant_rule(kind: Kind, geometry: str) -> dict[str, Any]:
+    """A file of ``geometry`` (or drive: ``geometry:`` or ``drive:`` names it, or, for the default, gives none)
+    must give that variant's required keys and none of another's."""
+    choice, _, default = VARIANTS[kind]
+    named = {"properties": {choice: {"const": geometry}}, "required": [choice]}
+    condition = ({"anyOf": [{"not": {"required": [choice]}}, named]} if geometry == default else named)
     own = params_of(kind, geometry)
     foreign = [p.key for p in params_of(kind) if p not in own] + [
         c.key for c in choices_of(kind) if not c.belongs_to(geometry)]
+    pairs = [_one_of(p.key, EITHER_OR[p.key][0]) for p in own if p.geometries and p.key in EITHER_OR]
     return {"if": condition,
-            "then": {"required": [p.key for p in own if p.geometries and p.required],
-                     "properties": {key: False for key in foreign}}}
+            "then": {"required": [p.key for p in own if p.geometries and p.required and p.key not in EITHER_OR],
+                     "properties": {key: False for key in foreign}, **({"allOf": pairs} if pairs else {})}}
+
+
+def _one_of(key: str, alternative: str) -> dict[str, Any]:
+    """Exactly one of a required key and its alternative (:data:`EITHER_OR`)."""
+    return {"oneOf": [{"required": [key]}, {"required": [alternative]}]}

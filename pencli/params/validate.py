@@ -22,7 +22,9 @@ from pencli.params.definitions import (
     KINDS,
     OPTIONAL_TOP_KEYS,
     RANGE_KEYS,
+    DEFAULT_DRIVE,
     DEFAULT_GEOMETRY,
+    VARIANTS,
     RULES,
     Kind,
     Param,
@@ -68,6 +70,17 @@ class ParameterSet:
         """The penetrator's geometry (:data:`~pencli.params.definitions.GEOMETRY_NAMES`; ``blade`` unless the file
         names another)."""
         return self.choices.get("geometry", DEFAULT_GEOMETRY)
+
+    @property
+    def drive(self) -> str:
+        """The launcher's drive (:data:`~pencli.params.definitions.DRIVE_NAMES`; ``springs`` unless the file names
+        another)."""
+        return self.choices.get("drive", DEFAULT_DRIVE)
+
+    @property
+    def variant(self) -> str | None:
+        """The geometry of a penetrator file, the drive of an energizing file, None for a material file."""
+        return {"penetrator": self.geometry, "energizing": self.drive}.get(self.kind)
 
     def choice(self, key: str) -> str:
         """A named choice's value, or its default."""
@@ -209,7 +222,7 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
     for key in flat:
         if key not in known:
             raise ParameterError(f"{source}: {_unknown(key, kind, geometry)}; valid {kind} keys"
-                                 f"{f' of a {geometry}' if kind == 'penetrator' else ''}: "
+                                 f"{f' of a {geometry}' if kind in VARIANTS else ''}: "
                                  f"{', '.join([*(c.key for c in choices_of(kind, geometry)), *known])}")
 
     for primary, (alternative, _) in EITHER_OR.items():
@@ -248,7 +261,8 @@ def validate_mapping(data: Any, source: str, *, expected_kind: Kind | None = Non
 
 
 def _choices(data: Mapping, kind: Kind, source: str) -> tuple[str, dict[str, str]]:
-    """(the geometry, the named choices the file gives), each checked against its options."""
+    """(the file's geometry or drive, :data:`VARIANTS`, or "" for a kind without variants; the named choices the
+    file gives), each checked against its options."""
     given: dict[str, str] = {}
     for choice in choices_of(kind):
         if choice.key not in data:
@@ -258,11 +272,12 @@ def _choices(data: Mapping, kind: Kind, source: str) -> tuple[str, dict[str, str
             raise ParameterError(f"{source}: key '{choice.key}': got {value!r}; expected one of "
                                  f"{', '.join(choice.options)} ({choice.meaning})")
         given[choice.key] = str(value)
-    geometry = given.get("geometry", DEFAULT_GEOMETRY)
+    choice, _, default = VARIANTS.get(kind, ("", (), ""))
+    variant = given.get(choice, default)
     for key in given:
-        if not CHOICE_BY_KEY[key].belongs_to(geometry):
-            raise ParameterError(f"{source}: {_unknown(key, kind, geometry)}")
-    return geometry, given
+        if not CHOICE_BY_KEY[key].belongs_to(variant):
+            raise ParameterError(f"{source}: {_unknown(key, kind, variant)}")
+    return variant, given
 
 
 def _unknown(key: str, kind: Kind, geometry: str) -> str:
@@ -272,7 +287,8 @@ def _unknown(key: str, kind: Kind, geometry: str) -> str:
         return f"unknown key '{key}'"
     if other.kind != kind:
         return f"unknown key '{key}' (it belongs in a {other.kind} file)"
-    return (f"key '{key}' is not a {geometry}'s (a key of {' or '.join(other.geometries)}: set geometry: "
+    choice = VARIANTS[kind][0]
+    return (f"key '{key}' is not a {geometry}'s (a key of {' or '.join(other.geometries)}: set {choice}: "
             f"{other.geometries[0]})")
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from pencli.fit.resistance import with_coefficients
 from pencli.model.design import Design
 from pencli.model.dynamics import simulate
+from pencli.model.drive import SPRINGS, Drive
 from pencli.model.geometry import BLADE, Geometry
 
 BAND_DRAWS = 100
@@ -59,8 +60,8 @@ def coefficient_draws(mean: Mapping[str, float], covariance: Mapping[str, Mappin
 
 def prediction_band(design: Design, mean: Mapping[str, float], covariance: Mapping[str, Mapping[str, float]],
                     central, *, terms: Iterable[str] | str | None = None, speed_at_contact_m_s: float | None = None,
-                    draws: int = BAND_DRAWS, seed: int = 0, level: float = BAND_LEVEL, geometry: Geometry = BLADE
-                    ) -> Band:
+                    draws: int = BAND_DRAWS, seed: int = 0, level: float = BAND_LEVEL, geometry: Geometry = BLADE,
+                    drive: Drive = SPRINGS) -> Band:
     """The band of ``central`` (the prediction's :class:`~pencli.model.dynamics.SimulationResult`) over
     ``draws`` coefficient sets (:func:`coefficient_draws`; ``mean`` in file units by coefficient name), each
     simulated on ``geometry``."""
@@ -71,7 +72,7 @@ def prediction_band(design: Design, mean: Mapping[str, float], covariance: Mappi
                                                                 "residual_ke_j", "peak_resistance_n")}
     for values in coefficient_draws(mean, covariance, draws, seed):
         run = simulate(with_coefficients(design, values), terms, speed_at_contact_m_s=speed_at_contact_m_s,
-                       output_rate_hz=rate_hz, geometry=geometry)
+                       output_rate_hz=rate_hz, geometry=geometry, drive=drive)
         tr = run.trajectory
         depth.append(np.interp(t, tr.time_s, tr.depth_m))  # past its end a draw holds its last value
         speed.append(np.interp(t, tr.time_s, tr.velocity_m_s))

@@ -59,7 +59,7 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int, geometry: 
     if key != SPEED and key not in BY_KEY:
         hint = f" (did you mean 'coefficients.{key}'?)" if f"coefficients.{key}" in BY_KEY else ""
         raise ParameterError(f"--vary {spec!r}: unknown key '{key}'{hint}; any CONTRACT §1 key or {SPEED}")
-    if key != SPEED and not BY_KEY[key].belongs_to(geometry):
+    if key != SPEED and BY_KEY[key].kind == "penetrator" and not BY_KEY[key].belongs_to(geometry):
         raise ParameterError(f"--vary {spec!r}: '{key}' is a dimension of a {' or '.join(BY_KEY[key].geometries)}; "
                              f"this penetrator is a {geometry.replace('_', ' ')}")
     discrete = False

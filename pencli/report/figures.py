@@ -674,9 +674,9 @@ OUTSIDE_TERMS = "resistance, not by term"
 form, such as a cone's growing frontal area)."""
 
 
-def prediction(title: str, trajectory, summary, band=None, shape: str = "blade"):
+def prediction(title: str, trajectory, summary, band=None, shape: str = "blade", drive_work: str = "springs"):
     """A predicted run (``pen predict --plot``): depth and speed against time, the force of each Eq. 9 term against
-    depth (stacked), and where the energy goes; with ``band`` (:class:`~pencli.predict.band.Band`, from a fitted
+    depth (stacked), and where the energy goes (``drive_work`` names the drive's bar); with ``band`` (:class:`~pencli.predict.band.Band`, from a fitted
     material's covariance), the spread of depth, speed and resistance over the fit's uncertainty.
 
     ``trajectory`` and ``summary`` are a :class:`~pencli.model.dynamics.SimulationResult`'s.  Returns the figure
@@ -717,7 +717,7 @@ def prediction(title: str, trajectory, summary, band=None, shape: str = "blade")
     force.legend(fontsize=7, loc="lower right")
     spent = {n: getattr(summary, f"energy_{n}_j") if n != OUTSIDE_TERMS else summary.energy_other_j for n in terms}
     spent["left as kinetic"] = summary.residual_ke_j
-    supplied = {"springs": summary.spring_energy_j, "gravity": summary.gravity_work_j}
+    supplied = {drive_work: summary.spring_energy_j, "gravity": summary.gravity_work_j}
     bars = [*supplied.items(), *spent.items()]
     energy.bar(range(len(bars)), [v for _, v in bars],
                color=["0.55"] * len(supplied) + [colours.get(n, "0.3") for n in spent])

@@ -696,6 +696,9 @@ class Workspace:
 
     def _insert_run(self, con, run_id: str, run: Run, digest: str, now: dt.datetime) -> None:
         p, m, e = run.penetrator, run.material, run.energizing
+        if e.drive != "springs":
+            raise StoreError(f"{run.source}: drive {e.drive}: the workspace stores runs of the spring launcher only "
+                             f"so far (a free-fall probe's record is ingested as a field record: BlueDrop .bin)")
         info = run.info
         tags = info.get("tags") or []
         if isinstance(tags, str):

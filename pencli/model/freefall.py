@@ -1,0 +1,174 @@
+r"""A free fall through a fluid (air, water): a drive of the scalar simulator.
+
+The body (mass m, volume V, drag coefficient C_D on its largest frontal area A) is released at rest at height
+s0 above the bed in a fluid of density ρ_f.  The fluid buoys it (ρ_f·V·g up), carries an added mass
+m_a = C_a·ρ_f·V along with it (inertia without weight) and, until the tip meets the surface, drags it with
+½·ρ_f·C_D·A·v².  Below the surface the frontal area is in the bed, whose resistance replaces the drag; the
+buoyancy and the added mass stay (the bed's pore fluid and the fluid above it still surround the body).
+
+The flight is closed form.  With m' = m + m_a, g' = (m − ρ_f·V)·g/m' and the terminal speed
+v_t² = 2·(m − ρ_f·V)·g/(ρ_f·C_D·A):
+
+.. math::
+
+    v(t) = v_t \tanh(g' t / v_t), \qquad u(t) = \frac{v_t^2}{g'} \ln\cosh(g' t / v_t),
+    \qquad v(u)^2 = v_t^2 \left(1 - e^{-2 g' u / v_t^2}\right),
+
+so along the path the drag is a function of the travel u alone, and the drive's force is
+
+.. math::
+
+    F(u) = -\rho_f V g - \tfrac12 \rho_f C_D A\, v(u)^2 \,[u < s_0],
+
+with its work over [u0, u1] in closed form too.  The simulator's weight is the body's own (m·g); its
+inertia, m + m_a (:meth:`FreeFall.added_mass_kg`).
+
+Pure: numpy and ``math`` only, SI units.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class FreeFallFlight:
+    """The closed-form fall from release (t = 0, at rest, u = 0) with buoyancy and quadratic drag."""
+
+    mass_kg: float
+    """m + m_a: what the forces accelerate. [kg]"""
+    net_weight_n: float
+    """(m − ρ_f·V)·g: the weight less the buoyancy. [N]"""
+    drag_n_s2_m2: float
+    """½·ρ_f·C_D·A. [N·s²/m²]"""
+
+    @property
+    def _g(self) -> float:
+        return self.net_weight_n / self.mass_kg
+
+    @property
+    def terminal_speed_m_s(self) -> float:
+        """v_t = sqrt(net weight / (½ ρ_f C_D A)); inf without drag. [m/s]"""
+        return math.sqrt(self.net_weight_n / self.drag_n_s2_m2) if self.drag_n_s2_m2 > 0.0 else math.inf
+
+    def reach(self, u: float) -> tuple[float, float]:
+        """(time [s], speed [m/s]) when the body has fallen ``u`` [m]; (inf, 0) if it floats."""
+        if u <= 0.0:
+            return 0.0, 0.0
+        g = self._g
+        if g <= 0.0:
+            return math.inf, 0.0
+        if self.drag_n_s2_m2 <= 0.0:
+            return math.sqrt(2.0 * u / g), math.sqrt(2.0 * g * u)
+        vt = self.terminal_speed_m_s
+        y = g * u / (vt * vt)
+        root = math.sqrt(-math.expm1(-2.0 * y))  # sqrt(1 − e^{−2y}), accurate for small y
+        return vt / g * (y + math.log1p(root)), vt * root  # acosh(e^y) = y + ln(1 + sqrt(1 − e^{−2y}))
+
+    def state(self, t):
+        """(u [m], v [m/s], a [m/s²]) at time(s) ``t`` [s] since release."""
+        t = np.asarray(t, dtype=float)
+        g = self._g
+        if g <= 0.0:
+            zero = np.zeros_like(t)
+            return zero, zero, zero
+        if self.drag_n_s2_m2 <= 0.0:
+            return 0.5 * g * t * t, g * t, np.full_like(t, g)
+        vt = self.terminal_speed_m_s
+        z = g * t / vt
+        tanh = np.tanh(z)
+        u = vt * vt / g * (z + np.log1p(np.exp(-2.0 * z)) - math.log(2.0))  # ln cosh z, without overflow
+        return u, vt * tanh, g * (1.0 - tanh * tanh)
+
+    @property
+    def release_time_s(self) -> float:
+        """Nothing pushes before the fall: 0. [s]"""
+        return 0.0
+
+
+@dataclass(frozen=True)
+class FreeFall:
+    """A drop from the stand-off (the design's ``surface_offset_m``) through a fluid.  Built from a launcher file
+    of ``drive: free_fall`` (:data:`pencli.model.drive.DRIVES`); ``drag_area_m2`` is the geometry's largest
+    frontal area."""
+
+    fluid_density_kg_m3: float
+    drag_coefficient: float
+    displaced_volume_m3: float
+    drag_area_m2: float
+    added_mass_coefficient: float = 0.0
+    name: str = "free_fall"
+    closed_form: bool = False
+    keys: tuple[str, ...] = ("fluid_density_kg_m3", "drag_coefficient", "displaced_volume_l",
+                             "added_mass_coefficient")
+
+    def added_mass_kg(self, design) -> float:
+        """m_a = C_a·ρ_f·V: fluid the body carries along (inertia, no weight). [kg]"""
+        return self.added_mass_coefficient * self.fluid_density_kg_m3 * self.displaced_volume_m3
+
+    def buoyancy_n(self, design) -> float:
+        """ρ_f·V·g. [N]"""
+        return self.fluid_density_kg_m3 * self.displaced_volume_m3 * float(design.gravity_m_s2)
+
+    def drag_n_s2_m2(self) -> float:
+        """½·ρ_f·C_D·A. [N·s²/m²]"""
+        return 0.5 * self.fluid_density_kg_m3 * self.drag_coefficient * self.drag_area_m2
+
+    def flight(self, design) -> FreeFallFlight:
+        mass = float(design.effective_mass_kg) + self.added_mass_kg(design)
+        return FreeFallFlight(mass, float(design.effective_mass_kg) * float(design.gravity_m_s2)
+                              - self.buoyancy_n(design), self.drag_n_s2_m2())
+
+    def _drag_scale(self, design) -> tuple[float, float]:
+        """(v_t², the travel scale v_t²/(2 g')) of the flight; (inf, inf) without drag or when it floats."""
+        flight = self.flight(design)
+        g = flight.net_weight_n / flight.mass_kg
+        if flight.drag_n_s2_m2 <= 0.0 or g <= 0.0:
+            return math.inf, math.inf
+        vt2 = flight.net_weight_n / flight.drag_n_s2_m2
+        return vt2, vt2 / (2.0 * g)
+
+    def force(self, design, u):
+        vt2, scale = self._drag_scale(design)
+        s0 = float(design.surface_offset_m)
+        buoyancy = self.buoyancy_n(design)
+        k = self.drag_n_s2_m2()
+        if isinstance(u, float):
+            if u >= s0 or not math.isfinite(scale) or u <= 0.0:
+                return -buoyancy
+            return -buoyancy - k * vt2 * -math.expm1(-u / scale)
+        u = np.asarray(u, dtype=float)
+        if not math.isfinite(scale):
+            return np.full_like(u, -buoyancy)
+        inside = (u > 0.0) & (u < s0)
+        return -buoyancy - np.where(inside, k * vt2 * -np.expm1(-np.clip(u, 0.0, None) / scale), 0.0)
+
+    def work(self, design, u0: float, u1: float) -> float:
+        """−ρ_f·V·g·(u1 − u0) less the drag's work over the part of [u0, u1] above the surface. [J]"""
+        s0 = float(design.surface_offset_m)
+        total = -self.buoyancy_n(design) * (u1 - u0)
+        vt2, scale = self._drag_scale(design)
+        if math.isfinite(scale):
+            a, b = min(max(u0, 0.0), s0), min(max(u1, 0.0), s0)
+            # ∫ k·v_t²·(1 − e^{−u/L}) du = k·v_t²·[Δu + L·(e^{−b/L} − e^{−a/L})]
+            total -= self.drag_n_s2_m2() * vt2 * ((b - a) + scale * (math.exp(-b / scale) - math.exp(-a / scale)))
+        return float(total)
+
+    def corners(self, design) -> tuple[float, ...]:
+        """The surface, where the drag stops. [m]"""
+        return (float(design.surface_offset_m),) if self.drag_n_s2_m2() > 0.0 else ()
+
+    def largest_slope(self, design) -> float:
+        vt2, scale = self._drag_scale(design)
+        return self.drag_n_s2_m2() * vt2 / scale if math.isfinite(scale) else 0.0
+
+    def largest_force(self, design) -> float:
+        vt2, _ = self._drag_scale(design)
+        drag = self.drag_n_s2_m2() * vt2 if math.isfinite(vt2) else 0.0
+        return float(self.buoyancy_n(design) + drag)
+
+
+__all__ = ["FreeFall", "FreeFallFlight"]
