@@ -1420,13 +1420,14 @@ def report_soundings(paths: Sequence[str | Path], out: str | Path, *, pdf: bool 
     return write_report(title, sections, out, pdf=pdf)
 
 
-def field_records(refs: Sequence[str | Path], family: str, db: str | Path | None = None) -> list:
+def field_records(refs: Sequence[str | Path], family: str, db: str | Path | None = None,
+                  options: Mapping | None = None) -> list:
     """The records ``refs`` name, as their format's reader returns them (one or more per file), in order.
 
     A ref is a file (read by its format, :data:`pencli.io.field.FORMATS`; a sounding file of another suffix is
     read as SGF), or, where no such file exists, a record id of workspace ``db`` (a pattern with ``*`` or ``?``
     matches ids).  ``family`` (``sounding``, ``snow``, ``drop``) is what the command takes: a record of another
-    family is refused in one line.
+    family is refused in one line.  ``options`` go to a file's reader (a BlueDrop record's ``calibration``).
     """
     import fnmatch
 
@@ -1440,7 +1441,7 @@ def field_records(refs: Sequence[str | Path], family: str, db: str | Path | None
             fmt = format_of(path) or (FORMATS["sgf"] if family == "sounding" else None)
             if fmt is None or fmt.family != family:
                 raise DataError(f"{path}: expected {FAMILY_TITLES[family]}")
-            out += fmt.read(path, {})
+            out += fmt.read(path, options or {})
             continue
         if ws is None or not ws.exists():
             raise DataError(f"{ref}: no such file" + (f", and no workspace at {db} to find it in" if db else ""))
@@ -1653,3 +1654,126 @@ def plot_snow_profile(result: SnowProfile, path: str | Path) -> str:
 
     fig, caption = snow_profile(result.profile.name, result.estimates, result.layers)
     return _save_captioned(fig, caption, path, fontsize=8, dpi=150, top=0.86)
+
+
+# ---------------------------------------------------------------------------- free-fall drops
+@dataclass(frozen=True)
+class Drop:
+    """One free-fall record and its motion (:func:`pencli.filter.freefall.drop_motion`): release, impact, speed at
+    impact, penetration, each accelerometer's bias."""
+
+    record: object
+    motion: object
+
+    @property
+    def name(self) -> str:
+        return Path(str(self.record.source).removesuffix(".gz")).name.removesuffix(".bin").removesuffix(".BIN")
+
+    @property
+    def peak_deceleration_g(self) -> float:
+        """The largest deceleration between impact and stop. [g]"""
+        from pencli.filter.freefall import G
+
+        m = self.motion
+        return float(-np.min(m.accel_m_s2[m.impact:m.stop + 1]) / G) if m.stop >= m.impact else 0.0
+
+
+def read_drops(refs: Sequence[str | Path], db: str | Path | None = None,
+               calibration: str | Path | None = None) -> list[Drop]:
+    """The drops of BlueDrop files (read with the probe's ``calibration`` sheet) or of records of workspace ``db``,
+    each integrated to its motion; a record whose motion cannot be found is one line naming it."""
+    from pencli.filter.freefall import drop_motion
+    from pencli.io.bluedrop import ACCELEROMETER_RANGES_G
+
+    out = []
+    for record in field_records(refs, "drop", db, {"calibration": calibration}):
+        missing = [c for c in ACCELEROMETER_RANGES_G if c not in record.channels]
+        if missing:
+            raise DataError(f"{record.source}: no {', '.join(missing)} channel in the calibration")
+        try:
+            motion = drop_motion(record.time_s, {c: record.channels[c] for c in ACCELEROMETER_RANGES_G},
+                                 ACCELEROMETER_RANGES_G)
+        except ValueError as error:
+            raise DataError(f"{record.source}: {error}") from None
+        out.append(Drop(record, motion))
+    return out
+
+
+def free_fall_probe(penetrator: str | Path, energizing: str | Path):
+    """The probe a bed fit needs (:class:`pencli.fit.freefall.FreeFallProbe`) from a cone penetrator file and a
+    free-fall launcher file (presets or files)."""
+    from pencli.fit.freefall import FreeFallProbe
+    from pencli.model.geometry import geometry_of
+
+    p, _, e = load_parameter_sets(penetrator, "mpacs_c", energizing)
+    if p.geometry != "cone":
+        raise ParameterError(f"{p.source}: geometry {p.geometry}: a free-fall probe's bed fit needs a cone "
+                             f"(geometry: cone)")
+    if e.drive != "free_fall":
+        raise ParameterError(f"{e.source}: drive {e.drive}: a bed fit needs the fall's fluid, drag and volume "
+                             f"(drive: free_fall)")
+    cone = geometry_of(p)
+    return FreeFallProbe(mass_kg=float(p.values["sprung_mass_kg"]),
+                         volume_m3=float(e.values["displaced_volume_l"]) * 1e-3,
+                         half_angle_rad=cone.half_angle_rad, shaft_radius_m=cone.shaft_radius_m,
+                         drag_coefficient=float(e.values["drag_coefficient"]),
+                         added_mass_coefficient=float(e.values.get("added_mass_coefficient", 0.0)),
+                         water_density=float(e.values["fluid_density_kg_m3"]))
+
+
+def fit_drops(drops: Sequence[Drop], probe, *, nuisances: bool = True):
+    """``pen drops fit``: the bed's q = σ + b·z + c·v over the drops (:func:`pencli.fit.freefall.fit_bed`), the
+    drag and added-mass coefficients fitted too unless ``nuisances`` is False."""
+    from pencli.fit.freefall import fit_bed
+
+    try:
+        return fit_bed([d.motion for d in drops], probe, nuisances=nuisances)
+    except (ValueError, np.linalg.LinAlgError) as error:
+        raise FitError(f"the bed cannot be fitted from these {len(drops)} drops: {error}") from None
+
+
+def report_drops(drops: Sequence[Drop], out: str | Path, *, pdf: bool = True, probe=None) -> list[Path]:
+    """``pen drops report``: one section per drop (its motion and figure) and, with ``probe``, the bed fitted
+    across them, as self-contained HTML (and a PDF beside it); returns the files written."""
+    from pencli.report.build import write_report
+    from pencli.report.sections import drop_section, drop_fit_section
+
+    sections = [drop_section(d) for d in drops]
+    if probe is not None:
+        sections.insert(0, drop_fit_section(fit_drops(drops, probe), probe))
+    title = f"pen drops report: {len(drops)} free-fall drop{'s' if len(drops) != 1 else ''}"
+    return write_report(title, sections, out, pdf=pdf)
+
+
+def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, float, float], bias_g: float = 0.0,
+                       seed: int = 0, calibration_out: str | Path | None = None):
+    """``pen drops simulate``: a drop of the simulated BlueDrop (:mod:`pencli.acquire.freefall`, the
+    ``freefall_cone`` probe in ``drop_water``) released ``height_m`` above a bed of q = σ + b·z + c·v (``bed``:
+    kPa, kPa/m, kPa·s/m), each accelerometer with a random bias within ±``bias_g``, written as a BlueDrop record
+    and its calibration sheet (CSV; default ``calibration.csv`` beside it).  Returns the simulation's truth."""
+    from pencli.acquire.freefall import Bed, Probe, Sensors, simulate_drop
+    from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, bluedrop_bytes
+
+    if not 0.0 < height_m <= 100.0:
+        raise ParameterError(f"--height-m {height_m:g}: expected a height above the bed in (0, 100] m")
+    if any(not math.isfinite(v) or v < 0.0 for v in bed) or bed[0] <= 0.0:
+        raise ParameterError(f"--bed {','.join(f'{v:g}' for v in bed)}: expected σ > 0, b ≥ 0, c ≥ 0 "
+                             f"(kPa, kPa/m, kPa·s/m)")
+    if not 0.0 <= bias_g <= 0.5:
+        raise ParameterError(f"--bias-g {bias_g:g}: expected 0 … 0.5 g")
+    rng = np.random.default_rng(seed)
+    sensors = Sensors(bias_g={name: float(rng.uniform(-bias_g, bias_g)) for name in ACCELEROMETER_RANGES_G})
+    try:
+        truth = simulate_drop(Probe(), Bed(*bed), height_m, sensors=sensors, seed=seed)
+    except ValueError as error:
+        raise ParameterError(f"--bed: {error}") from None
+    out = Path(out)
+    sheet = Path(calibration_out) if calibration_out is not None else out.with_name("calibration.csv")
+    text = "channel,offset,scale,unit\n" + "".join(f"{name},{c.offset!r},{c.scale!r},{c.unit}\n"
+                                                   for name, c in sensors.calibration.items())
+    from pencli.io.atomic import atomic_group
+
+    with atomic_group([out, sheet]) as (tmp_out, tmp_sheet):  # both or neither
+        Path(tmp_out).write_bytes(bluedrop_bytes(truth.raw))
+        Path(tmp_sheet).write_text(text, encoding="utf-8")
+    return truth, sheet, sensors.bias_g

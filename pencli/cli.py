@@ -8,6 +8,7 @@ from pencli import __version__
 from pencli.commands import acquire as acquire_cmd
 from pencli.commands import condition as condition_cmd
 from pencli.commands import diagnose as diagnose_cmd
+from pencli.commands import drops as drops_cmd
 from pencli.commands import fit as fit_cmd
 from pencli.commands import params as params_cmd
 from pencli.commands import predict as predict_cmd
@@ -31,6 +32,7 @@ app.add_typer(params_cmd.app, name="params")
 app.add_typer(runs_cmd.runs_app, name="runs")
 app.add_typer(soundings_cmd.soundings_app, name="soundings")
 app.add_typer(snow_cmd.snow_app, name="snow")
+app.add_typer(drops_cmd.drops_app, name="drops")
 for module in (predict_cmd, runs_cmd, records_cmd, acquire_cmd, condition_cmd, fit_cmd, diagnose_cmd, sweep_cmd, report_cmd):
     app.registered_commands.extend(module.app.registered_commands)
 

@@ -25,6 +25,9 @@ from pencli.filter.freefall import G, DropMotion
 from pencli.model.geometry import Cone
 
 
+FLIGHT_SKIP_S = 0.02
+"""The fall's first moments left out of a fit of the drag and added mass: at the release the deceleration jumps,
+and the stitched sensors' filters smear the jump over a few samples. [s]"""
 MIN_SPEED_M_S = 0.05
 """Slowest sample fitted: where the probe stops, the bed holds it with whatever force its weight needs, not q's
 (and the stop falls between two samples). [m/s]"""
@@ -52,10 +55,15 @@ class BedFit:
     strength_kpa: float
     gradient_kpa_m: float
     damping_kpa_s_m: float
-    standard_errors: tuple[float, float, float]
+    standard_errors: tuple[float, ...]
+    """Of σ, b, c (and C_D, C_a when fitted)."""
     samples: int
     drops: int
     relative_rms: float
+    drag_coefficient: float | None = None
+    """C_D fitted as a nuisance (None: the probe's was taken)."""
+    added_mass_coefficient: float | None = None
+    """C_a fitted as a nuisance (None: the probe's was taken)."""
 
 
 def bed_force_n(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -71,22 +79,45 @@ def bed_force_n(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, n
     return depth, speed, force
 
 
-def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe) -> BedFit:
+def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe, *, nuisances: bool = False) -> BedFit:
     """σ, b, c of q = σ + b·z + c·v fitted over every drop's rows in the bed where the whole cone has entered
     (while the tip's area grows, a millimetre's error in the depth of impact is a large share of it) and the
-    probe still moves faster than ``MIN_SPEED_M_S``."""
+    probe still moves faster than ``MIN_SPEED_M_S``.
+
+    ``nuisances``: the drag and added-mass coefficients are fitted too (the probe's are not taken).  The equation
+    is linear in them as well, and the fall through the water, where the bed pushes nothing, is what determines
+    them: its rows from ``FLIGHT_SKIP_S`` after the release to the impact join the fit."""
     cone = Cone(half_angle_rad=probe.half_angle_rad, shaft_radius_m=probe.shaft_radius_m)
+    rho, volume = probe.water_density, probe.volume_m3
+    section = math.pi * probe.shaft_radius_m ** 2
     rows, targets = [], []
     for motion in motions:
         depth, speed, force = bed_force_n(motion, probe)
         inside = (depth > cone.cone_length_m) & (speed > MIN_SPEED_M_S)
         area = np.array([cone.areas(z, 0.0)[0] for z in depth[inside]])
-        rows.append(1e3 * area[:, None] * np.column_stack([np.ones(area.size), depth[inside], speed[inside]]))
-        targets.append(force[inside])
+        columns = [1e3 * area * np.ones(area.size), 1e3 * area * depth[inside], 1e3 * area * speed[inside]]
+        if not nuisances:
+            rows.append(np.column_stack(columns))
+            targets.append(force[inside])
+            continue
+        bed = slice(motion.impact, motion.stop + 1)
+        v, a = motion.speed_m_s[bed][inside], motion.accel_m_s2[bed][inside]
+        rows.append(np.column_stack(columns + [0.5 * rho * section * v * np.abs(v), rho * volume * a]))
+        targets.append((probe.mass_kg - rho * volume) * G - probe.mass_kg * a)
+        start = int(np.searchsorted(motion.time_s, motion.time_s[motion.release] + FLIGHT_SKIP_S))
+        flight = slice(start, motion.impact)
+        v, a = motion.speed_m_s[flight], motion.accel_m_s2[flight]
+        zero = np.zeros(v.size)
+        rows.append(np.column_stack([zero, zero, zero, 0.5 * rho * section * v * np.abs(v), rho * volume * a]))
+        targets.append((probe.mass_kg - rho * volume) * G - probe.mass_kg * a)
     X, y = np.vstack(rows), np.concatenate(targets)
     theta, *_ = np.linalg.lstsq(X, y, rcond=None)
     residual = y - X @ theta
     dof = max(1, y.size - X.shape[1])
     covariance = float(residual @ residual) / dof * np.linalg.inv(X.T @ X)
-    return BedFit(*(float(v) for v in theta), tuple(float(v) for v in np.sqrt(np.diag(covariance))), int(y.size),
-                  len(motions), float(np.sqrt(np.mean(residual ** 2)) / max(float(np.mean(np.abs(y))), 1e-300)))
+    fitted = X[:, :3] @ theta[:3]  # the bed's force, the scale of the misfit
+    scale = max(float(np.mean(np.abs(fitted[fitted != 0.0]))) if np.any(fitted != 0.0) else 0.0, 1e-300)
+    inside_rows = fitted != 0.0
+    return BedFit(*(float(v) for v in theta[:3]), tuple(float(v) for v in np.sqrt(np.diag(covariance))),
+                  int(y.size), len(motions), float(np.sqrt(np.mean(residual[inside_rows] ** 2)) / scale),
+                  *((float(theta[3]), float(theta[4])) if nuisances else ()))

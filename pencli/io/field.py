@@ -212,7 +212,7 @@ def _drop_record(drop) -> FieldRecord:
     columns = {"time_s": np.asarray(drop.time_s, dtype=np.float64)}
     columns.update({name: np.asarray(values, dtype=np.float64) for name, values in drop.channels.items()})
     columns.update({f"raw_{name}": drop.raw[:, k].astype(np.float64) for k, name in enumerate(CHANNELS)})
-    name = Path(drop.source).name.split(".")[0] or "drop"
+    name = Path(str(drop.source).removesuffix(".gz")).name.removesuffix(".bin").removesuffix(".BIN") or "drop"
     return FieldRecord("bluedrop", "free_fall", name, columns, {"units": dict(drop.units)}, {}, drop.source)
 
 

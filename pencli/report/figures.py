@@ -775,6 +775,35 @@ def snow_profile(name: str, estimates, layers: Sequence = ()):
     return fig, caption
 
 
+def drop_motion(name: str, motion):
+    """A free-fall drop (:class:`pencli.filter.freefall.DropMotion`): its deceleration against time around the
+    impact, and its speed against depth below the bed's surface.  Returns the figure and its caption."""
+    plt = _plt()
+    from pencli.filter.freefall import G
+
+    t, m = motion.time_s, motion
+    fig, (left, right) = plt.subplots(1, 2, figsize=(9.0, 3.8))
+    lead = max(m.release, int(np.searchsorted(t, m.impact_s - 0.05)))
+    rows = slice(lead, min(t.size, m.stop + (m.stop - m.impact) // 2 + 2))
+    left.plot(1e3 * (t[rows] - m.impact_s), -m.accel_m_s2[rows] / G, lw=0.8, color="0.25")
+    left.axvline(0.0, color="C3", lw=0.8, ls="--")
+    left.set_xlabel("time from impact [ms]")
+    left.set_ylabel("deceleration [g]")
+    at_hit = float(np.interp(m.impact_s, t, m.travel_m))
+    bed = slice(m.impact, m.stop + 1)
+    right.plot(m.speed_m_s[bed], 1e3 * (m.travel_m[bed] - at_hit), lw=1.0, color="C0")
+    right.set_xlabel("speed [m/s]")
+    right.set_ylabel("depth below the bed's surface [mm]")
+    right.invert_yaxis()
+    right.set_xlim(left=0.0)
+    fig.tight_layout()
+    peak = float(-np.min(m.accel_m_s2[bed]) / G) if m.stop >= m.impact else 0.0
+    caption = (f"{name}: the probe met the bed at {m.impact_speed_m_s:.2f} m/s (dashed line) and stopped "
+               f"{1e3 * m.penetration_m:.0f} mm into it {1e3 * (t[m.stop] - m.impact_s):.0f} ms later, "
+               f"decelerating by up to {peak:.1f} g.")
+    return fig, caption
+
+
 def sounding_profile(name: str, depth_m: np.ndarray, qc_mpa: np.ndarray, fs_kpa: np.ndarray | None = None,
                      u2_kpa: np.ndarray | None = None, qt_mpa: np.ndarray | None = None, layers=None,
                      resistance: tuple[str, str, str] = ("cone resistance", "MPa", "qc")):

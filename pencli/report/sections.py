@@ -363,5 +363,46 @@ def snow_section(result) -> Section:
     return section
 
 
-__all__ = ["REFERENCE_ESTIMATES", "campaign_sections", "diagnosis_section", "latest_fit_with", "material_section", "parameter_rows",
+def drop_section(drop) -> Section:
+    """A free-fall drop (:class:`pencli.api.Drop`): release, impact, speed at impact, penetration, the sensors'
+    biases, and its figure."""
+    from pencli.report import figures
+
+    m = drop.motion
+    t = m.time_s
+    section = Section(f"Free-fall drop {drop.name}",
+                      text=f"Released at {t[m.release]:.3f} s, met the bed at {m.impact_s:.4f} s at "
+                           f"{m.impact_speed_m_s:.3f} m/s and stopped {1e3 * m.penetration_m:.1f} mm into it at "
+                           f"{t[m.stop]:.3f} s; largest deceleration {drop.peak_deceleration_g:.1f} g. The speed and "
+                           f"depth are the stitched accelerometers integrated from the release, each sensor's bias "
+                           f"taken at rest before the release and after the stop.",
+                      provenance={"source": str(drop.record.source)})
+    section.tables.append(("each accelerometer's bias at rest", ["sensor", "before the release [g]",
+                                                                 "after the stop [g]"],
+                           [[name, before, after] for name, (before, after) in m.bias_g.items()]))
+    section.add_figure(*figures.drop_motion(drop.name, m))
+    return section
+
+
+def drop_fit_section(fit, probe) -> Section:
+    """The bed fitted across drops (:class:`pencli.fit.freefall.BedFit`)."""
+    return Section("The bed across the drops",
+                   text=f"q = σ + b·z + c·v on the cone's frontal area, fitted over {fit.samples} samples of "
+                        f"{fit.drops} drops where the whole cone is in the bed and the probe moves faster than "
+                        f"0.05 m/s (probe {probe.mass_kg:g} kg, {probe.volume_m3 * 1e3:g} L, C_D "
+                        f"{probe.drag_coefficient:g}, C_a {probe.added_mass_coefficient:g}, fluid "
+                        f"{probe.water_density:g} kg/m³)"
+                        + (f"; the drag and added-mass coefficients fitted from the fall as well: "
+                           f"{fit.drag_coefficient:.3f} and {fit.added_mass_coefficient:.3f}"
+                           if fit.drag_coefficient is not None else "")
+                        + f". Residual RMS {100 * fit.relative_rms:.1f} % of the bed's mean force. The standard "
+                          f"errors are least squares' and too small where the residuals are correlated from sample "
+                          f"to sample.",
+                   tables=[("the bed's pressure", ["term", "value", "standard error", "unit"],
+                            [["σ (at the surface)", fit.strength_kpa, fit.standard_errors[0], "kPa"],
+                             ["b (per metre of depth)", fit.gradient_kpa_m, fit.standard_errors[1], "kPa/m"],
+                             ["c (per m/s of speed)", fit.damping_kpa_s_m, fit.standard_errors[2], "kPa·s/m"]])])
+
+
+__all__ = ["REFERENCE_ESTIMATES", "drop_fit_section", "drop_section", "campaign_sections", "diagnosis_section", "latest_fit_with", "material_section", "parameter_rows",
            "run_section", "snow_section", "sounding_section", "sweep_section"]

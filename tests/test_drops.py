@@ -1,0 +1,97 @@
+"""`pen drops` on records the simulated BlueDrop writes (`pen drops simulate`, :mod:`pencli.acquire.freefall`,
+which shares no code with the filters and the fit): impact speed and penetration against the simulation's truth,
+the bed fitted across drops with the probe's drag and added mass unknown, stored records, the report, and bad
+input in one line."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import yaml
+
+from tests.conftest import invoke
+
+BED = (18.0, 140.0, 6.0)
+"""σ [kPa], b [kPa/m], c [kPa·s/m] of the simulated bed."""
+HEIGHTS_M = (0.5, 1.2, 2.5, 5.0)
+
+
+@pytest.fixture(scope="module")
+def drops(tmp_path_factory):
+    """Four drops from four heights, each sensor chain with its own biases, and the truth of each."""
+    from typer.testing import CliRunner
+
+    root = tmp_path_factory.mktemp("drops")
+    runner = CliRunner()
+    truths = []
+    for k, height in enumerate(HEIGHTS_M):
+        r = invoke(runner, "drops", "simulate", "--height-m", height, "--bed", ",".join(map(str, BED)),
+                   "--bias-g", 0.03, "--seed", 40 + k, "--out", root / f"drop-{k}.bin", "--json")
+        assert r.exit_code == 0, r.output + r.stderr
+        truths.append(json.loads(r.stdout))
+    return root, truths
+
+
+def test_each_drop_meets_the_bed_and_stops_where_the_simulation_did(runner, drops):
+    root, truths = drops
+    files = [root / f"drop-{k}.bin" for k in range(len(HEIGHTS_M))]
+    r = invoke(runner, "drops", "show", *files, "--calibration", root / "calibration.csv", "--json")
+    assert r.exit_code == 0, r.stderr
+    shown = json.loads(r.stdout)
+    for record, truth in zip(shown, truths):
+        assert record["impact_speed_m_s"] == pytest.approx(truth["impact_speed_m_s"], rel=0.01)
+        assert record["penetration_mm"] == pytest.approx(truth["penetration_mm"], rel=0.01)
+        assert record["impact_s"] == pytest.approx(truth["impact_s"], abs=2e-3)
+
+
+def test_the_bed_is_fitted_across_stored_drops_with_the_drag_unknown(runner, drops, tmp_path):
+    root, _ = drops
+    db = tmp_path / "runs.duckdb"
+    r = invoke(runner, "ingest", *sorted(root.glob("drop-*.bin")), "--calibration", root / "calibration.csv",
+               "--db", db)
+    assert r.exit_code == 0, r.stderr
+    wrong = yaml.safe_load(invoke(runner, "params", "show", "drop_water", "--kind", "energizing").stdout)
+    wrong.update(drag_coefficient=1.2, added_mass_coefficient=0.05, name="guess")
+    guess = tmp_path / "guess.yaml"
+    guess.write_text(yaml.safe_dump(wrong))
+    r = invoke(runner, "drops", "fit", "drop-*", "-p", "freefall_cone", "-e", guess, "--json", "--db", db)
+    assert r.exit_code == 0, r.stderr
+    fit = json.loads(r.stdout)
+    assert fit["drops"] == len(HEIGHTS_M)
+    for key, truth in zip(("strength_kpa", "gradient_kpa_m", "damping_kpa_s_m"), BED):
+        assert fit[key] == pytest.approx(truth, rel=0.03), key
+    assert fit["drag_coefficient"] == pytest.approx(0.8, rel=0.03)  # the simulated probe's (pen's acquire world)
+    assert fit["added_mass_coefficient"] == pytest.approx(0.3, rel=0.05)
+    held = json.loads(invoke(runner, "drops", "fit", "drop-*", "-p", "freefall_cone", "-e", guess, "--hold-drag",
+                             "--json", "--db", db).stdout)
+    assert held["drag_coefficient"] is None
+    assert abs(held["strength_kpa"] / BED[0] - 1) > abs(fit["strength_kpa"] / BED[0] - 1)  # the wrong drag costs
+
+
+def test_a_report_draws_each_drop_and_the_bed(runner, drops, tmp_path):
+    root, _ = drops
+    out = tmp_path / "drops.html"
+    r = invoke(runner, "drops", "report", *sorted(root.glob("drop-*.bin")), "--calibration",
+               root / "calibration.csv", "-p", "freefall_cone", "-e", "drop_water", "--out", out)
+    assert r.exit_code == 0, r.stderr
+    html = out.read_text()
+    assert html.count("<svg") >= len(HEIGHTS_M) and "The bed across the drops" in html
+    assert (tmp_path / "drops.pdf").stat().st_size > 0
+
+
+@pytest.mark.parametrize("args, said", [
+    (["show", "{drop}"], ["drop-0.bin", "--calibration"]),
+    (["fit", "{drop}", "--calibration", "{cal}", "-p", "al6061_1mm"], ["geometry blade", "cone"]),
+    (["fit", "{drop}", "--calibration", "{cal}", "-e", "springs_4"], ["drive springs", "free_fall"]),
+    (["simulate", "--out", "{tmp}/x.bin", "--bed", "0,1,1"], ["--bed", "σ > 0"]),
+    (["show", "{tmp}/missing.bin", "--calibration", "{cal}"], ["missing.bin", "no such file"]),
+])
+def test_bad_input_is_one_line(runner, drops, tmp_path, args, said):
+    root, _ = drops
+    filled = [a.format(drop=root / "drop-0.bin", cal=root / "calibration.csv", tmp=tmp_path) for a in args]
+    r = invoke(runner, "drops", *filled, "--db", tmp_path / "none.duckdb")
+    assert r.exit_code == 1 and "Traceback" not in r.output + r.stderr
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and all(w in lines[0] for w in said), (lines, said)
+    assert not list(tmp_path.glob("*.bin"))
