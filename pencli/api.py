@@ -1745,20 +1745,24 @@ def report_drops(drops: Sequence[Drop], out: str | Path, *, pdf: bool = True, pr
     return write_report(title, sections, out, pdf=pdf)
 
 
-def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, float, float], bias_g: float = 0.0,
+def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ...], bias_g: float = 0.0,
                        seed: int = 0, calibration_out: str | Path | None = None):
     """``pen drops simulate``: a drop of the simulated BlueDrop (:mod:`pencli.acquire.freefall`, the
     ``freefall_cone`` probe in ``drop_water``) released ``height_m`` above a bed of q = σ + b·z + c·v (``bed``:
-    kPa, kPa/m, kPa·s/m), each accelerometer with a random bias within ±``bias_g``, written as a BlueDrop record
+    kPa, kPa/m, kPa·s/m; two more: a layer's depth [m] and step [kPa]), each accelerometer with a random bias
+    within ±``bias_g``, written as a BlueDrop record
     and its calibration sheet (CSV; default ``calibration.csv`` beside it).  Returns the simulation's truth."""
     from pencli.acquire.freefall import Bed, Probe, Sensors, simulate_drop
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, bluedrop_bytes
 
     if not 0.0 < height_m <= 100.0:
         raise ParameterError(f"--height-m {height_m:g}: expected a height above the bed in (0, 100] m")
-    if any(not math.isfinite(v) or v < 0.0 for v in bed) or bed[0] <= 0.0:
-        raise ParameterError(f"--bed {','.join(f'{v:g}' for v in bed)}: expected σ > 0, b ≥ 0, c ≥ 0 "
+    if any(not math.isfinite(v) or v < 0.0 for v in bed[:3]) or bed[0] <= 0.0:
+        raise ParameterError(f"--bed {','.join(f'{v:g}' for v in bed[:3])}: expected σ > 0, b ≥ 0, c ≥ 0 "
                              f"(kPa, kPa/m, kPa·s/m)")
+    if len(bed) > 3 and (not bed[3] > 0.0 or not math.isfinite(bed[4]) or bed[0] + bed[1] * bed[3] + bed[4] <= 0.0):
+        raise ParameterError(f"--layer {bed[3]:g}:{bed[4]:g}: expected a depth > 0 m and a step that leaves q "
+                             f"above 0 below it")
     if not 0.0 <= bias_g <= 0.5:
         raise ParameterError(f"--bias-g {bias_g:g}: expected 0 … 0.5 g")
     rng = np.random.default_rng(seed)
@@ -1777,3 +1781,23 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, fl
         Path(tmp_out).write_bytes(bluedrop_bytes(truth.raw))
         Path(tmp_sheet).write_text(text, encoding="utf-8")
     return truth, sheet, sensors.bias_g
+
+
+def diagnose_drops(drops: Sequence[Drop], probe, *, false_alarm: float | None = None, shuffles: int | None = None,
+                   seed: int = 0):
+    """``pen drops diagnose``: a layer across the drops (:func:`pencli.diagnose.drops.diagnose_drops`), on the bed's
+    pressure with the probe's drag and added mass fitted across them first."""
+    from dataclasses import replace as replaced
+
+    from pencli.diagnose import FALSE_ALARM, SHUFFLES
+    from pencli.diagnose.drops import BedRows, diagnose_drops as diagnose
+    from pencli.fit.freefall import bed_pressure
+
+    fit = fit_drops(drops, probe)
+    fitted = replaced(probe, drag_coefficient=fit.drag_coefficient, added_mass_coefficient=fit.added_mass_coefficient)
+    rows = [BedRows(d.name, *bed_pressure(d.motion, fitted)) for d in drops]
+    try:
+        return diagnose(rows, false_alarm=FALSE_ALARM if false_alarm is None else false_alarm,
+                        shuffles=SHUFFLES if shuffles is None else shuffles, seed=seed)
+    except ValueError as error:
+        raise FitError(f"the drops cannot be diagnosed: {error}") from None

@@ -95,3 +95,23 @@ def test_bad_input_is_one_line(runner, drops, tmp_path, args, said):
     lines = [line for line in r.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and all(w in lines[0] for w in said), (lines, said)
     assert not list(tmp_path.glob("*.bin"))
+
+
+def test_a_layer_the_drops_cross_is_named_where_it_is_and_a_bed_without_one_is_none(runner, drops, tmp_path):
+    root, _ = drops
+    depth_m, step_kpa = 0.13, -9.0
+    for k, height in enumerate(HEIGHTS_M):
+        r = invoke(runner, "drops", "simulate", "--height-m", height, "--bed", ",".join(map(str, BED)), "--layer",
+                   f"{depth_m}:{step_kpa}", "--bias-g", 0.03, "--seed", 70 + k, "--out", tmp_path / f"layer-{k}.bin",
+                   "--json")
+        assert r.exit_code == 0, r.stderr
+        assert json.loads(r.stdout)["penetration_mm"] > 1e3 * depth_m + 20  # every drop crosses it
+    layered = json.loads(invoke(runner, "drops", "diagnose", *sorted(tmp_path.glob("layer-*.bin")),
+                                "--calibration", tmp_path / "calibration.csv", "--json").stdout)
+    assert layered["verdict"] == "layer"
+    assert layered["layer_depth_m"] == pytest.approx(depth_m, abs=0.01)
+    assert layered["layer_step_kpa"] == pytest.approx(step_kpa, rel=0.25)
+    assert layered["heldout_rms_layer_kpa"] < 0.5 * layered["heldout_rms_reference_kpa"]
+    plain = json.loads(invoke(runner, "drops", "diagnose", *sorted(root.glob("drop-*.bin")), "--calibration",
+                              root / "calibration.csv", "--json").stdout)
+    assert plain["verdict"] == "none" and plain["layer_depth_m"] is None

@@ -58,14 +58,19 @@ class Probe:
 
 @dataclass(frozen=True)
 class Bed:
-    """The bed's resistance per unit of frontal area, q = σ + b·z + c·v: σ [kPa], b [kPa/m], c [kPa·s/m]."""
+    """The bed's resistance per unit of frontal area, q = σ + b·z + c·v: σ [kPa], b [kPa/m], c [kPa·s/m]; with a
+    layer, q changes by ``layer_step_kpa`` below ``layer_depth_m`` (the depth the cone's base has reached, where
+    its frontal area is)."""
 
     strength_kpa: float
     gradient_kpa_m: float
     damping_kpa_s_m: float
+    layer_depth_m: float = math.inf
+    layer_step_kpa: float = 0.0
 
     def pressure_pa(self, depth_m: float, speed_m_s: float) -> float:
-        return 1e3 * (self.strength_kpa + self.gradient_kpa_m * depth_m + self.damping_kpa_s_m * speed_m_s)
+        step = self.layer_step_kpa if depth_m >= self.layer_depth_m else 0.0
+        return 1e3 * (self.strength_kpa + self.gradient_kpa_m * depth_m + self.damping_kpa_s_m * speed_m_s + step)
 
 
 @dataclass(frozen=True)

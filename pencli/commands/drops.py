@@ -10,6 +10,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli.commands.common import DbOption, PenTyper, console, db_path, print_json
+from pencli.diagnose import FALSE_ALARM, SHUFFLES
 from pencli.lazy import lazy
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
@@ -105,6 +106,53 @@ def fit(
                       f"and {probe.added_mass_coefficient:g})")
 
 
+@drops_app.command("diagnose")
+def diagnose(
+    refs: List[str] = DROPS,
+    penetrator: str = PROBE,
+    energizing: str = FALL,
+    calibration: Optional[Path] = CALIBRATION,
+    false_alarm: float = typer.Option(FALSE_ALARM, "--false-alarm", min=1e-4, max=0.5,
+                                      help="Probability that drops into a bed without a layer get a verdict other "
+                                           "than 'none' [–]."),
+    shuffles: int = typer.Option(SHUFFLES, "--shuffles", min=19, max=9999,
+                                 help="Rotations of each drop's misfit that make the null."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the rotations (the same seed, the same verdict)."),
+    json_out: bool = typer.Option(False, "--json", help='Print {"verdict", "layer_depth_m", "p_value", ...}.'),
+    db: Optional[Path] = DbOption,
+) -> None:
+    """Is there a layer in the bed the drops share? The bed's straight law q = σ + b·z + c·v is fitted across the
+    drops; a step in q below a depth is tried at every depth two drops cross, and the largest share of the misfit
+    it removes is set against the same with each drop's misfit rotated along its own samples. Verdict 'layer' (its
+    depth [mm] and step [kPa]), 'unexplained' (the misfit lines up across drops but a step removes less than half
+    of it) or 'none'.
+
+    Example: pen drops diagnose 'drop-*' -p freefall_cone -e drop_water
+    """
+    probe = api.free_fall_probe(penetrator, energizing)
+    drops = api.read_drops(refs, db_path(db), calibration)
+    result = api.diagnose_drops(drops, probe, false_alarm=false_alarm, shuffles=shuffles, seed=seed)
+    record = {"verdict": result.verdict, "layer_depth_m": result.layer_depth_m if result.verdict == "layer" else None,
+              "layer_step_kpa": result.layer_step_kpa if result.verdict == "layer" else None,
+              "best_step": {"depth_m": result.layer_depth_m, "step_kpa": result.layer_step_kpa,
+                            "share": result.share},
+              "p_value": result.p_value, "false_alarm": result.false_alarm,
+              "reference": dict(zip(("strength_kpa", "gradient_kpa_m", "damping_kpa_s_m"), result.reference)),
+              "heldout_rms_reference_kpa": result.heldout_rms_reference_kpa,
+              "heldout_rms_layer_kpa": result.heldout_rms_layer_kpa, "drops": result.drops,
+              "notes": list(result.notes)}
+    if json_out:
+        print_json(record)
+        return
+    said = (f"layer at {1e3 * result.layer_depth_m:.0f} mm, q {'rises' if result.layer_step_kpa > 0 else 'falls'} by "
+            f"{abs(result.layer_step_kpa):.1f} kPa below it" if result.verdict == "layer" else result.verdict)
+    console.print(f"{result.drops} drops: {said}  (p = {result.p_value:.3f} against {shuffles} rotations; the step "
+                  f"removes {100 * result.share:.0f} % of the straight law's misfit; held-out RMS "
+                  f"{result.heldout_rms_reference_kpa:.2f} kPa without, {result.heldout_rms_layer_kpa:.2f} kPa with)")
+    for note in result.notes:
+        console.print(f"  note: {escape(note)}")
+
+
 @drops_app.command("report")
 def report(
     refs: List[str] = DROPS,
@@ -140,6 +188,8 @@ def simulate(
     height_m: float = typer.Option(1.5, "--height-m", help="Release height above the bed [m]."),
     bed: str = typer.Option("20,100,5", "--bed", metavar="SIGMA,B,C",
                             help="The bed's q = σ + b·z + c·v: σ [kPa], b [kPa/m], c [kPa·s/m]."),
+    layer: Optional[str] = typer.Option(None, "--layer", metavar="DEPTH_M:STEP_KPA",
+                                        help="A layer: q changes by STEP [kPa] below DEPTH [m] into the bed."),
     bias_g: float = typer.Option(0.02, "--bias-g", help="Each accelerometer's bias drawn within ± this [g]."),
     seed: int = typer.Option(0, "--seed", help="Seed of the biases and the sensors' noise."),
     calibration_out: Optional[Path] = typer.Option(None, "--calibration-out", help="Where the calibration sheet "
@@ -163,6 +213,12 @@ def simulate(
     if len(values) != 3:
         raise typer.BadParameter(f"'{bed}': expected three numbers SIGMA,B,C (kPa, kPa/m, kPa·s/m)",
                                  param_hint="--bed")
+    if layer is not None:
+        try:
+            depth, _, step = layer.partition(":")
+            values = (*values, float(depth), float(step))
+        except ValueError:
+            raise typer.BadParameter(f"'{layer}': expected DEPTH_M:STEP_KPA, e.g. 0.15:10", param_hint="--layer")
     api.check_output(out, db_path(db), "--out")
     if calibration_out is not None:
         api.check_output(calibration_out, db_path(db), "--calibration-out")

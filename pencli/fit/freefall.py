@@ -79,6 +79,16 @@ def bed_force_n(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, n
     return depth, speed, force
 
 
+def bed_pressure(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(depth [m], speed [m/s], the bed's pressure on the cone's frontal area [kPa]) at the rows :func:`fit_bed`
+    fits: the whole cone in the bed, faster than ``MIN_SPEED_M_S``."""
+    cone = Cone(half_angle_rad=probe.half_angle_rad, shaft_radius_m=probe.shaft_radius_m)
+    depth, speed, force = bed_force_n(motion, probe)
+    inside = (depth > cone.cone_length_m) & (speed > MIN_SPEED_M_S)
+    area = np.array([cone.areas(z, 0.0)[0] for z in depth[inside]])
+    return depth[inside], speed[inside], force[inside] / area / 1e3
+
+
 def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe, *, nuisances: bool = False) -> BedFit:
     """σ, b, c of q = σ + b·z + c·v fitted over every drop's rows in the bed where the whole cone has entered
     (while the tip's area grows, a millimetre's error in the depth of impact is a large share of it) and the
