@@ -1667,7 +1667,9 @@ class Drop:
 
     @property
     def name(self) -> str:
-        return Path(str(self.record.source).removesuffix(".gz")).name.removesuffix(".bin").removesuffix(".BIN")
+        from pencli.io.field import drop_name
+
+        return drop_name(self.record.source)
 
     @property
     def peak_deceleration_g(self) -> float:
@@ -1705,7 +1707,7 @@ def free_fall_probe(penetrator: str | Path, energizing: str | Path):
     from pencli.fit.freefall import FreeFallProbe
     from pencli.model.geometry import geometry_of
 
-    p, _, e = load_parameter_sets(penetrator, "mpacs_c", energizing)
+    p, e = resolve(penetrator, "penetrator"), resolve(energizing, "energizing")
     if p.geometry != "cone":
         raise ParameterError(f"{p.source}: geometry {p.geometry}: a free-fall probe's bed fit needs a cone "
                              f"(geometry: cone)")

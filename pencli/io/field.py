@@ -212,8 +212,13 @@ def _drop_record(drop) -> FieldRecord:
     columns = {"time_s": np.asarray(drop.time_s, dtype=np.float64)}
     columns.update({name: np.asarray(values, dtype=np.float64) for name, values in drop.channels.items()})
     columns.update({f"raw_{name}": drop.raw[:, k].astype(np.float64) for k, name in enumerate(CHANNELS)})
-    name = Path(str(drop.source).removesuffix(".gz")).name.removesuffix(".bin").removesuffix(".BIN") or "drop"
-    return FieldRecord("bluedrop", "free_fall", name, columns, {"units": dict(drop.units)}, {}, drop.source)
+    return FieldRecord("bluedrop", "free_fall", drop_name(drop.source), columns, {"units": dict(drop.units)}, {},
+                       drop.source)
+
+
+def drop_name(source: str | Path) -> str:
+    """A BlueDrop record's name: its file's, without ``.bin`` (and ``.gz``)."""
+    return Path(str(source).removesuffix(".gz")).name.removesuffix(".bin").removesuffix(".BIN") or "drop"
 
 
 def _drop_of(record: FieldRecord):
@@ -284,5 +289,5 @@ def read_field_file(path: str | Path, options: Mapping[str, Any] | None = None) 
     return records
 
 
-__all__ = ["FAMILY_TITLES", "FORMATS", "FieldFormat", "FieldRecord", "Instrument", "KINDS", "format_of",
+__all__ = ["FAMILY_TITLES", "FORMATS", "FieldFormat", "FieldRecord", "Instrument", "KINDS", "drop_name", "format_of",
            "instrument_of", "json_safe", "known_suffixes", "read_field_file", "suffix_of"]

@@ -170,32 +170,36 @@ def load_record(ws, ref: str) -> FieldRecord:
     return read_record_file(ws.db_path.parent / chosen["path"], chosen["record_id"], chosen["content_sha256"])
 
 
-def check_records(ws, con) -> list[str]:
-    """One line per stored record whose file is missing or changed."""
-    problems = []
+def record_problems(ws, con) -> list[tuple[str, Path, str]]:
+    """(record id, its file, one line) for each stored record whose file is missing or changed."""
     try:
         rows = con.execute("SELECT record_id, path, content_sha256 FROM records ORDER BY record_id").fetchall()
     except duckdb.CatalogException:
         return []
+    problems = []
     for record_id, relative, digest in rows:
+        path = ws.db_path.parent / relative
         try:
-            read_record_file(ws.db_path.parent / relative, record_id, digest)
+            read_record_file(path, record_id, digest)
         except StoreError as exc:
-            problems.append(str(exc))
+            problems.append((record_id, path, str(exc)))
     return problems
 
 
+def check_records(ws, con) -> list[str]:
+    """One line per stored record whose file is missing or changed."""
+    return [line for _, _, line in record_problems(ws, con)]
+
+
 def repair_records(ws, con) -> list[str]:
-    """Drop the catalog row of each record whose file is missing or changed (the file, if any, is quarantined by
-    the caller's stray handling); returns one line per record dropped."""
+    """Drop the catalog row of each record whose file is missing or changed (a changed file goes to quarantine);
+    returns one line per record dropped."""
+    from pencli.store.workspace import QUARANTINE, _now
+
     notes = []
-    for line in check_records(ws, con):
-        path = Path(line.split(": ", 1)[0])
-        record_id = path.stem
+    for record_id, path, _ in record_problems(ws, con):
         con.execute("DELETE FROM records WHERE record_id = ?", [record_id])
         if path.is_file():
-            from pencli.store.workspace import QUARANTINE, _now
-
             target = ws.db_path.parent / QUARANTINE / _now().strftime("%Y%m%dT%H%M%S") / RECORDS_DIR / path.name
             target.parent.mkdir(parents=True, exist_ok=True)
             os.replace(path, target)
@@ -230,5 +234,6 @@ def adopt_record(ws, con, path: Path) -> str | None:
 
 
 __all__ = ["AddedRecord", "COLUMNS", "RECORDS_DIR", "add_record", "adopt_record", "catalogued_paths",
-           "check_records", "file_sha256", "id_taken", "load_record", "read_record_file", "record_rows", "repair_records",
+           "check_records", "file_sha256", "id_taken", "load_record", "read_record_file", "record_problems", "record_rows",
+           "repair_records",
            "wanted_id"]
