@@ -16,8 +16,6 @@ range; 0-6 is the range the diagnosis was made on).
 from __future__ import annotations
 
 import sys
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
@@ -29,9 +27,8 @@ FOUND_WITHIN_M = 0.010
 
 def _drops(seed: int, layered: bool):
     from pencli import api
-    from pencli.acquire.freefall import Bed, Probe, Sensors, simulate_drop
-    from pencli.filter.freefall import drop_motion
-    from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, bluedrop_bytes, read_bluedrop
+    from pencli.acquire.freefall import Bed, Probe
+    from pencli.testing.drops import drops_into
 
     rng = np.random.default_rng(seed)
     probe = Probe(drag_coefficient=float(rng.uniform(0.5, 1.2)), added_mass_coefficient=float(rng.uniform(0.1, 0.8)))
@@ -39,19 +36,9 @@ def _drops(seed: int, layered: bool):
     depth = float(rng.uniform(0.13, 0.22))
     step = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.25, 0.6) * (sigma + gradient * depth))
     bed = Bed(sigma, gradient, damping, depth, step) if layered else Bed(sigma, gradient, damping)
-    drops, past = [], 0
-    with tempfile.TemporaryDirectory() as tmp:
-        for k, height in enumerate(HEIGHTS_M):
-            sensors = Sensors(bias_g={n: float(rng.uniform(-0.03, 0.03)) for n in ACCELEROMETER_RANGES_G})
-            truth = simulate_drop(probe, bed, height, sensors=sensors, seed=seed * 10 + k)
-            path = Path(tmp) / f"drop-{k}.bin"
-            path.write_bytes(bluedrop_bytes(truth.raw))
-            record = read_bluedrop(path, sensors.calibration)
-            motion = drop_motion(record.time_s, {n: record.channels[n] for n in ACCELEROMETER_RANGES_G},
-                                 ACCELEROMETER_RANGES_G)
-            drops.append(api.Drop(record, motion))
-            past += truth.penetration_m > depth + FOUND_WITHIN_M
-    return drops, bed, past >= 2
+    made = drops_into(probe, bed, HEIGHTS_M, rng, seed)
+    past = sum(truth.penetration_m > depth + FOUND_WITHIN_M for truth, _, _ in made)
+    return [api.Drop(record, motion) for _, record, motion in made], bed, past >= 2
 
 
 def main() -> None:

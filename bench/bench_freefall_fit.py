@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import statistics
 import sys
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
@@ -26,24 +24,14 @@ HEIGHTS_M = (0.5, 1.0, 3.0, 8.0)
 
 
 def _errors(seed: int) -> dict[str, list[float]]:
-    from pencli.acquire.freefall import Bed, Probe, Sensors, simulate_drop
-    from pencli.filter.freefall import drop_motion
+    from pencli.acquire.freefall import Bed, Probe
     from pencli.fit.freefall import FreeFallProbe, fit_bed
-    from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, bluedrop_bytes, read_bluedrop
+    from pencli.testing.drops import drops_into
 
     rng = np.random.default_rng(seed)
     probe = Probe(drag_coefficient=float(rng.uniform(0.5, 1.2)), added_mass_coefficient=float(rng.uniform(0.1, 0.8)))
     bed = Bed(float(rng.uniform(10, 40)), float(rng.uniform(0, 300)), float(rng.uniform(0, 30)))
-    motions = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for k, height in enumerate(HEIGHTS_M):
-            sensors = Sensors(bias_g={n: float(rng.uniform(-0.03, 0.03)) for n in ACCELEROMETER_RANGES_G})
-            drop = simulate_drop(probe, bed, height, sensors=sensors, seed=seed * 10 + k)
-            path = Path(tmp) / f"drop-{k}.bin"
-            path.write_bytes(bluedrop_bytes(drop.raw))
-            record = read_bluedrop(path, sensors.calibration)
-            motions.append(drop_motion(record.time_s, {n: record.channels[n] for n in ACCELEROMETER_RANGES_G},
-                                       ACCELEROMETER_RANGES_G))
+    motions = [motion for _, _, motion in drops_into(probe, bed, HEIGHTS_M, rng, seed)]
     guess = FreeFallProbe(probe.mass_kg, probe.volume_m3, probe.half_angle_rad, probe.shaft_radius_m, 0.8, 0.3)
     truth = (bed.strength_kpa, bed.gradient_kpa_m, bed.damping_kpa_s_m)
     out = {}

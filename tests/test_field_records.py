@@ -237,25 +237,9 @@ def test_a_changed_record_is_found_by_check_and_dropped_by_repair(tmp_path):
 
 def test_a_catalog_from_before_field_records_is_read_and_then_upgraded(tmp_path, runner):
     from pencli.store.migrations import MIGRATIONS
+    from pencli.testing.helpers import older_catalog
 
-    example = REPO / "examples" / "workspace"
-    for folder in ("runs", "fits", "sweeps"):
-        shutil.copytree(example / folder, tmp_path / folder)
-    db = tmp_path / "runs.duckdb"
-    tables = ("runs", "run_parameters", "stages", "materials", "sweeps")
-    con = duckdb.connect(str(db))
-    try:
-        con.execute("CREATE TABLE schema_migrations (version INTEGER PRIMARY KEY, name VARCHAR, applied_at "
-                    "TIMESTAMP, pen_version VARCHAR)")
-        older = [m for m in MIGRATIONS if m[0] < 5]
-        for version, name, sql in older:
-            con.execute(sql)
-            con.execute("INSERT INTO schema_migrations VALUES (?, ?, now(), 'old')", [version, name])
-        con.execute(f"ATTACH '{example / 'runs.duckdb'}' AS example (READ_ONLY)")
-        for table in tables:
-            con.execute(f"INSERT INTO {table} SELECT * FROM example.{table}")
-    finally:
-        con.close()
+    db = older_catalog(tmp_path, 4)
     listed = invoke(runner, "records", "--json", "--db", db)
     assert listed.exit_code == 0 and json.loads(listed.stdout) == []  # read as it is
     assert invoke(runner, "ingest", FILES["gef"], "--db", db).exit_code == 0  # writes: upgrades the catalog

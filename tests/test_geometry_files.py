@@ -165,30 +165,13 @@ def test_a_workspace_written_before_runs_had_a_geometry_keeps_every_run_and_stag
     """A catalog of schema 3 (the first three migrations, run here on their own, filled with the example
     workspace's rows): a writing command upgrades it (the run tables rebuilt), every run becomes a blade, the
     rows are all kept, and every stage file still matches its hash."""
-    import shutil
-
     import duckdb
 
     from pencli.store.migrations import MIGRATIONS
+    from pencli.testing.helpers import older_catalog
 
-    example = REPO / "examples" / "workspace"
-    for folder in ("runs", "fits", "sweeps"):
-        shutil.copytree(example / folder, tmp_path / folder)
-    db = tmp_path / "runs.duckdb"
+    db = older_catalog(tmp_path, 3)
     tables = ("runs", "run_parameters", "stages", "materials", "sweeps")
-    con = duckdb.connect(str(db))
-    try:
-        con.execute("CREATE TABLE schema_migrations (version INTEGER PRIMARY KEY, name VARCHAR, applied_at "
-                    "TIMESTAMP, pen_version VARCHAR)")
-        for version, name, sql in MIGRATIONS[:3]:
-            con.execute(sql)
-            con.execute("INSERT INTO schema_migrations VALUES (?, ?, now(), 'old')", [version, name])
-        con.execute(f"ATTACH '{example / 'runs.duckdb'}' AS example (READ_ONLY)")
-        for table in tables:
-            columns = [row[0] for row in con.execute(f"DESCRIBE {table}").fetchall()]  # schema 3's columns
-            con.execute(f"INSERT INTO {table} SELECT {', '.join(columns)} FROM example.{table}")
-    finally:
-        con.close()
 
     def counts():
         con = duckdb.connect(str(db), read_only=True)

@@ -82,3 +82,32 @@ def write_bam_workbook(folder: Path, columns: dict[str, np.ndarray], headers: Se
         sheet.append(convert(row))
     wb.save(folder / "experiment_12.xlsx")
     return folder
+
+
+def older_catalog(folder: Path, version: int) -> Path:
+    """The example workspace's runs, fits and sweeps copied into ``folder`` under a catalog built by the migrations
+    up to ``version`` only (a workspace an older pen wrote); returns the catalog."""
+    import shutil
+
+    import duckdb
+
+    from pencli.store.migrations import MIGRATIONS
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "workspace"
+    for sub in ("runs", "fits", "sweeps"):
+        shutil.copytree(example / sub, folder / sub)
+    db = folder / "runs.duckdb"
+    con = duckdb.connect(str(db))
+    try:
+        con.execute("CREATE TABLE schema_migrations (version INTEGER PRIMARY KEY, name VARCHAR, applied_at "
+                    "TIMESTAMP, pen_version VARCHAR)")
+        for number, name, sql in (m for m in MIGRATIONS if m[0] <= version):
+            con.execute(sql)
+            con.execute("INSERT INTO schema_migrations VALUES (?, ?, now(), 'old')", [number, name])
+        con.execute(f"ATTACH '{example / 'runs.duckdb'}' AS example (READ_ONLY)")
+        for table in ("runs", "run_parameters", "stages", "materials", "sweeps"):
+            columns = [row[0] for row in con.execute(f"DESCRIBE {table}").fetchall()]  # the older schema's
+            con.execute(f"INSERT INTO {table} SELECT {', '.join(columns)} FROM example.{table}")
+    finally:
+        con.close()
+    return db
