@@ -5,8 +5,8 @@ Every command that writes a user-named path (``--out``, ``--json FILE``, ``--plo
 
 - the catalog, its write-ahead log and its lock or compaction files are refused (they are pen's, and a
   file written over them loses every run's index);
-- anything inside the workspace's data folders (``runs/``, ``fits/``, ``sweeps/``, ``quarantine/``) is
-  refused: pen alone writes there, and a stage is immutable;
+- anything inside the workspace's data folders (``runs/``, ``fits/``, ``sweeps/``, ``records/``,
+  ``quarantine/``) is refused: pen alone writes there, and a stage or record is immutable;
 - a folder output (``export --to``, ``report --all --out``) may not be the workspace root or a folder
   holding it;
 - an existing folder where a file is written, a file where a folder is written, a device or pipe
@@ -27,7 +27,7 @@ from pathlib import Path
 
 from pencli.errors import OutputError, describe_os_error
 
-DATA_FOLDERS = ("runs", "fits", "sweeps", "quarantine")
+DATA_FOLDERS = ("runs", "fits", "sweeps", "records", "quarantine")
 """The workspace's folders beside the catalog, which pen alone writes."""
 
 _DUCKDB_MAGIC = b"DUCK"
