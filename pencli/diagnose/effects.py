@@ -32,6 +32,7 @@ from pencli.lazy import lazy
 
 from pencli.filter.windows import PRE_TRIGGER_MARGIN_S, WINDOW_TRIM_S
 from pencli.model.design import Design
+from pencli.model.geometry import BLADE, force_steps_at_contact
 from pencli.model.resistance import unit_terms
 
 if TYPE_CHECKING:  # the catalogue is read by `pen diagnose --help`, which loads no numpy
@@ -94,6 +95,8 @@ class _RunView:
     """The force's rise at contact where a lagging force chain puts it later than ``force_contact_s`` is looked
     for (:func:`pencli.filter.inertia.late_force_rise`), else None: the window starts after it, and the block's
     surface is read from it (:func:`surfaces`). [s]"""
+    geometry: object = BLADE
+    """The penetrator's geometry (:mod:`pencli.model.geometry`): whose four unit terms the baseline's columns are."""
     surface_m: float = 0.0
     """Where the block's surface lies on the depth record (0: at the file's stand-off); the Eq. 9 columns and the
     depth laws are evaluated at the depth below it (:func:`surfaces`). [m]"""
@@ -167,13 +170,36 @@ def views(runs: Sequence[Run | _RunView]) -> list[_RunView]:
             continue
         events, params = run.require_events(), run.stage_parameters
         t, depth, v, a, force, resistance = (run.column(name) for name in VIEW_COLUMNS)
+        geometry = run.geometry
+        mass = float(params["load_cell_mass_kg"])
+        step = float(params.get("encoder_step_m", DEFAULT_ENCODER_STEP_M))
+        method = str(params.get("method", "spline"))
+        steps = force_steps_at_contact(geometry, run.design)
+        if not steps:
+            v, a, resistance = _unbroken_at_contact(t, depth, force, events, mass, step, method)
         out.append(_RunView(run.run_id, run.design, t, depth, v, a, force, resistance, events.motion_start_s,
                             events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
-                            events.end, events.contact_speed_m_s, float(params["load_cell_mass_kg"]),
-                            float(params.get("encoder_step_m", DEFAULT_ENCODER_STEP_M)),
-                            str(params.get("method", "spline")), kinematic_events(t, force, events).contact_s,
-                            late_force_rise(t, force, events, LAG_SPAN_S)))
+                            events.end, events.contact_speed_m_s, mass, step, method,
+                            kinematic_events(t, force, events).contact_s if steps else None,
+                            late_force_rise(t, force, events, LAG_SPAN_S) if steps else None, geometry=geometry))
     return out
+
+
+def _unbroken_at_contact(t, depth, force, events, mass: float, step: float, method: str):
+    """(v, a, R = F − m_lc·a) with derivatives that do not break at contact, for a tip of no area at the surface
+    (a sharp cone).  Its force rises from nothing, so its acceleration does not jump where it meets the block,
+    and its force's onset lags the contact by however deep the tip goes before the force clears the noise: a
+    break there (the inertia stage's, which the fit keeps) leaves an acceleration error at contact that the
+    replicates, whose motion has no jump there, do not share, and dev nulls of the sharp cone were called a
+    strength gradient (2 of 2).  The contact is then the position's alone, and the replicates break where
+    these derivatives do (:attr:`pencli.diagnose.null.RunNull.contact_break`)."""
+    from pencli.filter.derivatives import derivatives
+    from pencli.filter.inertia import motion_breaks, motion_joins, rest_mask
+
+    rate = (t.size - 1) / (t[-1] - t[0])
+    v, a = derivatives(depth, rate, motion_breaks(t, events, False), method, count_m=step,
+                       joins=motion_joins(t, events, False), at_rest=rest_mask(t, events))
+    return v, a, force - mass * a
 
 
 @dataclass(frozen=True)
@@ -243,7 +269,8 @@ def basis_of(run: _RunView) -> Basis:
     inside = (x > 0) & (run.time_s[c] >= run.contact_span_s[0])
     xs = np.where(inside, x, 0.0)
     vs = np.where(inside, v, 0.0)
-    terms = [np.where(inside, np.broadcast_to(term, x.shape), 0.0) for term in unit_terms(run.design, xs, vs)]
+    terms = [np.where(inside, np.broadcast_to(term, x.shape), 0.0)
+             for term in run.geometry.unit_terms(run.design, xs, vs)]
     return Basis(*terms, x, v, run.acceleration_m_s2[c], run.time_s[c], inside, run.design.blade_thickness_m)
 
 
@@ -312,9 +339,10 @@ class Member:
         return Columns(np.column_stack([carrier * np.broadcast_to(_profile_values(p, basis, x, v), x.shape)
                                         for p in self.profiles]))
 
-    def force(self, coefficients: Sequence[float], design: Design, values: Mapping[str, float]
+    def force(self, coefficients: Sequence[float], design: Design, values: Mapping[str, float], geometry=BLADE
               ) -> Callable[[float, float], float] | None:
-        """Extra resistance f(x [m], v [m/s]) → N of this member in the dynamic model (law members only).
+        """Extra resistance f(x [m], v [m/s]) → N of this member in the dynamic model (law members only), on the
+        terms of ``geometry``.
 
         ``values`` are the fitted coefficients in file units (CONTRACT §1 names) of the model the force joins;
         ``strength_factor_of_columns``, where given, is the mean strength factor at which the member's own
@@ -329,7 +357,7 @@ class Member:
 
         def extra(x: float, v: float) -> float:
             x, v = max(x, 0.0), max(v, 0.0)
-            strength, friction, damping, inertia = unit_terms(design, x, v)
+            strength, friction, damping, inertia = geometry.unit_terms(design, x, v)
             carrier = strength if term == "strength" else friction
             return float(carrier * sum(c * float(p(np.float64(x), np.float64(v))) for c, p in zip(coefs, profiles)))
 
@@ -366,6 +394,12 @@ class Effect:
     rest_evidence: bool = False
     """The family is also looked for in the rest after each run's stop, where no speed or depth law acts (a
     drift of the force offset shows there too); significant there, it joins a verdict that names another effect."""
+    geometries: tuple[str, ...] = ()
+    """The penetrator geometries the effect is written for (empty: every one): a plug grows on a blade's edge."""
+
+    def applies_to(self, geometry: str) -> bool:
+        """Whether the effect is looked for in runs of ``geometry``."""
+        return not self.geometries or geometry in self.geometries
 
     @cached_property
     def members(self) -> tuple[Member, ...]:
@@ -889,7 +923,7 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "A crushed plug widens the effective frontal thickness with depth (exponential or hyperbolic "
            "saturation, a ramp capped at its final size, or linear): every frontal term grows. Signature: grows with depth, early, and more so "
            "for thin blades relative to their thickness.",
-           _plug_members, _describe_plug),
+           _plug_members, _describe_plug, geometries=("blade", "tapered_blade")),
     Effect("sidewall_pressure_growth", "law", "depth",
            "Sidewall pressure rises with depth (power laws or saturating): friction grows faster than x. "
            "Signature: a misfit growing with depth, the same for every blade thickness.",
@@ -946,7 +980,10 @@ def _hats(values: np.ndarray, knots: np.ndarray) -> np.ndarray:
 
 def _depth_profile(run: _RunView, b: Basis) -> Columns:
     x = np.where(b.inside, b.x, -1.0)
-    return Columns(_hats(x, np.arange(0.0, 0.1401, 0.004)) * run.design.blade_width_m * (b.inside[:, None]))
+    width = run.design.blade_width_m
+    if not math.isfinite(width):  # not a blade: the side of a square of the geometry's largest frontal area
+        width = math.sqrt(run.geometry.frontal_area_m2(run.design, float(run.design.penetration_depth_m)))
+    return Columns(_hats(x, np.arange(0.0, 0.1401, 0.004)) * width * (b.inside[:, None]))
 
 
 def _time_profile(run: _RunView, b: Basis) -> Columns:

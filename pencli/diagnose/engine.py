@@ -74,6 +74,7 @@ from pencli.errors import FitError, ModelError, PenNotice
 from pencli.filter.tare import Events
 from pencli.fit.resistance import with_coefficients
 from pencli.model.dynamics import flight_of, simulate
+from pencli.model.geometry import BLADE, force_steps_at_contact
 from pencli.run import Run
 
 EXPLAIN_SHARE = 0.5
@@ -452,7 +453,7 @@ def _dynamic_rms(run: _RunView, values: Mapping[str, float], loss: float = 0.0) 
     push rod) slows the flight otherwise, so the right contact speed comes at another time, and a comparison
     on the clock from release would read the flight's timing as a misfit in the material."""
     design = replace(with_coefficients(run.design, values), efficiency=run.design.efficiency * (1.0 - loss))
-    result = simulate(design, output_rate_hz=run.rate_hz, rtol=1e-8)
+    result = simulate(design, output_rate_hz=run.rate_hz, rtol=1e-8, geometry=run.geometry)
     traj = result.trajectory
     w = run.window
     measured = run.resistance_n[w]
@@ -693,7 +694,7 @@ def _effect_force(member: Member, coefficients, own: Mapping[str, float], values
     ``own`` of the fit with it in; its strength columns were built at the baseline's (``values``) strength
     factor (:func:`~pencli.diagnose.effects.column_strength_factor`)."""
     at = dict(own, strength_factor_of_columns=column_strength_factor(values["strength_factor"]))
-    return lambda design: member.force(coefficients, design, at)
+    return lambda design, geometry=BLADE: member.force(coefficients, design, at, geometry)
 
 
 TRAJECTORY_RTOL = 1e-8
@@ -720,14 +721,14 @@ def _trajectory_change(effect: Effect, member: Member | None, coefficients, runs
     run = sorted(runs, key=lambda r: r.contact_speed_m_s)[len(runs) // 2]
     loss = loss.get(run.run_id, 0.0) if isinstance(loss, Mapping) else loss  # a drive loss: that run's share
     base_design = with_coefficients(run.design, values)
-    budget = dict(rtol=TRAJECTORY_RTOL, max_evaluations=TRAJECTORY_EVALUATIONS)
+    budget = dict(rtol=TRAJECTORY_RTOL, max_evaluations=TRAJECTORY_EVALUATIONS, geometry=run.geometry)
     try:
         before = simulate(base_design, **budget).summary
         if effect.side == "drive":
             after = simulate(replace(base_design, efficiency=base_design.efficiency * (1 - loss)), **budget).summary
         else:
             own = values if own_values is None else own_values
-            force = _effect_force(member, coefficients, own, values)(run.design)
+            force = _effect_force(member, coefficients, own, values)(run.design, run.geometry)
             after = simulate(with_coefficients(run.design, own), extra_resistance=force, **budget).summary
     except ModelError as exc:  # the effect's fitted force can make the motion one the model cannot finish
         return {"run": run.run_id, "note": f"the dynamic model with this effect did not finish: {exc}"}
@@ -796,7 +797,8 @@ def _null_of(run: _RunView, use_ctx: np.ndarray, fitted_ctx: np.ndarray, values:
     return RunNull(ts, run.depth_m[span], run.acceleration_m_s2[span], at_rest, use, fitted_ctx[use_ctx], events,
                    run.design.penetration_depth_m, run.encoder_step_m, run.load_cell_mass_kg, noise,
                    run.derivative_method, contact, _model_motion(run, contact, values),
-                   anti_alias=anti_alias, noise_line=line, baseline_n=baseline)
+                   anti_alias=anti_alias, noise_line=line, baseline_n=baseline,
+                   contact_break=force_steps_at_contact(run.geometry, run.design))
 
 
 def _model_motion(run: _RunView, contact_s: float, values: Mapping[str, float]) -> ModelMotion | None:
@@ -822,7 +824,8 @@ def _model_motion(run: _RunView, contact_s: float, values: Mapping[str, float]) 
     design = replace(with_coefficients(run.design, values),
                      surface_offset_m=run.design.surface_offset_m + depth_c)  # the block's surface as met
     try:
-        result = simulate(design, speed_at_contact_m_s=speed, output_rate_hz=4.0 * run.rate_hz, rtol=1e-8)
+        result = simulate(design, speed_at_contact_m_s=speed, output_rate_hz=4.0 * run.rate_hz, rtol=1e-8,
+                          geometry=run.geometry)
     except ModelError:
         return None  # the replicates then come from the spline through the record
     if not result.success or result.trajectory.time_s.size < MIN_TRAJECTORY_SAMPLES:
@@ -1082,8 +1085,20 @@ def check_request(runs: Sequence[_RunView], effects: Sequence[str] | None, false
     unknown = [n for n in names if n not in EFFECTS]
     if unknown:
         raise FitError(f"unknown effect {unknown[0]!r}; the catalogue: {', '.join(EFFECTS)}")
+    shapes = sorted({run.geometry.name for run in runs})
+    if len(shapes) > 1:
+        raise FitError(f"runs of {len(shapes)} penetrator geometries ({', '.join(shapes)}): diagnose one geometry's "
+                       f"runs at a time")
+    foreign = [n for n in names if not EFFECTS[n].applies_to(shapes[0])]
+    if foreign and effects:
+        raise FitError(f"effect {foreign[0]!r} is written for {' and '.join(EFFECTS[foreign[0]].geometries)} "
+                       f"penetrators; these runs are of a {shapes[0].replace('_', ' ')}")
+    names = tuple(n for n in names if n not in foreign)
     if not 0 <= suggest <= MAX_SUGGESTED:
         raise FitError(f"--suggest {suggest}: expected 0 to {MAX_SUGGESTED} runs")
+    if suggest and shapes[0] != BLADE.name:
+        raise FitError(f"--suggest {suggest}: the next runs are chosen among the rig's blades (thickness, width, "
+                       f"springs); these runs are of a {shapes[0].replace('_', ' ')}")
     if workers < 1:
         raise FitError(f"workers {workers!r}: expected at least 1 process")
     notice = tail_reach_notice(false_alarm, bootstrap)

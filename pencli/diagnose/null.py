@@ -595,6 +595,8 @@ class RunNull:
     (the replicates' noise has the run's whole spectrum)."""
     baseline_n: np.ndarray | None = None
     """Baseline resistance on the whole span (0 outside the material), what the filter acts on with m·a. [N]"""
+    contact_break: bool = True
+    """The derivatives break the motion at contact (False for a sharp tip, as the inertia stage did)."""
 
 
 @dataclass(frozen=True)
@@ -690,8 +692,8 @@ def _replicate_motions(null: RunNull, motion: Events, smooth: np.ndarray, rate: 
     record for every replicate."""
     t, step = null.time_s, null.encoder_step_m
     if null.model is None:
-        reference = derivatives(smooth, rate, motion_breaks(t, motion), null.method, count_m=step,
-                                joins=motion_joins(t, motion))[1][:, None]
+        reference = derivatives(smooth, rate, motion_breaks(t, motion, null.contact_break), null.method,
+                                count_m=step, joins=motion_joins(t, motion, null.contact_break))[1][:, None]
         return smooth[:, None], reference, [motion] * count
     contacts = null.kinematic_contact_s - rng.uniform(0.0, 1.0, count) / rate
     # continuous with the smoothed flight where it meets the material (the record's reading there is a whole
@@ -703,8 +705,8 @@ def _replicate_motions(null: RunNull, motion: Events, smooth: np.ndarray, rate: 
     # the true acceleration: the model's in the material; in flight D(x̃), the smoother's own reading of it
     flight_motion = motions[0]
     _, flight_accel = derivatives(np.where(inside[:, 0], truth[:, 0], smooth), rate,
-                                  motion_breaks(t, flight_motion), null.method, count_m=step,
-                                  joins=motion_joins(t, flight_motion))
+                                  motion_breaks(t, flight_motion, null.contact_break), null.method, count_m=step,
+                                  joins=motion_joins(t, flight_motion, null.contact_break))
     reference = np.where(inside, np.column_stack([a for _, a, _ in placed]), flight_accel[:, None])
     return truth, reference, motions
 
@@ -716,10 +718,11 @@ def _measured_accelerations(null: RunNull, depth: np.ndarray, motions: Sequence[
     accel = np.empty_like(depth)
     groups: dict[tuple, list[int]] = {}
     for b, m in enumerate(motions):
-        groups.setdefault((tuple(motion_breaks(t, m)), tuple(motion_joins(t, m))), []).append(b)
+        groups.setdefault((tuple(motion_breaks(t, m, null.contact_break)),
+                           tuple(motion_joins(t, m, null.contact_break))), []).append(b)
     for members in groups.values():
         m = motions[members[0]]
-        breaks, joins = motion_breaks(t, m), motion_joins(t, m)
+        breaks, joins = motion_breaks(t, m, null.contact_break), motion_joins(t, m, null.contact_break)
         if null.method == "spline":  # not linear: one replicate at a time
             for b in members:
                 accel[:, b] = derivatives(depth[:, b], rate, breaks, null.method, count_m=step)[1]
@@ -754,7 +757,7 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
     rate = (t.size - 1) / (t[-1] - t[0])
     motion = replace(null.events, contact_s=null.kinematic_contact_s)
     step = null.encoder_step_m
-    smooth, velocity, _ = smooth_motion(null.depth_m, rate, motion_breaks(t, motion), step)
+    smooth, velocity, _ = smooth_motion(null.depth_m, rate, motion_breaks(t, motion, null.contact_break), step)
     smooth = np.where(null.at_rest & (t < null.events.contact_s), null.depth_m, smooth)
     true_contact = float(np.interp(null.events.contact_s, t, velocity))
     flight = ~null.at_rest & (t < null.events.contact_s)

@@ -152,11 +152,12 @@ def late_force_rise(time_s: np.ndarray, force_n: np.ndarray, events: Events, lag
     return rise if events.contact_s + span < rise < events.stop_s else None
 
 
-def motion_joins(time_s: np.ndarray, events: Events) -> list[tuple[float, int]]:
-    """Release, contact and stop as (time since the first sample [s], continuity): the velocity is
+def motion_joins(time_s: np.ndarray, events: Events, contact: bool = True) -> list[tuple[float, int]]:
+    """Release, contact (unless ``contact`` is False: a sharp tip, whose force rises from nothing, puts no jump
+    in the acceleration there) and stop as (time since the first sample [s], continuity): the velocity is
     continuous at each (1) except at the hard stops (0)."""
     t0 = float(time_s[0])
-    return [(events.motion_start_s - t0, 1), (events.contact_s - t0, 1),
+    return [(events.motion_start_s - t0, 1), *([(events.contact_s - t0, 1)] if contact else []),
             (events.stop_s - t0, 0 if events.end == "full_depth" else 1)]
 
 
@@ -166,8 +167,9 @@ def rest_mask(time_s: np.ndarray, events: Events) -> np.ndarray:
     return (time_s < events.motion_start_s - 1.0 / rate) | (time_s > events.stop_s)
 
 
-def motion_breaks(time_s: np.ndarray, events: Events) -> list[int]:
-    """Sample indices where the motion's acceleration jumps: release, contact, stop."""
+def motion_breaks(time_s: np.ndarray, events: Events, contact: bool = True) -> list[int]:
+    """Sample indices where the motion's acceleration jumps: release, contact (unless ``contact`` is False, as
+    :func:`motion_joins`), stop."""
     return [int(np.searchsorted(time_s, events.motion_start_s)) - 1,
-            int(np.searchsorted(time_s, events.contact_s)),
+            *([int(np.searchsorted(time_s, events.contact_s))] if contact else []),
             int(np.searchsorted(time_s, events.stop_s)) + 1]

@@ -246,6 +246,13 @@ names of the parameters that build it (``builds="geometry"`` in :data:`pencli.pa
 and the named choices' ``si_name``)."""
 
 
+def force_steps_at_contact(geometry: Geometry, design: Design) -> bool:
+    """Whether the resistance jumps when the tip meets the material (a blade's edge, a blunt cone's flat), so that
+    the force's onset marks the contact; a sharp tip's rises from nothing, and its onset lags the contact by
+    however deep the tip goes before the force clears the noise."""
+    return geometry.frontal_area_m2(design, 0.0) > 0.0
+
+
 def geometry_of(penetrator: ParameterSet) -> Geometry:
     """The geometry a penetrator file names, built from its keys (SI, by each definition's scale)."""
     name = penetrator.geometry
@@ -258,5 +265,6 @@ def geometry_of(penetrator: ParameterSet) -> Geometry:
         raise ModelError(f"{penetrator.source}: {exc}") from None
 
 
-__all__ = ["BLADE", "Blade", "CONE_AREAS", "Cone", "GEOMETRIES", "Geometry", "TaperedBlade", "geometry_of",
+__all__ = ["BLADE", "Blade", "CONE_AREAS", "Cone", "GEOMETRIES", "Geometry", "TaperedBlade", "force_steps_at_contact",
+           "geometry_of",
            "shape_resistance", "shape_unit_terms"]
