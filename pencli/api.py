@@ -858,22 +858,10 @@ def diagnose(db: str | Path, refs: Sequence[str], *, effects: Sequence[str] | No
 
     workers = workers_from_environment() if workers is None else workers  # before the runs are read
     campaign = load_campaign(db, refs)
-    result = engine.diagnose(campaign, effects=effects,
-                             false_alarm=engine.FALSE_ALARM if false_alarm is None else false_alarm,
-                             bootstrap=engine.BOOTSTRAP if bootstrap is None else bootstrap, seed=seed,
-                             suggest=suggest, progress=progress, workers=workers)
-    shape = campaign[0].penetrator.geometry if campaign else "blade"
-    if shape != "blade" and result.verdict == "strength_layer":
-        result = replace(result, notes=(*result.notes, CONE_LAYER_NOTE.format(shape=shape.replace("_", " "))))
-    return result
-
-
-CONE_LAYER_NOTE = ("a {shape}'s campaign: in simulated cone campaigns the diagnosis never tuned on, a softer layer "
-                   "was placed within 2 mm of its depth (5 of 5), but of 5 stronger ones 1 was placed right, 2 were "
-                   "named softer and shallower and 2 at 5 mm with a ratio below 0; check this layer's depth and "
-                   "ratio against the runs")
-"""Said with a layer named in a campaign of another geometry than the blade: what the bench of cone campaigns
-found (``bench/bench_cone_diagnose.py``)."""
+    return engine.diagnose(campaign, effects=effects,
+                           false_alarm=engine.FALSE_ALARM if false_alarm is None else false_alarm,
+                           bootstrap=engine.BOOTSTRAP if bootstrap is None else bootstrap, seed=seed,
+                           suggest=suggest, progress=progress, workers=workers)
 
 
 # ---------------------------------------------------------------------------- sweeps
@@ -1442,6 +1430,7 @@ def field_records(refs: Sequence[str | Path], family: str, db: str | Path | None
 
     out = []
     ws = workspace(db) if db is not None else None
+    rows = None
     for ref in refs:
         path = Path(ref)
         if path.is_file():
@@ -1455,13 +1444,14 @@ def field_records(refs: Sequence[str | Path], family: str, db: str | Path | None
         from pencli.store.records import load_record, record_rows
 
         text = str(ref)
-        ids = ([r["record_id"] for r in record_rows(ws) if fnmatch.fnmatchcase(r["record_id"], text)]
+        rows = record_rows(ws) if rows is None else rows  # the catalog read once for every ref
+        ids = ([r["record_id"] for r in rows if fnmatch.fnmatchcase(r["record_id"], text)]
                if any(c in text for c in "*?[") else [text])
         if not ids:
             raise DataError(f"{ref}: no such file, and no record id in {db} matches it")
         for record_id in ids:
             try:
-                record = load_record(ws, record_id)
+                record = load_record(ws, record_id, rows)
             except StoreError as error:
                 raise StoreError(f"{ref}: no such file, and {error}") from None
             if FORMATS[record.format].family != family:
@@ -1678,14 +1668,6 @@ class Drop:
 
         return drop_name(self.record.source)
 
-    @property
-    def peak_deceleration_g(self) -> float:
-        """The largest deceleration between impact and stop. [g]"""
-        from pencli.filter.freefall import G
-
-        m = self.motion
-        return float(-np.min(m.accel_m_s2[m.impact:m.stop + 1]) / G) if m.stop >= m.impact else 0.0
-
 
 def read_drops(refs: Sequence[str | Path], db: str | Path | None = None,
                calibration: str | Path | None = None) -> list[Drop]:
@@ -1759,9 +1741,10 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ..
     """``pen drops simulate``: a drop of the simulated BlueDrop (:mod:`pencli.acquire.freefall`, the
     ``freefall_cone`` probe in ``drop_water``) released ``height_m`` above a bed of q = σ + b·z + c·v (``bed``:
     kPa, kPa/m, kPa·s/m; two more: a layer's depth [m] and step [kPa]), each accelerometer with a random bias
-    within ±``bias_g``, written as a BlueDrop record
-    and its calibration sheet (CSV; default ``calibration.csv`` beside it).  Returns the simulation's truth."""
+    within ±``bias_g``, written as a BlueDrop record and its calibration sheet (CSV; default ``calibration.csv``
+    beside it), both or neither.  Returns (the simulation's truth, the sheet's path, each sensor's bias)."""
     from pencli.acquire.freefall import Bed, Probe, Sensors, simulate_drop
+    from pencli.io.atomic import atomic_group
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, bluedrop_bytes
 
     if not 0.0 < height_m <= 100.0:
@@ -1784,8 +1767,6 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ..
     sheet = Path(calibration_out) if calibration_out is not None else out.with_name("calibration.csv")
     text = "channel,offset,scale,unit\n" + "".join(f"{name},{c.offset!r},{c.scale!r},{c.unit}\n"
                                                    for name, c in sensors.calibration.items())
-    from pencli.io.atomic import atomic_group
-
     with atomic_group([out, sheet]) as (tmp_out, tmp_sheet):  # both or neither
         Path(tmp_out).write_bytes(bluedrop_bytes(truth.raw))
         Path(tmp_sheet).write_text(text, encoding="utf-8")
@@ -1796,14 +1777,12 @@ def diagnose_drops(drops: Sequence[Drop], probe, *, false_alarm: float | None = 
                    seed: int = 0):
     """``pen drops diagnose``: a layer across the drops (:func:`pencli.diagnose.drops.diagnose_drops`), on the bed's
     pressure with the probe's drag and added mass fitted across them first."""
-    from dataclasses import replace as replaced
-
     from pencli.diagnose import FALSE_ALARM, SHUFFLES
     from pencli.diagnose.drops import BedRows, diagnose_drops as diagnose
     from pencli.fit.freefall import bed_pressure
 
     fit = fit_drops(drops, probe)
-    fitted = replaced(probe, drag_coefficient=fit.drag_coefficient, added_mass_coefficient=fit.added_mass_coefficient)
+    fitted = replace(probe, drag_coefficient=fit.drag_coefficient, added_mass_coefficient=fit.added_mass_coefficient)
     rows = [BedRows(d.name, *bed_pressure(d.motion, fitted)) for d in drops]
     try:
         return diagnose(rows, false_alarm=FALSE_ALARM if false_alarm is None else false_alarm,

@@ -220,6 +220,7 @@ def test_diagnose_finds_a_layer_in_a_cones_campaign_where_it_is_and_nothing_in_o
     layer = result.effects[0]
     assert 30 <= layer.params["depth_mm"] <= 40 and layer.params["ratio"] == pytest.approx(0.6, abs=0.1)
     assert layer.shrink_pct >= 50
+    assert any(note.startswith("a cone's campaign:") for note in result.notes)  # what the cone bench found
     null = _cone_campaign(tmp_path / "null", [], 6)
     assert api.diagnose(null, ["all"]).verdict == "none"
     # a blade's effect and a blade's next runs are refused for a cone in one line

@@ -35,7 +35,7 @@ def _drop_record(drop) -> dict:
             "rate_hz": float((t.size - 1) / (t[-1] - t[0])), "release_s": float(t[m.release]),
             "impact_s": float(m.impact_s), "impact_speed_m_s": float(m.impact_speed_m_s),
             "penetration_mm": 1e3 * float(m.penetration_m), "stop_s": float(t[m.stop]),
-            "peak_deceleration_g": drop.peak_deceleration_g,
+            "peak_deceleration_g": drop.motion.peak_deceleration_g,
             "bias_g": {name: list(pair) for name, pair in m.bias_g.items()}}
 
 

@@ -1389,9 +1389,13 @@ UM_PER_M = 1e6
 
 def _context_notes(runs: Sequence[_RunView], verdict: str, reports: Mapping[str, EffectReport],
                    rest: dict | None, false_alarm: float) -> list[str]:
-    """Notes that help read the verdict: runs whose force rises late, what a ``none`` could have seen, and a
-    drift the rest shows beside a ``none`` or an ``unexplained``."""
+    """Notes that help read the verdict: the named effect's caveat for the runs' geometry, runs whose force rises
+    late, what a ``none`` could have seen, and a drift the rest shows beside a ``none`` or an ``unexplained``."""
     notes = []
+    shape = runs[0].geometry.name
+    caveat = EFFECTS[verdict].caveat(shape) if verdict in EFFECTS else None
+    if caveat:
+        notes.append(f"a {shape.replace('_', ' ')}'s campaign: {caveat}")
     late = _late_rises(runs)
     if late:
         notes.append(f"in {len(late)} of {len(runs)} runs the force rises {min(late.values()):.2f}–"

@@ -78,6 +78,12 @@ class DropMotion:
     penetration_m: float
     bias_g: dict[str, tuple[float, float]]
 
+    @property
+    def peak_deceleration_g(self) -> float:
+        """The largest deceleration between impact and stop. [g]"""
+        bed = self.accel_m_s2[self.impact:self.stop + 1]
+        return float(-np.min(bed) / G) if bed.size else 0.0
+
 
 def release_row(specific_g: np.ndarray) -> int:
     """The first row of the fall: where the specific force first falls ``RELEASE_DROP_G`` below 1 g, traced back

@@ -79,14 +79,21 @@ def bed_force_n(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, n
     return depth, speed, force
 
 
+def _fitted_rows(motion: DropMotion, probe: FreeFallProbe, cone: Cone):
+    """The rows :func:`fit_bed` fits (the whole cone in the bed, faster than ``MIN_SPEED_M_S``), as (mask over the
+    rows from impact to stop, depth [m], speed [m/s], the bed's force [N], the cone's frontal area [m²]) there."""
+    depth, speed, force = bed_force_n(motion, probe)
+    inside = (depth > cone.cone_length_m) & (speed > MIN_SPEED_M_S)
+    area = np.array([cone.areas(z, 0.0)[0] for z in depth[inside]])
+    return inside, depth[inside], speed[inside], force[inside], area
+
+
 def bed_pressure(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(depth [m], speed [m/s], the bed's pressure on the cone's frontal area [kPa]) at the rows :func:`fit_bed`
     fits: the whole cone in the bed, faster than ``MIN_SPEED_M_S``."""
     cone = Cone(half_angle_rad=probe.half_angle_rad, shaft_radius_m=probe.shaft_radius_m)
-    depth, speed, force = bed_force_n(motion, probe)
-    inside = (depth > cone.cone_length_m) & (speed > MIN_SPEED_M_S)
-    area = np.array([cone.areas(z, 0.0)[0] for z in depth[inside]])
-    return depth[inside], speed[inside], force[inside] / area / 1e3
+    _, depth, speed, force, area = _fitted_rows(motion, probe, cone)
+    return depth, speed, force / area / 1e3
 
 
 def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe, *, nuisances: bool = False) -> BedFit:
@@ -100,15 +107,14 @@ def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe, *, nuisances: b
     cone = Cone(half_angle_rad=probe.half_angle_rad, shaft_radius_m=probe.shaft_radius_m)
     rho, volume = probe.water_density, probe.volume_m3
     section = math.pi * probe.shaft_radius_m ** 2
-    rows, targets = [], []
+    rows, targets, in_bed = [], [], []
     for motion in motions:
-        depth, speed, force = bed_force_n(motion, probe)
-        inside = (depth > cone.cone_length_m) & (speed > MIN_SPEED_M_S)
-        area = np.array([cone.areas(z, 0.0)[0] for z in depth[inside]])
-        columns = [1e3 * area * np.ones(area.size), 1e3 * area * depth[inside], 1e3 * area * speed[inside]]
+        inside, depth, speed, force, area = _fitted_rows(motion, probe, cone)
+        columns = [1e3 * area, 1e3 * area * depth, 1e3 * area * speed]
+        in_bed.append(np.ones(area.size, dtype=bool))
         if not nuisances:
             rows.append(np.column_stack(columns))
-            targets.append(force[inside])
+            targets.append(force)
             continue
         bed = slice(motion.impact, motion.stop + 1)
         v, a = motion.speed_m_s[bed][inside], motion.accel_m_s2[bed][inside]
@@ -120,14 +126,14 @@ def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe, *, nuisances: b
         zero = np.zeros(v.size)
         rows.append(np.column_stack([zero, zero, zero, 0.5 * rho * section * v * np.abs(v), rho * volume * a]))
         targets.append((probe.mass_kg - rho * volume) * G - probe.mass_kg * a)
+        in_bed.append(np.zeros(v.size, dtype=bool))
     X, y = np.vstack(rows), np.concatenate(targets)
     theta, *_ = np.linalg.lstsq(X, y, rcond=None)
     residual = y - X @ theta
     dof = max(1, y.size - X.shape[1])
     covariance = float(residual @ residual) / dof * np.linalg.inv(X.T @ X)
-    fitted = X[:, :3] @ theta[:3]  # the bed's force, the scale of the misfit
-    scale = max(float(np.mean(np.abs(fitted[fitted != 0.0]))) if np.any(fitted != 0.0) else 0.0, 1e-300)
-    inside_rows = fitted != 0.0
+    bed_rows = np.concatenate(in_bed)
+    scale = max(float(np.mean(np.abs(X[bed_rows, :3] @ theta[:3]))), 1e-300)  # the bed's mean force
     return BedFit(*(float(v) for v in theta[:3]), tuple(float(v) for v in np.sqrt(np.diag(covariance))),
-                  int(y.size), len(motions), float(np.sqrt(np.mean(residual[inside_rows] ** 2)) / scale),
+                  int(y.size), len(motions), float(np.sqrt(np.mean(residual[bed_rows] ** 2)) / scale),
                   *((float(theta[3]), float(theta[4])) if nuisances else ()))

@@ -797,10 +797,9 @@ def drop_motion(name: str, motion):
     right.invert_yaxis()
     right.set_xlim(left=0.0)
     fig.tight_layout()
-    peak = float(-np.min(m.accel_m_s2[bed]) / G) if m.stop >= m.impact else 0.0
     caption = (f"{name}: the probe met the bed at {m.impact_speed_m_s:.2f} m/s (dashed line) and stopped "
                f"{1e3 * m.penetration_m:.0f} mm into it {1e3 * (t[m.stop] - m.impact_s):.0f} ms later, "
-               f"decelerating by up to {peak:.1f} g.")
+               f"decelerating by up to {m.peak_deceleration_g:.1f} g.")
     return fig, caption
 
 

@@ -373,7 +373,7 @@ def drop_section(drop) -> Section:
     section = Section(f"Free-fall drop {drop.name}",
                       text=f"Released at {t[m.release]:.3f} s, met the bed at {m.impact_s:.4f} s at "
                            f"{m.impact_speed_m_s:.3f} m/s and stopped {1e3 * m.penetration_m:.1f} mm into it at "
-                           f"{t[m.stop]:.3f} s; largest deceleration {drop.peak_deceleration_g:.1f} g. The speed and "
+                           f"{t[m.stop]:.3f} s; largest deceleration {m.peak_deceleration_g:.1f} g. The speed and "
                            f"depth are the stitched accelerometers integrated from the release, each sensor's bias "
                            f"taken at rest before the release and after the stop.",
                       provenance={"source": str(drop.record.source)})

@@ -153,11 +153,12 @@ def record_rows(ws, *, kind: str | None = None, family: str | None = None) -> li
             and (formats is None or r["source_format"] in formats)]
 
 
-def load_record(ws, ref: str) -> FieldRecord:
-    """A stored record by id (as asked or as stored), or by the file it was ingested from."""
+def load_record(ws, ref: str, rows: list[dict] | None = None) -> FieldRecord:
+    """A stored record by id (as asked or as stored), or by the file it was ingested from; ``rows``: the
+    catalog's (:func:`record_rows`), when the caller has them already."""
     from pencli.store.workspace import safe_id
 
-    rows = record_rows(ws)
+    rows = record_rows(ws) if rows is None else rows
     by_id = {r["record_id"]: r for r in rows}
     chosen = next((by_id[c] for c in (ref, safe_id(ref)) if c in by_id), None)
     if chosen is None:
