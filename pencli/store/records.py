@@ -106,7 +106,7 @@ def add_record(ws, record: FieldRecord, *, several: bool, source_sha256: str, co
     return AddedRecord(record_id, True, renamed)
 
 
-def _record_from(path: Path, table: pa.Table) -> tuple[FieldRecord, str]:
+def _record_from(table: pa.Table) -> tuple[FieldRecord, str]:
     """The record a stored table holds, and the content hash its metadata says it has."""
     meta = {k.decode(): v.decode() for k, v in (table.schema.metadata or {}).items()}
     stored = json.loads(meta["pen:record"])
@@ -126,7 +126,7 @@ def read_record_file(path: Path, record_id: str, expected_sha256: str) -> FieldR
     except (OSError, pa.ArrowException) as exc:
         raise StoreError(f"{path}: cannot read record '{record_id}': {str(exc).splitlines()[0]}") from None
     try:
-        record, _ = _record_from(path, table)
+        record, _ = _record_from(table)
         same = record.digest == expected_sha256
     except (KeyError, ValueError, TypeError):
         same = False
@@ -221,7 +221,7 @@ def adopt_record(ws, con, path: Path) -> str | None:
     """Catalog a record file an interrupted ingest left behind, when its own metadata and content hash say exactly
     what it is; None otherwise."""
     table = pq.read_table(path)
-    record, digest = _record_from(path, table)
+    record, digest = _record_from(table)
     meta = {k.decode(): v.decode() for k, v in (table.schema.metadata or {}).items()}
     row = json.loads(meta["pen:record_row"])
     if (record.digest != digest or row["content_sha256"] != digest or path.name != f"{row['record_id']}.parquet"
