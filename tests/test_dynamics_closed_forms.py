@@ -210,6 +210,41 @@ def test_a_creep_on_damping_alone_books_no_negative_energy():
     assert min(s.energy_strength_j, s.energy_friction_j, s.energy_damping_j, s.energy_inertia_j) >= 0.0
 
 
+def test_a_damped_creep_past_the_springs_free_length_is_integrated_to_full_depth():
+    """Springs that reach free length inside the bed leave a blade pushed by a comet's gravity against a damping
+    alone: it creeps at m·g/b for 82 hours.  The explicit integrator, chosen for the spring's slope, was held to
+    steps of m/b and gave up after 2·10⁶ steps (a case hypothesis found).  Checked against the motion written
+    here: a linear ODE to the free length (Radau, tight), then the constant-force damped motion in closed form."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import brentq
+
+    design = make_design(blade_width_m=0.2073, blade_thickness_m=0.004628, tip_angle_rad=math.radians(5),
+                         penetration_depth_m=0.3948, sprung_mass_kg=0.3, load_cell_mass_kg=0.0563,
+                         density_kg_m3=125.0, strength_pa=1e4, friction_coefficient=0.0, gravity_m_s2=1e-4,
+                         strength_factor=0.0, sidewall_pressure_pa=0.0, damping_pa_s_m=133695.0,
+                         inertia_coefficient=0.0, spring_count=1, spring_stiffness_n_m=10652.0, spring_mass_kg=0.0,
+                         nominal_length_m=0.611, compressed_length_m=0.2981, surface_offset_m=0.0, efficiency=0.3164)
+    s = simulate(design).summary
+    m, g = design.sprung_mass_kg, design.gravity_m_s2  # the load cell rides on the sprung mass; no spring mass
+    b = design.damping_pa_s_m * design.blade_width_m * design.blade_thickness_m
+    k = design.efficiency * design.spring_stiffness_n_m
+    free = design.nominal_length_m - design.compressed_length_m  # from release, at the surface
+
+    def rhs(_t, y):
+        return [y[1], (k * max(free - y[0], 0.0) + m * g - b * y[1]) / m]
+
+    at_free = lambda _t, y: y[0] - free  # noqa: E731
+    at_free.terminal = True
+    sol = solve_ivp(rhs, (0.0, 10.0), [0.0, 0.0], method="Radau", rtol=1e-12, atol=1e-15, events=at_free)
+    t1, (x1, v1) = float(sol.t_events[0][0]), sol.y_events[0][0]
+    vt, tau = m * g / b, m / b
+    x = lambda t: x1 + vt * t + (v1 - vt) * tau * (1.0 - math.exp(-t / tau))  # noqa: E731
+    want = t1 + brentq(lambda t: x(t) - design.penetration_depth_m, 0.0, 1e7, xtol=1e-9, rtol=1e-14)
+    assert want > 2e5  # the case: days of creep
+    assert s.end == "full_depth"
+    assert s.penetration_time_s == pytest.approx(want, rel=1e-6)
+
+
 def test_closed_form_slope_root_against_a_numerical_integration():
     """Where dq/dx reaches a value on a C = 0 segment (the batch's peak of R and the top of q from rest):
     checked against dq/dx = 2F/m − λq integrated by DOP853 with an event, not against the closed form."""

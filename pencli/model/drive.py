@@ -64,8 +64,9 @@ class Drive(Protocol):
     def corners(self, design: Design) -> tuple[float, ...]:
         """Travels where the force or its slope jumps, which the integrator must not step across. [m]"""
 
-    def largest_slope(self, design: Design) -> float:
-        """Largest |dF/du|, for the stiffness test of the integrator. [N/m]"""
+    def largest_slope(self, design: Design, beyond_m: float = 0.0) -> float:
+        """Largest |dF/du| at travels past ``beyond_m`` [m] from release, for the stiffness test of the
+        integrator (which asks again past each corner). [N/m]"""
 
     def largest_force(self, design: Design) -> float:
         """Largest |F|, for the float64 range check. [N]"""
@@ -159,8 +160,8 @@ class Springs:
     def corners(self, design: Design) -> tuple[float, ...]:
         return (float(design.stroke_m),) if design.stroke_m > 0.0 else ()
 
-    def largest_slope(self, design: Design) -> float:
-        return float(design.drive_stiffness_n_m)
+    def largest_slope(self, design: Design, beyond_m: float = 0.0) -> float:
+        return float(design.drive_stiffness_n_m) if beyond_m < design.stroke_m else 0.0
 
     def largest_force(self, design: Design) -> float:
         return float(design.drive_stiffness_n_m * design.stroke_m)

@@ -327,6 +327,8 @@ def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: fl
             continue
         y_hit[0] = corners[name]  # exactly at the corner (the springs at free length)
         t, y = t_hit, y_hit
+        if _stiff(design, law, drive, corners[name] + offset):
+            method = "Radau"
 
 
 def creep_target(design: Design, law: ResistanceLaw):
@@ -358,9 +360,12 @@ the penetration is integrated with Radau (implicit) instead of DOP853, whose ste
 hold to m/b. [–]"""
 
 
-def _stiff(design: Design, law: ResistanceLaw, drive: Drive = SPRINGS) -> bool:
+def _stiff(design: Design, law: ResistanceLaw, drive: Drive = SPRINGS, beyond_m: float = 0.0) -> bool:
+    """Whether the damping makes the motion stiff past travel ``beyond_m`` from release [m]: past the springs'
+    free length their slope no longer counts, and a blade creeping at its terminal speed m·g/b under a weak
+    gravity would hold an explicit integrator to steps of m/b for hours of simulated time."""
     b = law.damping_n_s_m
-    k = drive.largest_slope(design) + law.friction_n_m
+    k = drive.largest_slope(design, beyond_m) + law.friction_n_m
     return b > 0.0 and b * b > STIFF_RATIO * design.effective_mass_kg * max(k, 1e-300)
 
 

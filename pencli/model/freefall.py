@@ -161,7 +161,7 @@ class FreeFall:
         """The surface, where the drag stops. [m]"""
         return (float(design.surface_offset_m),) if self.drag_n_s2_m2() > 0.0 else ()
 
-    def largest_slope(self, design) -> float:
+    def largest_slope(self, design, beyond_m: float = 0.0) -> float:
         vt2, scale = self._drag_scale(design)
         return self.drag_n_s2_m2() * vt2 / scale if math.isfinite(scale) else 0.0
 
