@@ -57,7 +57,7 @@ class Piston:
     def corners(self, design):
         return (self.stroke_m,)
 
-    def largest_slope(self, design):
+    def largest_slope(self, design, beyond_m=0.0):
         return 0.0
 
     def largest_force(self, design):
