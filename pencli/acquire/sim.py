@@ -29,6 +29,20 @@ LEVER_ARM_M = 0.05
 """Lever of side forces about the sensor's origin, for the torque channels. [m]"""
 
 
+def _registered_shape(penetrator: ParameterSet, material: ParameterSet, energizing: ParameterSet):
+    """The areas at depth of a geometry registered with pen that the rig does not know by name (its author's
+    :meth:`~pencli.model.geometry.Shape.areas`, at the true material's friction coefficient)."""
+    from pencli.model.design import design_from_sets
+    from pencli.model.geometry import geometry_of
+
+    geometry = geometry_of(penetrator)
+    if not hasattr(geometry, "areas"):
+        raise RigError(f"{penetrator.source}: the simulated rig fires a blade, a tapered blade, a cone or a shape "
+                       f"given by its areas, not a {penetrator.geometry.replace('_', ' ')}")
+    design = design_from_sets(penetrator, material, energizing)
+    return lambda x: geometry.areas(design, x)
+
+
 def world_from(penetrator: ParameterSet, material: ParameterSet, energizing: ParameterSet, rig: RigConfig
                ) -> TrueWorld:
     """The true world of a shot: the run's blade and launcher, the rig's true material and effects."""
@@ -42,7 +56,7 @@ def world_from(penetrator: ParameterSet, material: ParameterSet, energizing: Par
         raise RigError(f"the simulated rig needs a true material with coefficients; {truth_material.source} lacks "
                        f"{missing[0]} (set true_material in the rig file)")
     pv, ev = penetrator.values, energizing.values
-    cone = taper = None
+    cone = taper = shape = None
     if penetrator.geometry == "cone":
         cone = (math.radians(pv["cone_half_angle_deg"]), pv["shaft_diameter_mm"] / 2e3,
                 pv.get("tip_flat_diameter_mm", 0.0) / 2e3, penetrator.choice("cone_area"))
@@ -52,13 +66,12 @@ def world_from(penetrator: ParameterSet, material: ParameterSet, energizing: Par
                            f"tapers")
         taper = (pv["tip_thickness_mm"] / 1e3, pv["taper_length_mm"] / 1e3)
     elif penetrator.geometry != "blade":
-        raise RigError(f"{penetrator.source}: the simulated rig fires a blade, a tapered blade or a cone, not a "
-                       f"{penetrator.geometry.replace('_', ' ')}")
+        shape = _registered_shape(penetrator, truth_material, energizing)
     return TrueWorld(
         blade_width_m=pv.get("blade_width_mm", math.nan) * 1e-3,
         blade_thickness_m=pv.get("blade_thickness_mm", math.nan) * 1e-3,
         tip_angle_rad=math.radians(pv.get("tip_angle_deg", math.nan)),
-        penetration_depth_m=pv["penetration_depth_mm"] * 1e-3, cone=cone, taper=taper,
+        penetration_depth_m=pv["penetration_depth_mm"] * 1e-3, cone=cone, taper=taper, shape=shape,
         sprung_mass_kg=pv["sprung_mass_kg"], load_cell_mass_kg=pv["load_cell_mass_kg"],
         density_kg_m3=mv["density_kg_m3"],
         strength_pa=mv["microstructure_strength_kpa"] * 1e3 * float(rig["strength_scale"]),

@@ -171,6 +171,10 @@ class TrueWorld:
     taper: tuple[float, float] | None = None
     """The blade's thickness grows from the first [m] at its tip to its full thickness over the second [m]
     (a tapered blade); None: a plain blade."""
+    shape: Callable[[float], tuple[float, float, float]] | None = None
+    """Another shape in place of the blade: its (frontal, bearing, side) areas at a depth [m → m²], as the
+    shape's author wrote them (a geometry registered with pen that the rig does not know by name); the rig's own
+    law of the material acts on them, with the bearing area's friction at the material's static μ."""
 
     def effect(self, name: str) -> dict[str, float] | None:
         """Parameters of effect ``name`` when present."""
@@ -299,6 +303,20 @@ def _resistance_function(world: TrueWorld) -> Callable[[float, float], float]:
         sidewall = 2.0 * mu * w * sidewall_integral(x)
         return frontal + sidewall
 
+    if world.shape is not None:
+        if plug or pgrowth:
+            raise ParameterError("the simulated rig's plug growth and sidewall pressure growth act on a blade, "
+                                 "not on another shape")
+
+        def shape_resistance(x: float, v: float) -> float:
+            """The strength on the bearing area, P on the side area, the rate terms on the frontal area."""
+            x = x if x > 0.0 else 0.0
+            vp = v if v > 0.0 else 0.0
+            frontal, bearing, side = world.shape(x)
+            return (Cs * strength(x, vp) * bearing + friction_coefficient(vp) * P0 * side
+                    + frontal * (C * vp + K * rho * vp * vp))
+
+        return shape_resistance
     if world.cone is None:
         return resistance
     if plug or pgrowth:

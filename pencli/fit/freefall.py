@@ -84,7 +84,7 @@ def _fitted_rows(motion: DropMotion, probe: FreeFallProbe, cone: Cone):
     rows from impact to stop, depth [m], speed [m/s], the bed's force [N], the cone's frontal area [m²]) there."""
     depth, speed, force = bed_force_n(motion, probe)
     inside = (depth > cone.cone_length_m) & (speed > MIN_SPEED_M_S)
-    area = np.array([cone.areas(z, 0.0)[0] for z in depth[inside]])
+    area = np.array([cone.section_areas(z, 0.0)[0] for z in depth[inside]])
     return inside, depth[inside], speed[inside], force[inside], area
 
 

@@ -3,7 +3,9 @@ r"""What the material resists: the penetrator-geometry seam of the scalar simula
 A geometry turns a design and a set of switched-on terms into the resistance R(x, v) of the material on
 the penetrator, for a tip inside the material (x > 0).  :func:`~pencli.model.dynamics.simulate` asks a
 geometry for nothing else (see :class:`Geometry`), so a new one is one class, passed as
-``simulate(design, geometry=...)``; pen's own are registered in :data:`GEOMETRIES`.
+``simulate(design, geometry=...)``; pen's own are registered in :data:`GEOMETRIES`.  A shape given by its
+areas (:class:`Shape`) and registered with :func:`register_geometry` reaches every command: parameter files,
+predict, sweep, the store, the simulated rig, fit and diagnose.
 
 A geometry whose resistance reduces to Eq. 9's form a0 + a1·x + b·v + d·v² returns that
 :class:`~pencli.model.resistance.ResistanceLaw` from :meth:`Geometry.law`; the simulator then books each
@@ -36,7 +38,7 @@ from pencli.errors import ModelError
 from pencli.model.design import Design
 from pencli.model.resistance import (TERMS, ResistanceLaw, coefficient_of, parse_terms, reduced, resistance_law,
                                      unit_terms)
-from pencli.params.definitions import choices_of, params_of
+from pencli.params.definitions import Choice, Param, Registration, choices_of, params_of, register_variant
 from pencli.params.validate import ParameterSet
 
 
@@ -127,8 +129,38 @@ def _tip_factor(angle_rad: float, mu: float) -> float:
     return math.sin(angle_rad) + mu * math.cos(angle_rad)
 
 
+class Shape:
+    """A geometry given by its areas alone: subclass it, write :meth:`areas`, register it
+    (:func:`register_geometry`).  The resistance, its linear columns and the frontal area follow from the one
+    law, :func:`shape_resistance`; its resistance is not Eq. 9's form (:meth:`law` is ``None``)."""
+
+    name: str = "shape"
+
+    def areas(self, design: Design, x: float) -> tuple[float, float, float]:
+        """(frontal A_f, bearing B, side S) at depth ``x`` > 0 [m]: the area the rate terms act on, the one the
+        strength acts on (A_f times the tip's factor, with ``design``'s friction coefficient where the
+        convention has one), the one the sidewall pressure acts on. [m²]"""
+        raise NotImplementedError
+
+    def law(self, design: Design, terms: tuple[str, ...]) -> None:
+        return None
+
+    def resistance(self, design: Design, terms: tuple[str, ...]) -> Callable[[float, float], float]:
+        chosen = parse_terms(terms)
+
+        def r(x: float, v: float) -> float:
+            return shape_resistance(x, v, *self.areas(design, x), design, chosen) if x > 0.0 else 0.0
+        return r
+
+    def frontal_area_m2(self, design: Design, x: float) -> float:
+        return self.areas(design, x)[0]
+
+    def unit_terms(self, design: Design, x, v) -> tuple:
+        return shape_unit_terms(lambda depth: self.areas(design, depth), design, x, v)
+
+
 @dataclass(frozen=True)
-class Cone:
+class Cone(Shape):
     """A cone tip on a cylindrical shaft, axis along the motion (a penetrometer's cone).
 
     The tip is a cone of half-angle α, blunted to a flat of radius ``tip_radius_m`` (0: sharp), that widens to
@@ -165,7 +197,10 @@ class Cone:
         """L_c, depth at which the shaft enters the material. [m]"""
         return (self.shaft_radius_m - self.tip_radius_m) / math.tan(self.half_angle_rad)
 
-    def areas(self, x: float, mu: float) -> tuple[float, float, float]:
+    def areas(self, design: Design, x: float) -> tuple[float, float, float]:
+        return self.section_areas(x, design.friction_coefficient)
+
+    def section_areas(self, x: float, mu: float) -> tuple[float, float, float]:
         """(frontal A_f, bearing B, side S) at depth ``x`` [m] for friction coefficient ``mu``. [m²]"""
         a, rt, rs = self.half_angle_rad, self.tip_radius_m, self.shaft_radius_m
         r = min(rt + x * math.tan(a), rs)
@@ -177,29 +212,13 @@ class Cone:
             bearing = flat + (frontal - flat) * (1.0 + mu / math.tan(a))
         return frontal, bearing, 2.0 * math.pi * rs * max(x - self.cone_length_m, 0.0)
 
-    def law(self, design: Design, terms: tuple[str, ...]) -> None:
-        return None  # the frontal area grows with depth: not Eq. 9's form
-
-    def resistance(self, design: Design, terms: tuple[str, ...]) -> Callable[[float, float], float]:
-        chosen, mu = parse_terms(terms), design.friction_coefficient
-
-        def r(x: float, v: float) -> float:
-            return shape_resistance(x, v, *self.areas(x, mu), design, chosen) if x > 0.0 else 0.0
-        return r
-
-    def frontal_area_m2(self, design: Design, x: float) -> float:
-        return self.areas(x, design.friction_coefficient)[0]
-
-    def unit_terms(self, design: Design, x, v) -> tuple:
-        return shape_unit_terms(lambda depth: self.areas(depth, design.friction_coefficient), design, x, v)
-
 
 CONE_AREAS = ("projected", "mantle")
 """The conventions for the strength on a cone's face (:class:`Cone`)."""
 
 
 @dataclass(frozen=True)
-class TaperedBlade:
+class TaperedBlade(Shape):
     """A blade whose thickness grows from ``tip_thickness_m`` at the tip to the design's T over
     ``taper_length_m`` (a sharpened or wedge-ended plate); width w and tip angle θ as the design's.
 
@@ -223,27 +242,47 @@ class TaperedBlade:
         return (frontal, frontal * _tip_factor(design.tip_angle_rad, design.friction_coefficient),
                 2.0 * design.blade_width_m * x)
 
-    def law(self, design: Design, terms: tuple[str, ...]) -> None:
-        return None  # the frontal area grows over the taper
-
-    def resistance(self, design: Design, terms: tuple[str, ...]) -> Callable[[float, float], float]:
-        chosen = parse_terms(terms)
-
-        def r(x: float, v: float) -> float:
-            return shape_resistance(x, v, *self.areas(design, x), design, chosen) if x > 0.0 else 0.0
-        return r
-
-    def frontal_area_m2(self, design: Design, x: float) -> float:
-        return self.areas(design, x)[0]
-
-    def unit_terms(self, design: Design, x, v) -> tuple:
-        return shape_unit_terms(lambda depth: self.areas(design, depth), design, x, v)
-
 
 GEOMETRIES = {"blade": Blade, "cone": Cone, "tapered_blade": TaperedBlade}
 """Every geometry by the name a parameter file's ``geometry:`` gives it; its constructor's keywords are the SI
 names of the parameters that build it (``builds="geometry"`` in :data:`pencli.params.definitions.PARAMETERS`,
-and the named choices' ``si_name``)."""
+and the named choices' ``si_name``).  More are added by :func:`register_geometry`."""
+
+
+@dataclass(frozen=True)
+class GeometryRegistration:
+    """What :func:`register_geometry` added; :meth:`undo` takes it out (also as a context manager)."""
+
+    name: str
+    keys: Registration
+
+    def undo(self) -> None:
+        GEOMETRIES.pop(self.name, None)
+        self.keys.undo()
+
+    def __enter__(self) -> "GeometryRegistration":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.undo()
+
+
+def register_geometry(cls: type, help: str, params: tuple[Param, ...] = (), choices: tuple[Choice, ...] = ()
+                      ) -> GeometryRegistration:
+    """Make a geometry available to every command: a penetrator file's ``geometry: <cls.name>`` then validates
+    with ``params`` (and ``choices``) as its keys, and predict, sweep, the store, the simulated rig, fit and
+    diagnose use it.  ``cls`` is a :class:`Shape` (or any :class:`Geometry`) whose constructor takes the
+    ``si_name`` of each parameter with ``builds="geometry"``; ``help`` is one line on it.  A new geometry is its
+    module plus this one call::
+
+        register_geometry(Wedge, "a blade whose width grows from its tip", params=(Param(...), ...))
+    """
+    name = cls.name
+    if name in GEOMETRIES:
+        raise ValueError(f"a geometry named {name!r} is already registered")
+    keys = register_variant("penetrator", name, help, params, choices)
+    GEOMETRIES[name] = cls
+    return GeometryRegistration(name, keys)
 
 
 def force_steps_at_contact(geometry: Geometry, design: Design) -> bool:
@@ -265,6 +304,6 @@ def geometry_of(penetrator: ParameterSet) -> Geometry:
         raise ModelError(f"{penetrator.source}: {exc}") from None
 
 
-__all__ = ["BLADE", "Blade", "CONE_AREAS", "Cone", "GEOMETRIES", "Geometry", "TaperedBlade", "force_steps_at_contact",
-           "geometry_of",
+__all__ = ["BLADE", "Blade", "CONE_AREAS", "Cone", "GEOMETRIES", "Geometry", "GeometryRegistration", "Shape",
+           "TaperedBlade", "force_steps_at_contact", "geometry_of", "register_geometry",
            "shape_resistance", "shape_unit_terms"]

@@ -20,7 +20,7 @@ Pure data and pure functions: no I/O.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable, Literal
 
 Kind = Literal["penetrator", "material", "energizing"]
@@ -178,7 +178,7 @@ class Choice:
         return f"{self.meaning}: one of {described} (default {self.default})"
 
 
-CHOICES: tuple[Choice, ...] = (
+CHOICES: list[Choice] = [
     Choice("geometry", "penetrator", "the penetrator's shape", GEOMETRY_NAMES, DEFAULT_GEOMETRY,
            ("a rectangular blade (Eq. 9)", "a cone tip on a cylindrical shaft",
             "a blade whose thickness grows from its tip over a taper")),
@@ -190,8 +190,9 @@ CHOICES: tuple[Choice, ...] = (
            ("the spring launcher (CONTRACT §2)",
             "a free fall from a height through a fluid (air, water): weight, buoyancy, drag to the surface, added "
             "mass")),
-)
-"""The named-choice parameters, by kind; values are the option names as written."""
+]
+"""The named-choice parameters, by kind; values are the option names as written (a list: a variant registered
+by :func:`register_variant` adds its own)."""
 
 CHOICE_BY_KEY: dict[str, Choice] = {c.key: c for c in CHOICES}
 
@@ -204,7 +205,7 @@ variants, the default)."""
 
 
 _P = Param
-PARAMETERS: tuple[Param, ...] = (
+PARAMETERS: list[Param] = [
     # --- penetrator: the blade and the moving body ---------------------------
     _P("blade_width_mm", "penetrator", "w", "rectangular blade width", "mm",
        "blade_width_m", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=5, range_max=1000, geometries=_BLADES),
@@ -292,7 +293,7 @@ PARAMETERS: tuple[Param, ...] = (
     _P("displaced_volume_l", "energizing", "V", "the body's volume, which the fluid buoys and accelerates", "L",
        "displaced_volume_m3", 1e-3, hard_min=0, range_min=0, range_max=1000, geometries=("free_fall",),
        builds="drive"),
-)
+]
 
 EITHER_OR: dict[str, tuple[str, Callable[[dict[str, float]], float]]] = {
     "spring_compressed_length_mm": (
@@ -341,6 +342,68 @@ def params_of(kind: Kind, geometry: str | None = None) -> tuple[Param, ...]:
 def choices_of(kind: Kind, geometry: str | None = None) -> tuple[Choice, ...]:
     """The named-choice parameters of one kind; with ``geometry``, those a file of it holds."""
     return tuple(c for c in CHOICES if c.kind == kind and (geometry is None or c.belongs_to(geometry)))
+
+
+@dataclass(frozen=True)
+class Registration:
+    """A variant added by :func:`register_variant`; :meth:`undo` takes it out again (also as a context manager)."""
+
+    kind: Kind
+    name: str
+
+    def undo(self) -> None:
+        choice, names, default = VARIANTS[self.kind]
+        _set_variants(self.kind, tuple(n for n in names if n != self.name),
+                      drop=lambda item: item.geometries == (self.name,))
+
+    def __enter__(self) -> "Registration":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.undo()
+
+
+def register_variant(kind: Kind, name: str, help: str, params: tuple[Param, ...] = (),
+                     choices: tuple[Choice, ...] = ()) -> Registration:
+    """Add a penetrator geometry or a launcher drive named ``name`` (``help``: one line for the variant choice's
+    option) with the keys its files hold: each of ``params`` and ``choices`` belongs to this variant alone.
+
+    Everything derived from this module sees it at once: validation, the JSON Schema, ``pen params keys``, the
+    ``--set`` and sweep keys.  :func:`pencli.model.geometry.register_geometry` calls it with the geometry's class.
+    """
+    if kind not in VARIANTS:
+        raise ValueError(f"{kind} files come in no variants; variants: {', '.join(VARIANTS)}")
+    if name in VARIANTS[kind][1]:
+        raise ValueError(f"a {VARIANTS[kind][0]} named {name!r} is already registered")
+    taken = sorted({*BY_KEY, *CHOICE_BY_KEY} & {item.key for item in (*params, *choices)})
+    if taken:
+        raise ValueError(f"{name}: key {taken[0]} is already defined")
+    wrong = [item.key for item in (*params, *choices) if item.kind != kind]
+    if wrong:
+        raise ValueError(f"{name}: key {wrong[0]} is not a {kind} key")
+    PARAMETERS.extend(replace(p, geometries=(name,)) for p in params)
+    CHOICES.extend(replace(c, geometries=(name,)) for c in choices)
+    choice = CHOICE_BY_KEY[VARIANTS[kind][0]]
+    _set_variants(kind, (*VARIANTS[kind][1], name), helps=(*choice.option_help, help))
+    return Registration(kind, name)
+
+
+def _set_variants(kind: Kind, names: tuple[str, ...], helps: tuple[str, ...] | None = None, drop=None) -> None:
+    """Rebuild the variant choice of ``kind`` with ``names`` (and the tables derived from the lists), dropping
+    the parameters and choices ``drop`` selects."""
+    if drop is not None:
+        PARAMETERS[:] = [p for p in PARAMETERS if not drop(p)]
+        CHOICES[:] = [c for c in CHOICES if not drop(c)]
+    key, _, default = VARIANTS[kind]
+    old = next(c for c in CHOICES if c.key == key)
+    if helps is None:
+        helps = tuple(h for o, h in zip(old.options, old.option_help) if o in names)
+    CHOICES[CHOICES.index(old)] = replace(old, options=names, option_help=helps)
+    VARIANTS[kind] = (key, names, default)
+    BY_KEY.clear()
+    BY_KEY.update((p.key, p) for p in PARAMETERS)
+    CHOICE_BY_KEY.clear()
+    CHOICE_BY_KEY.update((c.key, c) for c in CHOICES)
 
 
 @dataclass(frozen=True)
