@@ -905,26 +905,28 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
 
     p, m, e = load_parameter_sets(penetrator, material, energizing, overrides=overrides,
                                   allow_out_of_range=allow_out_of_range)
-    if e.drive != "springs":
-        raise ParameterError(f"{e.source}: drive {e.drive}: pen sweep integrates the spring launcher only so far; "
-                             f"`pen predict` simulates a {e.drive.replace('_', ' ')}, one design at a time")
+    from pencli.model.drive import drive_of
+
     base = {**p.values, **m.values, **e.values}
+    design, geometry = design_from_sets(p, m, e), geometry_of(p)
     base[SPEED] = (float(speed_at_contact_m_s) if speed_at_contact_m_s is not None else
-                   float(simulate(design_from_sets(p, m, e), output_rate_hz=1000.0,
-                                  geometry=geometry_of(p)).summary.contact_speed_m_s))
-    variables = [parse_vary(spec, base, resolution, p.geometry) for spec in vary]
+                   float(simulate(design, output_rate_hz=1000.0, geometry=geometry,
+                                  drive=drive_of(e, design, geometry)).summary.contact_speed_m_s))
+    variables = [parse_vary(spec, base, resolution, p.geometry, e.drive) for spec in vary]
     total = n if sample else Grid(variables).size
-    shaped = p.geometry != "blade"  # not Eq. 9's form: each design integrated on its own
+    # not Eq. 9's form on CONTRACT §2's springs: each design integrated on its own
+    shaped = p.geometry != "blade" or e.drive != "springs"
     if shaped and total > shapes.MAX_DESIGNS:
-        raise ParameterError(f"{'--n' if sample else '--resolution/--vary'}: {total:.3g} designs of a "
-                             f"{p.geometry.replace('_', ' ')}, each integrated on its own (about 12 ms a design); "
-                             f"pen sweeps at most {shapes.MAX_DESIGNS:.0e} of them: lower --resolution or --n")
+        what = p.geometry.replace("_", " ") + ("" if e.drive == "springs" else f" in a {e.drive.replace('_', ' ')}")
+        raise ParameterError(f"{'--n' if sample else '--resolution/--vary'}: {total:.3g} designs of a {what}, each "
+                             f"integrated on its own (about 12 ms a design); pen sweeps at most "
+                             f"{shapes.MAX_DESIGNS:.0e} of them: lower --resolution or --n")
     if total > MAX_DESIGNS:
         raise ParameterError(f"{'--n' if sample else '--resolution/--vary'}: {total:.3g} designs; pen sweeps at most "
                              f"{MAX_DESIGNS:.0e} (about 100 GB of Parquet): lower --resolution or --n, or "
                              f"sample the space (--sample lhs --n N)")
-    runner = (functools.partial(shapes.run_chunk_shaped, geometry=p.geometry, choices=dict(p.choices)) if shaped
-              else None)
+    runner = (functools.partial(shapes.run_chunk_shaped, geometry=p.geometry, choices=dict(p.choices),
+                                drive=e.drive) if shaped else None)
     ws = workspace(db) if db is not None else None
     written_to = out if out is not None else db
     folder = Path(written_to).expanduser().absolute().parent if written_to is not None else None

@@ -199,15 +199,21 @@ drive that drags the body through a fluid, ``drag_area_m2``."""
 def drive_of(energizing, design: Design, geometry) -> Drive:
     """The drive a launcher file names, built from its keys (SI, by each definition's scale); a drive in a fluid
     drags on the geometry's largest frontal area (at full depth)."""
+    return build_drive(energizing.drive, energizing.values, design, geometry)
+
+
+def build_drive(name: str, values, design: Design, geometry) -> Drive:
+    """The drive ``name`` from a launcher's file-unit ``values`` by key (absent or NaN: the drive's default), as
+    :func:`drive_of` builds it; a sweep builds each design's this way."""
     from pencli.params.definitions import params_of
 
-    name = energizing.drive
     if name == "springs":
         return SPRINGS
-    kwargs = {p.si_name: float(energizing.values[p.key]) * p.si_scale
-              for p in params_of("energizing", name) if p.builds == "drive" and p.key in energizing.values}
+    kwargs = {p.si_name: float(values[p.key]) * p.si_scale for p in params_of("energizing", name)
+              if p.builds == "drive" and p.key in values and not math.isnan(float(values[p.key]))}
     kwargs["drag_area_m2"] = float(geometry.frontal_area_m2(design, float(design.penetration_depth_m)))
     return DRIVES[name](**kwargs)
 
 
-__all__ = ["DRIVES", "SPRINGS", "Drive", "Flight", "FlightPath", "Springs", "drive_of", "flight_of", "inertia_of"]
+__all__ = ["DRIVES", "SPRINGS", "Drive", "Flight", "FlightPath", "Springs", "build_drive", "drive_of", "flight_of",
+           "inertia_of"]

@@ -1,7 +1,9 @@
-"""A sweep of a penetrator whose resistance is not Eq. 9's form (a cone, a tapered blade).
+"""A sweep of a penetrator whose resistance is not Eq. 9's form (a cone, a tapered blade), or of a drive other
+than the spring launcher (a free fall through a fluid).
 
-The batch simulator's closed forms and compiled kernels hold for Eq. 9's law, whose four coefficients are
-the same at every depth; a cone's frontal area grows with depth.  Each of its designs is integrated by the
+The batch simulator's closed forms and compiled kernels hold for Eq. 9's law on CONTRACT §2's springs, whose
+four coefficients are the same at every depth; a cone's frontal area grows with depth, and a fall through
+water is dragged and buoyed.  Each of their designs is integrated by the
 scalar simulator (:func:`pencli.model.dynamics.simulate`, the one ``pen predict`` uses, about 12 ms a design on
 this project's two-core machine), with the same figures and end codes as the batch's rows.  Pure: no I/O.
 """
@@ -15,6 +17,7 @@ import numpy as np
 
 from pencli.errors import ModelError, ParameterError
 from pencli.model.design import Design
+from pencli.model.drive import build_drive
 from pencli.model.dynamics import SimulationLimit, simulate
 from pencli.model.geometry import GEOMETRIES
 from pencli.params.definitions import BY_KEY, RULES, choices_of, params_of
@@ -32,8 +35,8 @@ _RATE_HZ = 1000.0
 
 
 def run_chunk_shaped(base: Mapping[str, float], columns: Mapping[str, np.ndarray], geometry: str,
-                     choices: Mapping[str, str]) -> dict:
-    """One chunk (varied columns, file units) of a ``geometry`` penetrator, design by design: the batch's
+                     choices: Mapping[str, str], drive: str = "springs") -> dict:
+    """One chunk (varied columns, file units) of a ``geometry`` penetrator on a ``drive``, design by design: the batch's
     figures and ``energy_other_j`` (what the resistance dissipated outside Eq. 9's terms: all of a cone's),
     ``end`` codes into :data:`~pencli.predict.batch.ENDS` and ``near_critical``.  A design a parameter rule or
     the geometry refuses is ``invalid``, one whose forces overflow float64 ``overflow``; their figures are NaN.
@@ -59,7 +62,9 @@ def run_chunk_shaped(base: Mapping[str, float], columns: Mapping[str, np.ndarray
         try:
             shape = GEOMETRIES[geometry](**{p.si_name: values[p.key] * p.si_scale for p in shape_params
                                             if not math.isnan(values[p.key])}, **named)
-            summary = simulate(Design(**fields), geometry=shape, output_rate_hz=_RATE_HZ,
+            design = Design(**fields)
+            summary = simulate(design, geometry=shape, drive=build_drive(drive, values, design, shape),
+                               output_rate_hz=_RATE_HZ,
                                speed_at_contact_m_s=None if speed is None else float(speed[i])).summary
         except SimulationLimit:
             code[i] = ENDS.index("overflow")

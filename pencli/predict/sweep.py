@@ -47,7 +47,8 @@ class Variable:
         return "m/s" if self.key == SPEED else BY_KEY[self.key].unit
 
 
-def parse_vary(spec: str, base: Mapping[str, float], resolution: int, geometry: str = "blade") -> Variable:
+def parse_vary(spec: str, base: Mapping[str, float], resolution: int, geometry: str = "blade",
+               drive: str = "springs") -> Variable:
     """``KEY=+20%,-50%`` (BAM ± deltas), ``KEY=LO:HI`` (range) or ``KEY=V1,V2,...`` (list).
 
     Percentages are of the base value; ranges and deltas get ``resolution`` points.  ``geometry``: the
@@ -62,6 +63,9 @@ def parse_vary(spec: str, base: Mapping[str, float], resolution: int, geometry: 
     if key != SPEED and BY_KEY[key].kind == "penetrator" and not BY_KEY[key].belongs_to(geometry):
         raise ParameterError(f"--vary {spec!r}: '{key}' is a dimension of a {' or '.join(BY_KEY[key].geometries)}; "
                              f"this penetrator is a {geometry.replace('_', ' ')}")
+    if key != SPEED and BY_KEY[key].kind == "energizing" and not BY_KEY[key].belongs_to(drive):
+        raise ParameterError(f"--vary {spec!r}: '{key}' is a key of the {' or '.join(BY_KEY[key].geometries)} "
+                             f"drive; this launcher is a {drive.replace('_', ' ')}")
     discrete = False
     try:
         if "%" in text:
@@ -224,7 +228,7 @@ def si_designs(base: Mapping[str, float], columns: Mapping[str, np.ndarray]) -> 
     n = len(next(iter(columns.values()))) if columns else 1
     fields: dict[str, np.ndarray | float] = {}
     for key, param in BY_KEY.items():
-        value = columns[key] if key in columns else base.get(key, math.nan)
+        value = columns[key] if key in columns else base.get(key, param.absent)  # a drop's springs: absent, 0
         value = np.asarray(value, dtype=float)
         fields[param.si_name] = value * param.si_scale if param.dtype is not int else value
     for key, param in BY_KEY.items():
