@@ -163,3 +163,28 @@ def test_one_process_or_two_give_the_same_report_to_the_last_digit():
     for report in (one, two):
         report["decision"].pop("seconds")  # the time it took
     assert one == two
+
+
+def test_an_effect_is_described_by_its_best_member_whose_description_is_physically_possible():
+    """A layer whose fitted strength is negative is no layer: the family is described by the best-fitting member
+    whose layer the material can hold, the best of all only when no member is admissible."""
+    layer = EFFECTS["strength_layer"]
+    weaker = next(m for m in layer.members if m.params.get("band") == "weaker")
+    stronger = next(m for m in layer.members if m.params.get("band") == "stronger")
+    context = {"cs_mean": 2.0}
+    # a weaker band whose top edge takes 3 of the mean strength factor 2: strength at 1 − 3/2 < 0
+    assert not layer.admissible(layer.describe(weaker, np.array([3.0, 3.0]), context))
+    assert layer.admissible(layer.describe(weaker, np.array([1.0, 1.0]), context))
+    assert layer.admissible(layer.describe(stronger, np.array([3.0, 3.0]), context))
+    members = [weaker, stronger, weaker]
+    fits = {0: np.array([3.0, 3.0]), 1: np.array([3.0, 3.0]), 2: np.array([1.0, 1.0])}
+
+    def admissible(i, fit):
+        return layer.admissible(layer.describe(members[i], fit["coefficients"], context))
+
+    total = np.array([1.0, 3.0, 2.0])  # member 0 fits best but is impossible; member 2 next
+    coefficients = {i: fits[i] for i in fits}
+    strength = {i: np.ones(6) for i in fits}
+    assert engine._best_admissible(total, coefficients, strength, admissible) == 2
+    assert engine._best_admissible(total, coefficients, strength, None) == 0
+    assert engine._best_admissible(total, coefficients, strength, lambda i, fit: False) == 0

@@ -396,6 +396,9 @@ class Effect:
     drift of the force offset shows there too); significant there, it joins a verdict that names another effect."""
     geometries: tuple[str, ...] = ()
     """The penetrator geometries the effect is written for (empty: every one): a plug grows on a blade's edge."""
+    admissible: Callable[[Mapping], bool] | None = None
+    """Whether a member's description (:attr:`describe`'s dict) is physically possible (a layer's strength is not
+    negative); the member an effect is described by is the best-fitting admissible one (None: every one is)."""
     caveats: tuple[tuple[str, str], ...] = ()
     """(geometry, text): what a verdict naming the effect in a campaign of that geometry should be read with (what
     a bench found the diagnosis gets wrong there)."""
@@ -505,6 +508,13 @@ def _describe_layer(m: Member, c, ctx) -> dict:
         out["band"] = m.params["band"]
         out["ratio_below"] = 1.0 + top * (float(c[0]) - float(c[1])) / ctx["cs_mean"]
     return out
+
+
+def _layer_possible(description: Mapping) -> bool:
+    """A layer's strength, and a plateau's below it, are not negative: a weaker band fitted at −0.54 of the strength
+    (a sharp cone's strength column is small near the surface, so a band there can take any sign of misfit) is
+    no layer the material can hold."""
+    return description["ratio"] >= 0 and description.get("ratio_below", 1.0) >= 0
 
 
 _LENGTHS_MM = (5.0, 10.0, 20.0, 40.0, 80.0, 160.0)
@@ -915,9 +925,9 @@ def _describe_drift(m: Member, c, ctx) -> dict:
 
 
 SHARP_TIP_LAYERS = ("in simulated cone campaigns the diagnosis never tuned on (bench/bench_cone_diagnose.py), a "
-                    "softer layer was placed within 2 mm of its depth (5 of 5), but of 5 stronger ones 1 was placed "
-                    "right, 2 were named softer and shallower and 2 at 5 mm with a ratio below 0; check this layer's "
-                    "depth and ratio against the runs")
+                    "softer layer was placed within 3 mm of its depth (4 of 4), but of 6 stronger ones 1 was placed "
+                    "right and 5 were named weaker bands 10-20 mm shallower; check this layer's depth and ratio "
+                    "against the runs")
 """The strength layer's caveat for a campaign of a penetrator other than the blade."""
 
 
@@ -926,7 +936,8 @@ EFFECTS: dict[str, Effect] = {e.name: e for e in (
            "Microstructural strength steps to another value at a depth: a step with a sharp or soft edge, or a "
            "plateau (a layer of finite thickness). Signature: a misfit that jumps at one depth in every run, "
            "whatever its speed.",
-           _layer_members, _describe_layer, caveats=(("cone", SHARP_TIP_LAYERS), ("tapered_blade", SHARP_TIP_LAYERS))),
+           _layer_members, _describe_layer, admissible=_layer_possible,
+           caveats=(("cone", SHARP_TIP_LAYERS), ("tapered_blade", SHARP_TIP_LAYERS))),
     Effect("strength_gradient", "law", "depth",
            "Strength varies continuously with depth (power, quadratic, exponential or saturating "
            "profiles, an S-shaped rise or fall wider than a layer's edge, two straight slopes meeting at a depth, "

@@ -236,8 +236,8 @@ class _Family:
         return self.per_run.mean(axis=0)
 
 
-def _score_family(stats: Statistics, specs: Sequence[Spec], absent: np.ndarray | None = None
-                  ) -> tuple[_Family, dict]:
+def _score_family(stats: Statistics, specs: Sequence[Spec], absent: np.ndarray | None = None,
+                  admissible: Callable[[int, dict], bool] | None = None) -> tuple[_Family, dict]:
     """Score the members of one family (or of pairs) and pick members per fold and target.
 
     ``absent``: (runs, targets) the held-out mean squares of the model without the family, which then counts
@@ -269,10 +269,22 @@ def _score_family(stats: Statistics, specs: Sequence[Spec], absent: np.ndarray |
     others = choices.sum(axis=1, keepdims=True) - choices  # (members, runs, targets)
     pick = np.argmin(others, axis=0)  # (runs, targets)
     per_fold = np.take_along_axis(choices, pick[None], axis=0)[0]  # (runs, targets)
-    best = int(np.argmin(total[:, 0]))
+    best = _best_admissible(total[:, 0], coefficients, strength, admissible)
     members = np.argmin(others[:len(specs), :, 0], axis=0)  # the shapes reported: members only
     family = _Family(per_fold, best, [int(k) for k in members])
     return family, {"coefficients": coefficients[best], "strength": strength[best]}
+
+
+def _best_admissible(total: np.ndarray, coefficients: Mapping[int, np.ndarray], strength: Mapping[int, np.ndarray],
+                     admissible: Callable[[int, dict], bool] | None) -> int:
+    """The member whose all-runs fit is best (``total``: each member's mean square on the data) among those
+    ``admissible`` accepts (its index and fit); the best of all when none is."""
+    order = np.argsort(total, kind="stable")
+    if admissible is not None:
+        for i in order:
+            if admissible(int(i), {"coefficients": coefficients[int(i)], "strength": strength[int(i)]}):
+                return int(i)
+    return int(order[0])
 
 
 @dataclass(frozen=True)
@@ -289,14 +301,15 @@ class _Tested:
 
 
 def _familywise(stats: Statistics, reference: np.ndarray, families: Mapping[str, Sequence[Spec]], alpha: float,
-                absent: np.ndarray | None = None) -> tuple[dict[str, _Tested], float]:
+                absent: np.ndarray | None = None, admissible: Mapping[str, Callable[[int, dict], bool]] | None = None
+                ) -> tuple[dict[str, _Tested], float]:
     """Score each family's held-out improvement over ``reference`` (held-out mean squares, data then null
     replicates) and the threshold its z must beat (:func:`familywise_threshold`); ``absent``: the reference per
     run, a choice of every fold (:func:`_score_family`)."""
     tested = {}
     floor = _score_floor(reference, stats)
     for name, specs in families.items():
-        family, fit = _score_family(stats, specs, absent)
+        family, fit = _score_family(stats, specs, absent, (admissible or {}).get(name))
         tested[name] = _Tested(family, fit, *_standardise(reference - family.heldout, floor))
     if not tested:
         return tested, math.inf
@@ -1204,7 +1217,9 @@ def scan_families(baseline: Baseline, calibration: NullCalibration, request: Req
     z_gap = _standardise(np.log(np.maximum(S0, LOG_FLOOR)), GAP_Z_FLOOR)[0]
     floor_sq = float(np.mean(S0[1:]))
     tested, z_threshold = _familywise(stats, S0, {e.name: [c.spec for c in candidates[e.name]]
-                                                  for e in law_effects}, request.alpha)
+                                                  for e in law_effects}, request.alpha,
+                                      admissible={e.name: _admissible(e, candidates[e.name], b.context)
+                                                  for e in law_effects if e.admissible is not None})
     # a gap the runs share: a generic profile (in depth or in time since contact) closing part of it on held-out
     # runs beyond what it closes on the null replicates
     probes, gap_threshold = _familywise(stats, S0, {n: [c.spec for c in candidates[n]] for n in PROBES},
@@ -1212,6 +1227,16 @@ def scan_families(baseline: Baseline, calibration: NullCalibration, request: Req
     return FamilyScan(law_effects, candidates, matrices, stats, S0, z_gap, floor_sq, float(S0[0]) - floor_sq, tested,
                       z_threshold, probes, gap_threshold, max(t.z for t in probes.values()),
                       _shared_gap(S0, probes, gap_threshold))
+
+
+def _admissible(effect: Effect, candidates: Sequence[_Candidate], context: Mapping[str, float]
+                ) -> Callable[[int, dict], bool]:
+    """Whether candidate i's fit describes a physically possible effect (:attr:`Effect.admissible`)."""
+    def check(i: int, fit: dict) -> bool:
+        coefficients = fit["coefficients"][SHARED_TERMS:, 0]
+        return bool(effect.admissible(effect.describe(candidates[i].member, coefficients,
+                                                      _own_context(context, fit))))
+    return check
 
 
 SPEED_FLOOR_M_S = 1e-9
