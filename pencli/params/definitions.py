@@ -352,8 +352,7 @@ class Registration:
     name: str
 
     def undo(self) -> None:
-        choice, names, default = VARIANTS[self.kind]
-        _set_variants(self.kind, tuple(n for n in names if n != self.name),
+        _set_variants(self.kind, tuple(n for n in VARIANTS[self.kind][1] if n != self.name),
                       drop=lambda item: item.geometries == (self.name,))
 
     def __enter__(self) -> "Registration":
