@@ -1,6 +1,6 @@
 """Sweep throughput: pen's batch simulator beside a solve_ivp-per-design loop, measured in one run.
 
-Run: python -m bench.bench_sweep [--designs N] [--rounds R]
+Run: python -m bench.bench_sweep [--designs N] [--rounds R] [--damping C]
 - pen: `api.sweep` over a Latin-hypercube sample of N designs (default 1,000,000; 4 variables around
   the Appendix C design in MPACS C), chunked over 2 threads (the compiled kernels
   release the GIL), streamed to Parquet.
@@ -8,6 +8,8 @@ Run: python -m bench.bench_sweep [--designs N] [--rounds R]
 - the two take turns, ``--rounds`` times (default 7), and the medians are compared: one round of each moved
   the ratio between 2,800x and 9,600x on this shared machine, most of it in the baseline.
 - accuracy: 300 of pen's designs against the scalar simulator (DOP853 rtol 1e-10).
+- ``--damping C`` [kPa·s/m]: each round also sweeps the same designs with MPACS C's damping set to C (the
+  time-stepped path), and the damped median is printed beside the undamped one of the same rounds.
 Target: ≥ 1,000,000 designs/s end to end and ≥ 8,000× the solve_ivp loop, penetration time
 and final depth within 1e-4 .
 """
@@ -39,9 +41,11 @@ VARY = ["blade_width_mm=+50%,-50%", "blade_thickness_mm=+50%,-50%", "spring_stif
 
 
 def main() -> None:
-    check_options(__doc__, ("--designs", "--rounds"))
+    check_options(__doc__, ("--designs", "--rounds", "--damping"))
     n = int(sys.argv[sys.argv.index("--designs") + 1]) if "--designs" in sys.argv else 1_000_000
     rounds = int(sys.argv[sys.argv.index("--rounds") + 1]) if "--rounds" in sys.argv else 7
+    damping = float(sys.argv[sys.argv.index("--damping") + 1]) if "--damping" in sys.argv else None
+    damped_rates: list[float] = []
     base = design_from_sets(load_preset("appendix_c", "penetrator"), load_preset("mpacs_c", "material"),
                             load_preset("appendix_c", "energizing"))
     rng = np.random.default_rng(2)
@@ -65,6 +69,13 @@ def main() -> None:
             pen_rates.append(n / (time.perf_counter() - t0))
             if r:
                 (Path(tmp) / f"s{r}.parquet").unlink()  # 120 MB each; the first is read below
+            if damping is not None:
+                t0 = time.perf_counter()
+                api.sweep("appendix_c", "mpacs_c", "appendix_c", vary=VARY, sample="lhs", n=n, seed=1,
+                          out=Path(tmp) / "damped.parquet", workers=2,
+                          overrides=[f"coefficients.damping_kpa_s_m={damping:g}"])
+                damped_rates.append(n / (time.perf_counter() - t0))
+                (Path(tmp) / "damped.parquet").unlink()
             t0 = time.perf_counter()
             for d in designs:
                 baseline_rk45(d)
@@ -94,6 +105,11 @@ def main() -> None:
     print(f"pen sweep, {n:,} designs (LHS, 4 variables, 2 threads, Parquet out), median of {rounds}: "
           f"{pen_rate:,.0f} designs/s = {n / pen_rate:.3f} s   (target >= 1,000,000; "
           f"range {min(pen_rates):,.0f}-{max(pen_rates):,.0f})")
+    if damping is not None:
+        damped = float(np.median(damped_rates))
+        print(f"the same sweep at C = {damping:g} kPa·s/m (time-stepped), median of {rounds}: {damped:,.0f} designs/s "
+              f"= {n / damped:.3f} s, {damped / pen_rate:.3f} of the undamped rate in the same rounds   "
+              f"(target >= 1,000,000; range {min(damped_rates):,.0f}-{max(damped_rates):,.0f})")
     print(f"first sweep in this process, 1,000 designs (loads or compiles the kernels): {warm_s:.2f} s")
     print(f"baseline solve_ivp RK45 rtol 1e-6 per design, 60 designs, median of {rounds}: {base_rate:,.1f} designs/s "
           f"(range {min(base_rates):,.1f}-{max(base_rates):,.1f})")
