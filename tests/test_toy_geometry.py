@@ -4,6 +4,7 @@ nothing behind once taken out again."""
 
 from __future__ import annotations
 
+import html
 import json
 import math
 
@@ -117,6 +118,13 @@ def test_runs_of_a_registered_geometry_are_stored_fitted_and_diagnosed(tmp_path,
     truth = yaml.safe_load((REPO / "pencli" / "params" / "presets" / "material" / "mpacs_c.yaml").read_text())
     assert fitted["strength_factor"].value == pytest.approx(truth["coefficients"]["strength_factor"], rel=0.03)
     assert api.diagnose(db, ["all"]).verdict == "none"
+    # a run's report names its shape, and lists its keys by their meaning beside the file key
+    out = tmp_path / "one.html"
+    result = invoke(runner, "report", runs[0]["run_id"], "--db", str(db), "--out", str(out), "--no-pdf")
+    assert result.exit_code == 0, result.output
+    page = html.unescape(out.read_text())
+    assert "square pyramid" in page and "the blade " not in page
+    assert "side of a pyramid's square shaft" in page
 
 
 def test_a_geometry_taken_out_again_leaves_the_definition_as_it_was():
