@@ -10,16 +10,12 @@ import math
 
 import pytest
 import yaml
-from scipy.integrate import solve_ivp
-
 from tests import toy_pyramid
 from tests.conftest import REPO, invoke
+from tests.test_geometry_files import LAUNCHER, arrest_on_two_springs
 
 PYRAMID = {"kind": "penetrator", "name": "pyramid", "geometry": "square_pyramid", "pyramid_half_angle_deg": 30.0,
            "shaft_side_mm": 30.0, "penetration_depth_mm": 133.0, "sprung_mass_kg": 2.443, "load_cell_mass_kg": 0.389}
-LAUNCHER = {"kind": "energizing", "name": "two", "spring_count": 2, "spring_stiffness_kn_m": 1.45,
-            "spring_mass_kg": 0.28, "spring_nominal_length_mm": 500.0, "spring_compressed_length_mm": 300.0,
-            "surface_offset_mm": 150.0, "propulsion_efficiency_pct": 98.0}
 
 
 @pytest.fixture
@@ -68,20 +64,10 @@ def test_a_registered_geometry_validates_predicts_and_sweeps_as_its_areas_say(tm
     assert result.exit_code == 0, result.output
     s = json.loads(result.stdout)
     assert s["geometry"] == "square_pyramid" and s["end"] == "arrest"
-    e = LAUNCHER
-    mass = PYRAMID["sprung_mass_kg"] + e["spring_count"] * e["spring_mass_kg"] / 3.0
-    kd = e["propulsion_efficiency_pct"] / 100 * e["spring_count"] * e["spring_stiffness_kn_m"] * 1e3
-    push_end = (e["spring_nominal_length_mm"] - e["spring_compressed_length_mm"] - e["surface_offset_mm"]) / 1e3
-
-    def rhs(_t, y):
-        return [y[1], (kd * max(push_end - y[0], 0.0) + mass * 9.81 - pyramid_resistance(*y, material)) / mass]
-
-    arrest = lambda _t, y: y[1]  # noqa: E731
-    arrest.terminal, arrest.direction = True, -1
-    ref = solve_ivp(rhs, (0.0, 5.0), [0.0, s["contact_speed_m_s"]], method="DOP853", rtol=1e-12, atol=1e-14,
-                    events=arrest, max_step=1e-4)
-    assert s["final_depth_mm"] / 1e3 == pytest.approx(ref.y_events[0][0][0], rel=1e-8)
-    assert s["penetration_time_s"] == pytest.approx(ref.t_events[0][0], rel=1e-8)
+    depth, time = arrest_on_two_springs(lambda x, v: pyramid_resistance(x, v, material), PYRAMID["sprung_mass_kg"],
+                                       s["contact_speed_m_s"])
+    assert s["final_depth_mm"] / 1e3 == pytest.approx(depth, rel=1e-8)
+    assert s["penetration_time_s"] == pytest.approx(time, rel=1e-8)
     # the sweep varies its keys; each row is predict's for that design
     out = tmp_path / "sweep.parquet"
     swept = invoke(runner, "sweep", "-p", files[0], "-m", "mpacs_c", "-e", files[1], "--vary",
