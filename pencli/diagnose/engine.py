@@ -279,11 +279,12 @@ def _best_admissible(total: np.ndarray, coefficients: Mapping[int, np.ndarray], 
                      admissible: Callable[[int, dict], bool] | None) -> int:
     """The member whose all-runs fit is best (``total``: each member's mean square on the data) among those
     ``admissible`` accepts (its index and fit); the best of all when none is."""
+    if admissible is None:
+        return int(np.argmin(total))
     order = np.argsort(total, kind="stable")
-    if admissible is not None:
-        for i in order:
-            if admissible(int(i), {"coefficients": coefficients[int(i)], "strength": strength[int(i)]}):
-                return int(i)
+    for i in order:
+        if admissible(int(i), {"coefficients": coefficients[int(i)], "strength": strength[int(i)]}):
+            return int(i)
     return int(order[0])
 
 
