@@ -27,7 +27,8 @@ from pencli.predict.batch import design_arrays, simulate_batch
 
 SPREAD = ("blade_width_m", "blade_thickness_m", "strength_pa", "sidewall_pressure_pa", "inertia_coefficient",
           "density_kg_m3", "spring_stiffness_n_m", "surface_offset_m", "sprung_mass_kg")
-FIGURES = ("penetration_time_s", "final_depth_mm", "peak_resistance_n", "residual_ke_j", "contact_speed_m_s")
+FIGURES = ("penetration_time_s", "final_depth_mm", "peak_resistance_n", "residual_ke_j", "contact_speed_m_s",
+           "energy_damping_j", "energy_inertia_j")
 
 
 def main() -> None:

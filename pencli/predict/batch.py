@@ -7,8 +7,8 @@ trajectory, and exact at the edges:
 - without damping (C = 0, every Table 1 material) the penetration has a closed form over depth
   (:mod:`pencli.predict.closed_form`): arrest depth, residual energy and peak exact to round-off, the time
   by Gauss–Legendre quadrature with the end singularities substituted away;
-- with damping it is integrated in time (:mod:`pencli.predict.damped`): RK4 on steps that resolve the
-  damping's time scale, then the exact linear flow once the v² term is negligible, with creep towards
+- with damping it is integrated in time (:mod:`pencli.predict.damped`): Taylor series on steps of the
+  motion's own scale, then the exact linear flow once the v² term is negligible, with creep towards
   the rest depth ended by the definition both simulators share.
 
 Inputs are SI arrays named like the fields of :class:`pencli.model.design.Design` (broadcast against each
@@ -176,9 +176,10 @@ def _time_estimate(v0, m, kd, xk, mg, a0, a1, b, dd, depth):
                  types.float64[:, ::1], types.int8[::1]), **_JIT)
 def _simulate_all(v0, m, kd, stroke, s0, g, a0, a1, b, dd, depth, speed_given, skip, out, code):
     """Each design from contact to its end, its figures into the rows of ``out`` (:data:`_ROWS`) and its end
-    into ``code``: the closed form at C = 0, the damped path otherwise; a design with a ``skip`` code is not
+    into ``code``: the closed form at C = 0, the damped path (Taylor steps, then the exact linear flow) otherwise; a design with a ``skip`` code is not
     simulated, nor is one whose forces are beyond float64's useful range (``overflow``): their figures are
     NaN (:data:`NOT_SIMULATED`)."""
+    wk = np.empty((damped.WORK_ROWS, damped.ORDER + 1))
     for i in range(v0.size):
         u_start = s0[i] if speed_given else 0.0  # a given speed at contact starts the books at the surface
         t = x = v = e_damp = e_inert = peak = peak_x = 0.0
@@ -202,7 +203,7 @@ def _simulate_all(v0, m, kd, stroke, s0, g, a0, a1, b, dd, depth, speed_given, s
             else:  # C > 0: time steps, then the exact linear flow
                 t_est = _time_estimate(speed, m[i], kd[i], xk, mg, c0, c1, b[i], dd[i], depth[i])
                 t, x, v, e_damp, e_inert, peak, peak_x, code[i] = damped.run_one(
-                    speed, m[i], kd[i], xk, mg, c0, c1, b[i], dd[i], depth[i], t_est)
+                    speed, m[i], kd[i], xk, mg, c0, c1, b[i], dd[i], depth[i], t_est, wk)
         v_final = v if code[i] == FULL_DEPTH else 0.0
         u_end = x + s0[i]
         out[0, i] = speed

@@ -3,9 +3,14 @@ r"""Penetration with damping (C > 0) over arrays of designs, time as the indepen
 In the material the motion obeys :math:`m\ddot x = F(x) - b\dot x - d\dot x^2` with F piecewise linear
 (springs pushing until :math:`x_k`, then not), b = wTC and d = wTKρ.  Two regimes:
 
-1. **RK4**, each design on its own steps: an estimate of its penetration time over :data:`STEPS`, doubled
-   after every :data:`STEPS` steps, and never more than ``0.25·m/(b + 2dv)`` so that the damping's time
-   scale is resolved (explicit steps beyond it diverge at large damping).
+1. **Taylor series** of order :data:`ORDER`, each design on its own steps.  The right-hand side is a
+   polynomial in (x, v), so the series' coefficients follow one from another by a recurrence (the v² term
+   is a Cauchy product), and so do those of the damping's and the inertia term's work.  A step is as long
+   as the series' last two terms allow within :data:`TAYLOR_TOL` of the design's depth and speed scales
+   (Jorba & Zou's rule), so it is set by the motion's own scale (the nearest complex singularity of the
+   v² term's Riccati motion, or a few damping times m/b when the damping is heavy), not by a fraction of
+   the damping time: around Appendix C a run is one to three steps.  Events (arrest, full depth, springs at
+   free length, creep) and the peak of R are found on the step's polynomials.
 2. **Exact linear flow** once ``d·v ≤ LINEAR_TOL·b`` (the v² term is then a relative perturbation of the
    damping force below LINEAR_TOL, and is kept linearised about the step's starting speed): on each
    spring segment :math:`\ddot\xi = -\omega_0^2\xi + 2\sigma\dot\xi` about the segment's rest depth
@@ -37,29 +42,40 @@ from pencli.predict.compiled import creep_point as _creep_point
 from pencli.predict.compiled import reduced as _reduced
 from pencli.predict.compiled import static_work as _static_work
 
+ORDER = 12
+"""Degree of the Taylor polynomials of the first regime. [–]"""
+TAYLOR_TOL = 1e-10
+"""Each Taylor step's last two terms stay within this share of the design's depth (for x) and speed scale
+(for v, the larger of the contact speed and √(|F|·depth/m)). [–]"""
+WORK_ROWS = 4
+"""Rows of the work array :func:`run_one` takes: (WORK_ROWS, ORDER + 1) floats."""
 STEPS = 160
-"""RK4 steps over a design's estimated penetration time (doubled after as many steps again)."""
-STIFF_STEP = 0.25
-"""RK4 step limit in units of the damping time m/(b + 2dv). [–]  At 0.5, a light body with a wide blade in dense
-material (λ·depth ≈ 700, C = 5,000 Pa·s/m) ended 1.3e-4 off in time against DOP853 at rtol 1e-12; at 0.25,
-5.8e-6 (bench_batch_fuzz), at no cost on damped designs around Appendix C (47,000 a second on one core)."""
+"""A design that is linear from contact starts the linear flow on a step of its estimated penetration time
+over STEPS (the flow is exact; the steps double from there)."""
+_PEAK_SAMPLES = 8
+"""The slope of R is sampled at this many points of a Taylor step to find where it turns (a peak). [–]"""
 LINEAR_TOL = 1e-5
 """Hand a design to the exact linear flow once d·v ≤ LINEAR_TOL·b. [–]"""
 LINEARISE_TOL = 1e-9
 """Linear-flow steps are limited so that the linearised v² term errs by at most this fraction of the
 damping force: d·Δv² ≤ LINEARISE_TOL·b·v. [–]"""
-HANDOVER_STEPS = 20_000
-"""RK4 steps after which the exact linear flow takes over even while d·v > LINEAR_TOL·b (its steps are then
-capped so that the linearised v² term stays within LINEARISE_TOL): RK4 at a quarter of the damping time
-m/b ran out of 2·10⁶ steps 1.8 s into a 50-s creep at C = 42,000 kPa·s/m.  Designs that hand over by
-LINEAR_TOL take a few hundred steps."""
+HANDOVER_STEPS = 2_500
+"""Taylor steps after which the exact linear flow takes over even while d·v > LINEAR_TOL·b (its steps are then
+capped so that the linearised v² term stays within LINEARISE_TOL): a heavily damped design creeps for
+thousands of damping times (a 50-s creep at C = 42,000 kPa·s/m), which explicit steps of a few damping times
+each cannot afford."""
 MAX_STEPS = 2_000_000
 """Linear-flow steps per design at most; a design still moving after them ends as ``stalled`` (one of 2,000
-damped designs of bench_batch_fuzz, seed 7, C up to 10⁸ Pa·s/m, did before RK4 handed over by step count)."""
+damped designs of bench_batch_fuzz, seed 7, C up to 10⁸ Pa·s/m, did before the first regime handed over by
+step count)."""
 _BISECT = 60
-_G5_NODES, _G5_WEIGHTS = np.polynomial.legendre.leggauss(5)
-_G5_NODES = 0.5 * (_G5_NODES + 1.0)
-_G5_WEIGHTS = 0.5 * _G5_WEIGHTS
+_ROOT_TOL = 1e-6
+"""Newton on a step's polynomial stops once its correction is below this share of the bracket: the point it
+moved to is then off by about the square of it (10⁻¹²). [–]"""
+_INVERSE = 1.0 / np.arange(1.0, 65.0)
+_INVERSE = np.concatenate((np.array([np.inf]), _INVERSE))  # _INVERSE[i] = 1/i
+_G4_NODES, _G4_WEIGHTS = np.polynomial.legendre.leggauss(4)
+_G4_NODES, _G4_WEIGHTS = 0.5 * (_G4_NODES + 1.0), 0.5 * _G4_WEIGHTS  # on [0, 1]
 _FACT = np.cumprod(np.array([1.0] + list(range(1, 23)), dtype=float))
 
 ARREST, FULL_DEPTH, CREEP, STALLED = 0, 1, 2, 3
@@ -87,41 +103,6 @@ def _linear_ready(x, v, m, kd, xk, mg, a0, a1, b, d):
     if d == 0.0:
         return True
     return _accel(x, v, m, kd, xk, mg, a0, a1, b, d) <= 0.0 and d * max(v, 0.0) <= LINEAR_TOL * b
-
-
-@njit(**_JIT)
-def _step(xs, vs, h, m, kd, xk, mg, a0, a1, b, d):
-    """One classical RK4 step of length h: (x, v, damping energy, inertia energy, a at start, a at end)."""
-    a_s = _accel(xs, vs, m, kd, xk, mg, a0, a1, b, d)
-    k2x, k2v = vs + 0.5 * h * a_s, _accel(xs + 0.5 * h * vs, vs + 0.5 * h * a_s, m, kd, xk, mg, a0, a1, b, d)
-    k3x, k3v = vs + 0.5 * h * k2v, _accel(xs + 0.5 * h * k2x, vs + 0.5 * h * k2v, m, kd, xk, mg, a0, a1, b, d)
-    k4x, k4v = vs + h * k3v, _accel(xs + h * k3x, vs + h * k3v, m, kd, xk, mg, a0, a1, b, d)
-    xn = xs + h * (vs + 2 * k2x + 2 * k3x + k4x) / 6
-    vn = vs + h * (a_s + 2 * k2v + 2 * k3v + k4v) / 6
-    v1, v2, v3, v4 = max(vs, 0.0), max(k2x, 0.0), max(k3x, 0.0), max(k4x, 0.0)
-    ed = h * b * (v1 * v1 + 2 * v2 * v2 + 2 * v3 * v3 + v4 * v4) / 6  # ∫ b v² dt
-    ei = h * d * (v1 ** 3 + 2 * v2 ** 3 + 2 * v3 ** 3 + v4 ** 3) / 6  # ∫ d v³ dt
-    return xn, vn, ed, ei, a_s, _accel(xn, vn, m, kd, xk, mg, a0, a1, b, d)
-
-
-@njit(**_JIT)
-def _hermite_xv(x0, v0, a0, x1, v1, a1, h, s):
-    """Cubic Hermite x(s) (derivative v) and v(s) (derivative a) on a step of length h."""
-    s2, s3 = s * s, s * s * s
-    h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, s3 - 2 * s2 + s, -2 * s3 + 3 * s2, s3 - s2
-    return (h00 * x0 + h10 * h * v0 + h01 * x1 + h11 * h * v1,
-            h00 * v0 + h10 * h * a0 + h01 * v1 + h11 * h * a1)
-
-
-@njit(**_JIT)
-def _resistance_slope(x0, v0, a0, x1, v1, a1, h, s, fa1, b, d):
-    """dR/ds of R = a0 + a1·x + b·v + d·v² along the Hermite interpolant of a step (its sign matters)."""
-    _, v = _hermite_xv(x0, v0, a0, x1, v1, a1, h, s)
-    s2 = s * s
-    d00, d10, d01, d11 = 6 * s2 - 6 * s, 3 * s2 - 4 * s + 1, -6 * s2 + 6 * s, 3 * s2 - 2 * s
-    dx = d00 * x0 + d10 * h * v0 + d01 * x1 + d11 * h * v1
-    dv = d00 * v0 + d10 * h * a0 + d01 * v1 + d11 * h * a1
-    return fa1 * dx + (b + 2.0 * d * max(v, 0.0)) * dv
 
 
 @njit(**_JIT)
@@ -166,36 +147,31 @@ def _lin_state(s, h, xi0, v, sigma, mu2, w2, x_star, shifted, x0, v_term):
 
 
 @njit(**_JIT)
-def _at(on_flow, s, p):
-    """(x, v) at the fraction s of a step: the cubic Hermite interpolant of an RK4 step (``p`` = x0, v0, a0,
-    x1, v1, a1, h, …) or the linear flow (``p`` = h, ξ0, v, σ, μ², ω², x*, shifted, x0, v_term, …)."""
-    if on_flow:
-        return _lin_state(s, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7] > 0.0, p[8], p[9])
-    return _hermite_xv(p[0], p[1], p[2], p[3], p[4], p[5], p[6], s)
+def _at(s, p):
+    """(x, v) at the fraction s of a linear-flow step (``p`` = h, ξ0, v, σ, μ², ω², x*, shifted, x0, v_term, …)."""
+    return _lin_state(s, p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7] > 0.0, p[8], p[9])
 
 
 @njit(**_JIT)
-def _rise(on_flow, s, p):
-    """A quantity with the sign of dR/dt at the fraction s of a step (R = a0 + a1·x + b·v + d·v²); ``p[10:13]``
-    = a1, b, d, and for the flow ``p[13:17]`` = F, k, b of the linearised force and m."""
+def _rise(s, p):
+    """A quantity with the sign of dR/dt at the fraction s of a linear-flow step (R = a0 + a1·x + b·v + d·v²);
+    ``p[10:13]`` = a1, b, d and ``p[13:17]`` = F, k, b of the linearised force and m."""
     fa1, b, d = p[10], p[11], p[12]
-    if on_flow:
-        x, v = _at(on_flow, s, p)
-        return fa1 * v + (b + 2.0 * d * v) * (p[13] - p[14] * x - p[15] * v) / p[16]
-    return _resistance_slope(p[0], p[1], p[2], p[3], p[4], p[5], p[6], s, fa1, b, d)
+    x, v = _at(s, p)
+    return fa1 * v + (b + 2.0 * d * v) * (p[13] - p[14] * x - p[15] * v) / p[16]
 
 
 @njit(**_JIT)
-def _bisect(on_flow, mode, target, hi, p):
-    """Largest s in [0, hi] where (mode 0) v(s) > 0, (1) x(s) < target, (2) dR/dt > 0 on a step (see
-    :func:`_at`); the condition holds at 0 and fails at hi."""
+def _bisect(mode, target, hi, p):
+    """Largest s in [0, hi] where (mode 0) v(s) > 0, (1) x(s) < target, (2) dR/dt > 0 on a linear-flow step;
+    the condition holds at 0 and fails at hi."""
     lo = 0.0
     for _ in range(_BISECT):
         mid = 0.5 * (lo + hi)
         if mode == 2:
-            up = _rise(on_flow, mid, p) > 0.0
+            up = _rise(mid, p) > 0.0
         else:
-            x, v = _at(on_flow, mid, p)
+            x, v = _at(mid, p)
             up = v > 0.0 if mode == 0 else target - x > 0.0
         if up:
             lo = mid
@@ -205,8 +181,124 @@ def _bisect(on_flow, mode, target, hi, p):
 
 
 @njit(**_JIT)
-def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
-    """One damped design from contact at speed ``v0`` (SI): (time [s], final depth [m], final speed [m/s],
+def _series(wk, n, x, v, F0, k, m, b, d):
+    """Taylor coefficients to degree n of the motion m·x'' = F0 − k·x − b·x' − d·x'² from (x, v) into the rows
+    of ``wk``: x, v and v² (to degree n − 1).  The v² term is a Cauchy product, so each coefficient follows
+    from the ones before (automatic differentiation of a polynomial field)."""
+    X, V, Q = wk[0], wk[1], wk[2]
+    X[0], V[0] = x, v
+    for i in range(n):
+        q0 = q1 = 0.0  # the product is symmetric: each pair twice, the middle term once; two sums side by side
+        half = (i + 1) // 2
+        for j in range(0, half - 1, 2):
+            q0 += V[j] * V[i - j]
+            q1 += V[j + 1] * V[i - j - 1]
+        if half % 2 == 1:
+            q0 += V[half - 1] * V[i - half + 1]
+        q = 2.0 * (q0 + q1)
+        if i % 2 == 0:
+            q += V[i // 2] * V[i // 2]
+        Q[i] = q
+        X[i + 1] = V[i] * _INVERSE[i + 1]
+        V[i + 1] = ((F0 if i == 0 else 0.0) - k * X[i] - b * V[i] - d * q) * (_INVERSE[i + 1] / m)
+
+
+@njit(**_JIT)
+def _step_length(X, V, n, x_tol, v_tol):
+    """The step whose last two terms of the series of degree n stay within x_tol and v_tol (Jorba & Zou's
+    rule); inf when they vanish. [s]"""
+    h = math.inf
+    for p in (n - 1, n):
+        ratio = min(x_tol / abs(X[p]) if X[p] != 0.0 else math.inf, v_tol / abs(V[p]) if V[p] != 0.0 else math.inf)
+        if ratio < math.inf:
+            h = min(h, ratio ** (1.0 / p))
+    return h
+
+
+@njit(**_JIT)
+def _poly(c, n, s):
+    """Σ c[i]·s^i for i ≤ n (Horner)."""
+    y = c[n]
+    for i in range(n - 1, -1, -1):
+        y = y * s + c[i]
+    return y
+
+
+@njit(**_JIT)
+def _poly_pair(c, e, n, s):
+    """(Σ c[i]·s^i, Σ e[i]·s^i) for i ≤ n: two Horner chains in one loop (they run side by side)."""
+    y, z = c[n], e[n]
+    for i in range(n - 1, -1, -1):
+        y = y * s + c[i]
+        z = z * s + e[i]
+    return y, z
+
+
+@njit(**_JIT)
+def _poly_and_slope(c, n, s):
+    """(Σ c[i]·s^i, its derivative) for i ≤ n, in one loop."""
+    y, dy = c[n], 0.0
+    for i in range(n - 1, -1, -1):
+        dy = dy * s + y
+        y = y * s + c[i]
+    return y, dy
+
+
+@njit(**_JIT)
+def _poly4(c, n, s0, s1, s2, s3):
+    """Σ c[i]·s^i at four points, the four chains side by side."""
+    y0 = y1 = y2 = y3 = c[n]
+    for i in range(n - 1, -1, -1):
+        y0 = y0 * s0 + c[i]
+        y1 = y1 * s1 + c[i]
+        y2 = y2 * s2 + c[i]
+        y3 = y3 * s3 + c[i]
+    return y0, y1, y2, y3
+
+
+@njit(**_JIT)
+def _rate_integrals(V, n, s):
+    """(∫₀^s v², ∫₀^s v³) for v(u) = Σ V[i]·u^i (i ≤ n): Gauss–Legendre on four nodes.  A Taylor step is a
+    small share of the series' radius of convergence ρ (about TAYLOR_TOL^(1/ORDER)·ρ), so the rule errs by
+    about that share to the eighth power (10⁻¹¹ at the defaults)."""
+    v4 = _poly4(V, n, s * _G4_NODES[0], s * _G4_NODES[1], s * _G4_NODES[2], s * _G4_NODES[3])
+    v2 = v3 = 0.0
+    for j in range(4):
+        w_sq = _G4_WEIGHTS[j] * v4[j] * v4[j]
+        v2 += w_sq
+        v3 += w_sq * v4[j]
+    return v2 * s, v3 * s
+
+
+@njit(**_JIT)
+def _root(c, n, target, lo, hi, f_lo, f_hi):
+    """s in (lo, hi] where the polynomial ``c`` of degree n crosses ``target`` (f_lo = c(lo) − target on one side
+    of 0, f_hi = c(hi) − target on the other or 0): Newton kept inside the bracket by bisection, to
+    round-off."""
+    below = f_lo < 0.0
+    s = lo + (hi - lo) * f_lo / (f_lo - f_hi) if f_lo != f_hi else 0.5 * (lo + hi)  # the secant's guess
+    width = hi - lo
+    for _ in range(_BISECT):
+        f, slope = _poly_and_slope(c, n, s)
+        f -= target
+        if f == 0.0:
+            return s
+        if (f < 0.0) == below:
+            lo = s
+        else:
+            hi = s
+        step = s - f / slope if slope != 0.0 else 0.5 * (lo + hi)
+        s_new = step if lo < step < hi else 0.5 * (lo + hi)
+        if abs(s_new - s) <= _ROOT_TOL * width:  # s_new is then off by about the square of this correction
+            return s_new
+        s = s_new
+    return s
+
+
+@njit(**_JIT)
+def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est, wk):
+    """One damped design from contact at speed ``v0`` (SI; ``wk`` a work array of :data:`WORK_ROWS` ×
+    ``ORDER + 1`` floats, ``t_est`` a rough penetration time): (time [s], final depth [m], final speed [m/s],
     damping energy [J], inertia energy [J], peak R [N], its depth [m], end code)."""
     t, x, v = 0.0, 0.0, v0
     e_damp, e_inert = 0.0, 0.0
@@ -214,86 +306,85 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
     start = mg - a0 + (kd * xk if xk > 0.0 else 0.0)
     if v <= 0.0 and start <= 0.0:
         return t, x, v, e_damp, e_inert, peak, peak_x, ARREST
-    h = min(max(t_est, 1e-9), 10.0) / STEPS
     creep_at, creep_speed, creep_rest, _ = _creep_point(m, kd, xk, mg, a0, a1, b, depth)  # nan: cannot creep
 
-    # ---- 1. RK4 until the design ends or reaches the linear regime
-    linear = _linear_ready(x, v, m, kd, xk, mg, a0, a1, b, d)
+    # ---- 1. Taylor steps until the design ends or reaches the linear regime
+    X, V, Q, R = wk[0], wk[1], wk[2], wk[3]
+    x_tol = TAYLOR_TOL * depth
+    v_tol = TAYLOR_TOL * max(v0, math.sqrt(abs(start) * depth / m))
+    h = math.inf
     count = 0
-    h_plan = h
-    while not linear:
+    while not _linear_ready(x, v, m, kd, xk, mg, a0, a1, b, d):
         count += 1
         if count > HANDOVER_STEPS:  # stiff: the linear flow, whose steps bound the linearisation's error
             break
-        h = min(h_plan, STIFF_STEP * m / (b + 2.0 * d * max(v, 0.0)))
-        xs, vs = x, v
-        xn, vn, ed, ei, a_s, an = _step(xs, vs, h, m, kd, xk, mg, a0, a1, b, d)
-        # where the step ends: arrest (v = 0) on the cubic Hermite interpolant; full depth, or the springs'
-        # free length (the force's slope jumps there), by a step redone to end there
-        stop_v = vn <= 0.0
-        s = 1.0
-        if stop_v:
-            s = _bisect(False, 0, 0.0, 1.0, (xs, vs, a_s, xn, vn, an, h, 0.0, 0.0, 0.0, a1, b, d, 0.0, 0.0, 0.0, 0.0))
-        x_reach = _hermite_xv(xs, vs, a_s, xn, vn, an, h, s)[0] if stop_v else xn
-        kink = xs < xk < depth and x_reach >= xk
-        # creep (the rule pen predict uses): the tip passes x* − δ, before any other event of the step, slowly
-        if xs < creep_at <= x_reach and not (kink and xk <= creep_at):
-            s_c = _bisect(False, 1, creep_at, s, (xs, vs, a_s, xn, vn, an, h, 0.0, 0.0, 0.0, a1, b, d, 0.0, 0.0, 0.0,
-                                                   0.0))
-            if _hermite_xv(xs, vs, a_s, xn, vn, an, h, s_c)[1] <= creep_speed:
-                x_c, v_c, ed, ei, _, _ = _step(xs, vs, s_c * h, m, kd, xk, mg, a0, a1, b, d)
-                r_c = _reduced(x_c, max(v_c, 0.0), a0, a1, b, d)
-                if r_c > peak:
-                    peak, peak_x = r_c, x_c
-                e_damp += ed + _static_work(x_c, creep_rest, xk, kd, mg, a0, a1) + 0.5 * m * v_c * v_c
-                return t + s_c * h, creep_rest, 0.0, e_damp, e_inert + ei, peak, peak_x, CREEP
-        stop_x = not kink and x_reach >= depth  # maybe passed before v = 0 in the same step
-        cut = kink or stop_x
-        if cut:
-            target = xk if kink else depth
-            s = _bisect(False, 1, target, s, (xs, vs, a_s, xn, vn, an, h, 0.0, 0.0, 0.0, a1, b, d, 0.0, 0.0, 0.0, 0.0))
-            x_cut, v_cut, ed, ei, _, a_cut = _step(xs, vs, s * h, m, kd, xk, mg, a0, a1, b, d)
-            # land exactly on the target: move the remaining round-off of x with the energy it costs
-            xn = target
-            vn = math.sqrt(max(v_cut * v_cut + 2.0 * a_cut * (target - x_cut), 0.0))
-            an = _accel(xn, vn, m, kd, xk, mg, a0, a1, b, d)
-            stop_v = False
-        if stop_v:  # an arrest's energies: Gauss on the interpolant (v³ is degree 9: exact)
-            ed, ei = 0.0, 0.0
-            for i in range(5):
-                vq = max(_hermite_xv(xs, vs, a_s, xn, vn, an, h, s * _G5_NODES[i])[1], 0.0)
-                ed += _G5_WEIGHTS[i] * s * h * b * vq * vq
-                ei += _G5_WEIGHTS[i] * s * h * d * vq ** 3
-        if cut:
-            x_end, v_end, h_used, s_used = xn, vn, s * h, 1.0  # a cut step was redone to its end
-        else:
-            x_end, v_end = _hermite_xv(xs, vs, a_s, xn, vn, an, h, s if stop_v else 1.0)
-            if stop_v:
-                v_end = 0.0
-            h_used, s_used = h, s
-        # peak of R: at the step's end, or inside where dR/ds changes sign
-        r_end = _reduced(x_end, max(v_end, 0.0), a0, a1, b, d)
+        in_spring = x < xk
+        F0 = (kd * xk if in_spring else 0.0) + mg - a0
+        k = (kd if in_spring else 0.0) + a1
+        n = ORDER
+        _series(wk, n, x, v, F0, k, m, b, d)
+        h = _step_length(X, V, n, x_tol, v_tol)
+        x_far, v_far = _poly_pair(X, V, n, h)
+        if not h < math.inf:  # at rest in equilibrium: nothing moves
+            return t, x, 0.0, e_damp, e_inert, peak, peak_x, ARREST
+        s_end, kind = h, -1
+        if v_far <= 0.0:  # arrest: v changes sign once (it cannot rise again from 0 in the material)
+            s_end, kind = _root(V, n, 0.0, 0.0, h, v, v_far), ARREST
+            x_far = _poly(X, n, s_end)
+        for event in range(3):  # the first of: full depth, springs at free length, creep — before s_end
+            if event == 0:
+                name, target, applies = FULL_DEPTH, depth, True
+            elif event == 1:
+                name, target, applies = _KINK, xk, in_spring and xk < depth
+            else:
+                name, target, applies = CREEP, creep_at, creep_at == creep_at  # not nan: the design can creep
+            if not (applies and target > x and x_far >= target):
+                continue
+            s_hit = _root(X, n, target, 0.0, s_end, x - target, x_far - target)
+            if name == CREEP and not _poly(V, n, s_hit) <= creep_speed:
+                continue  # only a slow approach creeps; a fast one overshoots and arrests
+            if s_hit <= s_end:
+                s_end, kind, x_far = s_hit, name, target
+        x_new, v_new = _poly_pair(X, V, n, s_end)
+        x_new = x_far if kind != -1 else x_new
+        v_new = 0.0 if kind == ARREST else max(v_new, 0.0)
+        # peak of R = a0 + a1·x + b·v + d·v²: at the step's end, or inside where dR/ds turns from + to −
+        for i in range(n - 1):  # the slope of R as a polynomial of degree n − 2 (row 4)
+            R[i] = (i + 1) * (a1 * X[i + 1] + b * V[i + 1] + d * Q[i + 1])
+        r_end = _reduced(x_new, v_new, a0, a1, b, d)
         if r_end > peak:
-            peak, peak_x = r_end, x_end
-        rise0 = a1 * vs + (b + 2.0 * d * max(vs, 0.0)) * a_s
-        rise1 = _resistance_slope(xs, vs, a_s, xn, vn, an, h_used, s_used, a1, b, d)
-        if rise0 > 0.0 and rise1 < 0.0:
-            s_top = _bisect(False, 2, 0.0, s_used,
-                            (xs, vs, a_s, xn, vn, an, h_used, 0.0, 0.0, 0.0, a1, b, d, 0.0, 0.0, 0.0, 0.0))
-            xm, vm = _hermite_xv(xs, vs, a_s, xn, vn, an, h_used, s_top)
-            rm = _reduced(xm, max(vm, 0.0), a0, a1, b, d)
-            if rm > peak:
-                peak, peak_x = rm, xm
-        t += s * h
-        e_damp += ed
-        e_inert += ei
-        x, v = x_end, v_end
-        if stop_v or stop_x:
-            return t, x, v, e_damp, e_inert, peak, peak_x, FULL_DEPTH if stop_x else ARREST
-        if count % STEPS == 0:
-            h_plan *= 2.0
-        if count % 8 == 0 or count == 1:  # regime check: hand over to the exact linear flow
-            linear = _linear_ready(x, v, m, kd, xk, mg, a0, a1, b, d)
+            peak, peak_x = r_end, x_new
+        bound = R[0]  # an upper bound of the slope on the step: if it stays negative, R only falls
+        span = 1.0
+        for i in range(1, n - 1):
+            span *= s_end
+            bound += max(R[i] * span, 0.0)
+        rising = R[0] > 0.0
+        q = s_end / _PEAK_SAMPLES
+        for j0 in range(0, _PEAK_SAMPLES if bound > 0.0 else 0, 4):  # the slope's sign at the samples, 4 at a time
+            slopes = _poly4(R, n - 2, (j0 + 1) * q, (j0 + 2) * q, (j0 + 3) * q, (j0 + 4) * q)
+            for j in range(4):
+                now = slopes[j] > 0.0
+                if rising and not now:
+                    lo = (j0 + j) * q
+                    s_top = _root(R, n - 2, 0.0, lo, lo + q, _poly(R, n - 2, lo), slopes[j])
+                    x_top, v_top = _poly_pair(X, V, n, s_top)
+                    r_top = _reduced(x_top, max(v_top, 0.0), a0, a1, b, d)
+                    if r_top > peak:
+                        peak, peak_x = r_top, x_top
+                rising = now
+        work_v2, work_v3 = _rate_integrals(V, n, s_end)
+        e_damp += b * work_v2
+        e_inert += d * work_v3
+        t += s_end
+        x, v = (xk if kind == _KINK else x_new), v_new
+        if kind == CREEP:  # the run is booked at its rest depth, where the motion tends
+            e_damp += _static_work(x, creep_rest, xk, kd, mg, a0, a1) + 0.5 * m * v * v
+            return t, creep_rest, 0.0, e_damp, e_inert, peak, peak_x, CREEP
+        if kind == ARREST or kind == FULL_DEPTH:
+            return t, x, v, e_damp, e_inert, peak, peak_x, kind
+    if count == 0:  # linear from contact: the flow's first step (it doubles from there)
+        h = min(max(t_est, 1e-9), 10.0) / STEPS
 
     # ---- 2. the exact linear flow, events located on it
     v = max(v, 0.0)
@@ -319,14 +410,14 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
         xi0 = x - x_star if shifted else 0.0
         v_term = F_lin / b_lin  # k = 0: v tends to F/b
         flow = (h, xi0, v, sigma, mu2, w2, x_star, 1.0 if shifted else 0.0, x, v_term, a1, b, d, F_lin, k, b_lin, m)
-        x1, v1 = _at(True, 1.0, flow)
+        x1, v1 = _at(1.0, flow)
         s_end = 1.0
         kind = -1
         # arrest: v changes sign at most once in a step (overdamped always; underdamped by the cap)
         if v1 <= 0.0:
-            s_end = _bisect(True, 0, 0.0, 1.0, flow)
+            s_end = _bisect(0, 0.0, 1.0, flow)
             kind = ARREST
-        x_far = _at(True, s_end, flow)[0]  # x rises while v > 0
+        x_far = _at(s_end, flow)[0]  # x rises while v > 0
         # the first of: full depth, springs at free length, creep — each before s_end
         for event in range(3):
             if event == 0:
@@ -337,13 +428,13 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
                 name, target, applies = CREEP, creep_at, creep_at == creep_at  # not nan: the design can creep
             if not (applies and target > x and x_far >= target):
                 continue
-            s_hit = _bisect(True, 1, target, s_end, flow)
+            s_hit = _bisect(1, target, s_end, flow)
             if name == CREEP:  # only a slow approach creeps; a fast one overshoots and arrests
-                if not _at(True, s_hit, flow)[1] <= creep_speed:
+                if not _at(s_hit, flow)[1] <= creep_speed:
                     continue
             if s_hit <= s_end:
                 s_end, kind, x_far = s_hit, name, target
-        x_new, v_new = _at(True, s_end, flow)
+        x_new, v_new = _at(s_end, flow)
         if kind == FULL_DEPTH or kind == _KINK or kind == CREEP:
             x_new = x_far  # on the target
         v_new = 0.0 if kind == ARREST else max(v_new, 0.0)
@@ -351,9 +442,9 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
         r1 = _reduced(x_new, v_new, a0, a1, b, d)
         if r1 > peak:
             peak, peak_x = r1, x_new
-        if _rise(True, 0.0, flow) > 0.0 and _rise(True, s_end, flow) < 0.0:
-            s_top = _bisect(True, 2, 0.0, s_end, flow)
-            xt, vt = _at(True, s_top, flow)
+        if _rise(0.0, flow) > 0.0 and _rise(s_end, flow) < 0.0:
+            s_top = _bisect(2, 0.0, s_end, flow)
+            xt, vt = _at(s_top, flow)
             rt = _reduced(xt, max(vt, 0.0), a0, a1, b, d)
             if rt > peak:
                 peak, peak_x = rt, xt
@@ -375,5 +466,5 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est):
     return t, x, v, e_damp, e_inert, peak, peak_x, STALLED
 
 
-__all__ = ["ARREST", "CREEP", "FULL_DEPTH", "HANDOVER_STEPS", "LINEAR_TOL", "MAX_STEPS", "STALLED", "STEPS",
+__all__ = ["ARREST", "CREEP", "FULL_DEPTH", "HANDOVER_STEPS", "LINEAR_TOL", "MAX_STEPS", "ORDER", "STALLED", "STEPS", "TAYLOR_TOL", "WORK_ROWS",
            "rest_depth", "run_one"]
