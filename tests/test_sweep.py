@@ -402,3 +402,45 @@ def test_designs_not_simulated_have_no_figures_and_are_counted_by_reason(tmp_pat
     base = json.loads(pq.read_schema(out).metadata[b"pen:base"])
     arrays = {k: np.asarray(v) for k, v in table.items()}
     assert sweep_boundary(arrays, base, "load_cell_mass_kg", "surface_offset_mm", []).shape == (0, 2)
+
+
+@pytest.mark.parametrize("damping_pa_s_m", [3e4, 3e5, 3e6])
+def test_damped_batch_with_the_inertia_term_matches_its_closed_form(damping_pa_s_m):
+    """No springs in the bed and no friction: m·v' = −(c + b·v + d·v²) with c = a0 − m·g, a Riccati motion
+    with closed forms (written here, not taken from the code under test): the arrest time
+    T = m·∫₀^v0 dv/Q(v) = 2m/√Δ·(atan((2d·v0 + b)/√Δ) − atan(b/√Δ)) for Δ = 4dc − b² > 0, or
+    m/r·ln((2d·v0 + b − r)(b + r) / ((2d·v0 + b + r)(b − r))) with r = √(−Δ), the depth
+    X = m/(2d)·ln(Q(v0)/c) − b/(2d)·T, and the rate terms' work by quadrature over speed."""
+    from scipy.integrate import quad
+
+    from pencli.model.resistance import eq9_coefficients
+
+    base = design_from_sets(load_preset("appendix_c", "penetrator"), load_preset("mpacs_c", "material"),
+                            load_preset("appendix_c", "energizing"))
+    values = {f.name: getattr(base, f.name) for f in fields(Design)}
+    values.update(friction_coefficient=0.0, damping_pa_s_m=damping_pa_s_m, penetration_depth_m=2.0)
+    design = Design(**values)
+    a0, a1, b, d = (float(c) for c in eq9_coefficients(design))
+    assert a1 == 0.0 and b > 0.0 and d > 0.0
+    m, v0 = design.effective_mass_kg, 9.0
+    c = a0 - m * design.gravity_m_s2
+    q = lambda v: c + b * v + d * v * v  # noqa: E731
+    disc = 4 * d * c - b * b
+    if disc > 0:
+        root = np.sqrt(disc)
+        time = 2 * m / root * (np.arctan((2 * d * v0 + b) / root) - np.arctan(b / root))
+    else:
+        r = np.sqrt(-disc)
+        time = m / r * np.log((2 * d * v0 + b - r) * (b + r) / ((2 * d * v0 + b + r) * (b - r)))
+    depth = m / (2 * d) * np.log(q(v0) / c) - b / (2 * d) * time
+    damping_work = quad(lambda v: b * v * v * m / q(v), 0.0, v0, epsabs=0, epsrel=1e-13)[0]
+    inertia_work = quad(lambda v: d * v ** 3 * m / q(v), 0.0, v0, epsabs=0, epsrel=1e-13)[0]
+
+    arrays = designs_from({f.name: np.asarray(values[f.name], dtype=float) for f in fields(Design)})
+    arrays["surface_offset_m"] = np.asarray(design.stroke_m + 0.01)  # the springs are spent before contact
+    result = simulate_batch(arrays, speed_at_contact_m_s=v0)
+    assert result.end[0] == "arrest"
+    assert result.figures["penetration_time_s"][0] == pytest.approx(time, rel=1e-8)
+    assert result.figures["final_depth_mm"][0] == pytest.approx(depth * 1e3, rel=1e-8)
+    assert result.figures["energy_damping_j"][0] == pytest.approx(damping_work, rel=1e-8)
+    assert result.figures["energy_inertia_j"][0] == pytest.approx(inertia_work, rel=1e-8)
