@@ -1556,7 +1556,7 @@ def diagnose_soundings(units_file: str | Path, site: str, quantity: str = "qt", 
                        false_alarm: float | None = None, seed: int = 0):
     """``pen soundings diagnose``: whether the push rate changes ``quantity`` at a site, and which way
     (``pencli.diagnose.soundings.SoundingDiagnosis``); ``permutations`` and ``false_alarm`` default to
-    ``pencli.diagnose.SHUFFLES`` and ``FALSE_ALARM``."""
+    ``pencli.diagnose.SOUNDING_SHUFFLES`` and ``SOUNDING_FALSE_ALARM``."""
     from pencli.diagnose import soundings
 
     chosen, means = site_unit_means(units_file, site, quantity)

@@ -46,6 +46,23 @@ def test_sites_without_a_rate_effect_are_none_at_the_stated_rate():
     assert naive >= 10, naive
 
 
+def test_a_site_of_few_soundings_is_tested_on_every_ordering_and_says_what_it_cannot_resolve():
+    """Five soundings have 120 orderings of their rates: the null is all of them (the p-value a whole number of
+    120ths, the same whatever the seed), and the default 0.2 % rate is below the smallest p-value 1/120, so even
+    a strong effect is ``none`` with a note saying so; at 5 % it is named."""
+    rng = np.random.default_rng(31)
+    site = synthetic_site(rng, -0.3, soundings=5, sounding_sd=0.005, unit_sd=0.002)
+    strict = diagnose_soundings(site)
+    again = diagnose_soundings(site, seed=7)
+    assert strict.exact and strict.null_orderings == 119
+    assert strict.p_value == again.p_value
+    assert round(strict.p_value * 120, 9) == round(strict.p_value * 120)
+    assert strict.verdict == "none" and any("cannot resolve" in note for note in strict.notes)
+    loose = diagnose_soundings(site, false_alarm=0.05)
+    assert loose.verdict == "rate_effect" and loose.direction == "faster is weaker"
+    assert loose.p_value == pytest.approx(1 / 120)
+
+
 @pytest.mark.parametrize("K", [0.12, -0.12])
 def test_a_rate_effect_of_either_sign_is_named_with_its_direction(K):
     """Twenty soundings, each offset by 3 % (twice the clay site's held-out scatter): a change of 12 % per decade,

@@ -10,7 +10,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from pencli.commands.common import DbOption, PenTyper, console, db_path, print_json
-from pencli.diagnose import FALSE_ALARM, SHUFFLES
+from pencli.diagnose import SOUNDING_FALSE_ALARM, SOUNDING_SHUFFLES
 from pencli.fit import LAYER_MIN_THICKNESS_M as MIN_THICKNESS_M
 from pencli.lazy import lazy
 
@@ -201,9 +201,10 @@ def diagnose(
     units: Path = UNITS_FILE,
     site: str = SITE,
     quantity: str = QUANTITY,
-    permutations: int = typer.Option(SHUFFLES, "--permutations", min=19, max=9999,
-                                     help="Shuffles of the rates among the soundings that make the null."),
-    false_alarm: float = typer.Option(FALSE_ALARM, "--false-alarm", min=1e-4, max=0.5,
+    permutations: int = typer.Option(SOUNDING_SHUFFLES, "--permutations", min=19, max=99999,
+                                     help="Shuffles of the rates among the soundings that make the null (a site "
+                                          "with no more orderings of its rates is tested on all of them)."),
+    false_alarm: float = typer.Option(SOUNDING_FALSE_ALARM, "--false-alarm", min=1e-4, max=0.5,
                                       help="Probability that a site without a rate effect gets the verdict "
                                            "'rate_effect' [–]."),
     seed: int = typer.Option(0, "--seed", help="Seed of the shuffles (the same seed, the same verdict)."),
@@ -222,14 +223,16 @@ def diagnose(
               "per_decade": result.effect.per_decade, "per_decade_se": result.effect.per_decade_se,
               "p_value": result.p_value, "false_alarm": result.false_alarm,
               "heldout_rms_reference": result.heldout_rms_reference, "heldout_rms_effect": result.heldout_rms_effect,
-              "soundings": result.soundings, "notes": list(result.notes)}
+              "soundings": result.soundings, "null_orderings": result.null_orderings, "exact_null": result.exact,
+              "notes": list(result.notes)}
     if json_out:
         print_json(record)
         return
     said = (f"rate_effect: {result.direction}, K = {result.effect.per_decade:+.3f} ± "
             f"{result.effect.per_decade_se:.3f} per decade" if result.verdict == "rate_effect" else "none")
     console.print(f"{escape(site)} ({result.soundings} soundings, {quantity}): {said}  "
-                  f"(p = {result.p_value:.3f} against {permutations} shuffles of the rates; held-out relative RMS "
+                  f"(p = {result.p_value:.2g} against {result.null_orderings} "
+                  f"{'orderings' if result.exact else 'shuffles'} of the rates; held-out relative RMS "
                   f"{result.heldout_rms_reference:.3f} without, {result.heldout_rms_effect:.3f} with)")
     for note in result.notes:
         console.print(f"  note: {escape(note)}")

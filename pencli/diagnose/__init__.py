@@ -9,8 +9,17 @@ called 1.7 % (t₃) and 8.2 % (a point mass with 5 % χ²₁) of the time, from 
 (``python -m bench.bench_null_calibration 1500 7 --engine``, 1,500 trials each); about 1.5 × the time."""
 
 SHUFFLES = 199
-"""Default shuffles of the rates among a site's soundings that make the null of a sounding diagnosis
-(:mod:`pencli.diagnose.soundings`): the smallest p-value they resolve is 1/200, a fifth of the false-alarm rate."""
+"""Default rotations that make the null of a drops diagnosis (:mod:`pencli.diagnose.drops`): the smallest p-value
+they resolve is 1/200, a fifth of the false-alarm rate."""
+SOUNDING_FALSE_ALARM = 0.002
+"""Default probability that a site without a rate effect gets the verdict ``rate_effect``
+(:mod:`pencli.diagnose.soundings`).  A site is one test, cheap to resolve finely (a thousand shuffles take a few
+seconds), so the rate is set for a survey rather than a site: twenty sites without an effect all go
+uncalled with probability 0.998²⁰ = 0.96."""
+SOUNDING_SHUFFLES = 999
+"""Default shuffles of the rates among a site's soundings (the smallest p-value they resolve is 1/1000, half of
+:data:`SOUNDING_FALSE_ALARM`); a site whose soundings have no more orderings than this (up to six soundings) is
+tested on all of them, exactly."""
 
 WORKERS = 2
 """Default processes (and compiled threads) of a diagnosis: this machine class's two cores. [–]"""

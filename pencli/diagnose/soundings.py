@@ -7,7 +7,9 @@ its unit means), and the improvement summed over soundings is the
 statistic.  Its null is made from the campaign itself: the soundings' rates
 are shuffled among them (each sounding keeps its units together), which
 keeps the units, their spatial scatter and the rates' spread but breaks any
-link between rate and resistance.  The verdict is ``rate_effect`` when the
+link between rate and resistance.  A site of up to six soundings (720
+orderings) is tested on every ordering of its rates, exactly; a larger one
+on random shuffles.  The verdict is ``rate_effect`` when the
 data's improvement is beyond the null's at the stated false-alarm rate,
 and ``none`` otherwise, with the fitted K and its error beside it either
 way.  Effects this test does not model (a trend with the date, a unit
@@ -17,12 +19,15 @@ spatial scatter is noted, not explained.
 
 from __future__ import annotations
 
+import itertools
+import math
 from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
-from pencli.diagnose import FALSE_ALARM, SHUFFLES
+from pencli.diagnose import SOUNDING_FALSE_ALARM as FALSE_ALARM
+from pencli.diagnose import SOUNDING_SHUFFLES as SHUFFLES
 from pencli.errors import FitError
 from pencli.fit.rate_effect import MIN_RATE_SPAN, RateEffect, UnitMean, fit_rate_effect, solve_rate_law
 
@@ -41,13 +46,18 @@ class SoundingDiagnosis:
     improvement: float
     """Σ over soundings of the reference model's held-out squared relative error less the rate effect's."""
     p_value: float
-    """The share of shuffled campaigns (and the data) whose improvement is at least the data's."""
+    """The share of shuffled campaigns (and the data) whose improvement is at least the data's (of all orderings
+    of the rates when there are no more than the shuffles asked for)."""
     false_alarm: float
     heldout_rms_reference: float
     """RMS of the reference model's held-out relative errors (one value per unit per rate) [–]."""
     heldout_rms_effect: float
     """The same with the rate effect [–]."""
     soundings: int
+    null_orderings: int = 0
+    """How many orderings of the rates made the null (besides the data's own)."""
+    exact: bool = False
+    """The null is every ordering of the rates (a site of few soundings), not a random draw of them."""
     notes: tuple[str, ...] = ()
 
     @property
@@ -97,10 +107,16 @@ def diagnose_soundings(per_sounding: Sequence[Sequence[UnitMean]], *, reference_
     log_rates = np.log10(rates / reference_rate_mm_s)
     base, with_effect = _heldout_errors(sounding, unit, value, log_rates[sounding])
     improvement = base - with_effect
-    rng = np.random.default_rng(seed)
-    null = np.array([np.subtract(*_heldout_errors(sounding, unit, value, rng.permutation(log_rates)[sounding]))
-                     for _ in range(permutations)])
-    p_value = float((1 + np.sum(null >= improvement)) / (1 + permutations))
+    exact = math.factorial(len(groups)) <= permutations + 1
+    if exact:  # every ordering (the data's among them)
+        orders = [np.array(order) for order in itertools.permutations(range(len(groups)))]
+        orders = [o for o in orders if np.any(o != np.arange(len(groups)))]
+    else:
+        rng = np.random.default_rng(seed)
+        orders = [rng.permutation(len(groups)) for _ in range(permutations)]
+    null = np.array([np.subtract(*_heldout_errors(sounding, unit, value, log_rates[order][sounding]))
+                     for order in orders])
+    p_value = float((1 + np.sum(null >= improvement)) / (1 + len(orders)))
     n = sum(len(g) for g in groups)
     notes = []
     verdict = "rate_effect" if p_value <= false_alarm else "none"
@@ -110,9 +126,10 @@ def diagnose_soundings(per_sounding: Sequence[Sequence[UnitMean]], *, reference_
                      f"predicted better than with shuffled rates at the {false_alarm:g} false-alarm rate "
                      f"(p = {p_value:.3f}): the soundings scatter about each other more than the unit means' "
                      "error says")
-    if permutations * false_alarm < 1:
-        notes.append(f"{permutations} shuffles cannot resolve a false-alarm rate of {false_alarm:g}")
+    if 1.0 / (1 + len(orders)) > false_alarm:
+        notes.append(f"{len(orders)} {'orderings' if exact else 'shuffles'} of the rates cannot "
+                     f"resolve a false-alarm rate of {false_alarm:g}: the smallest p-value is {1 / (1 + len(orders)):.3g}")
     return SoundingDiagnosis(verdict=verdict, effect=effect, improvement=float(improvement), p_value=p_value,
                              false_alarm=false_alarm, heldout_rms_reference=float(np.sqrt(base / n)),
                              heldout_rms_effect=float(np.sqrt(with_effect / n)), soundings=len(groups),
-                             notes=tuple(notes))
+                             null_orderings=len(orders), exact=exact, notes=tuple(notes))
