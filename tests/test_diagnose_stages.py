@@ -188,3 +188,26 @@ def test_an_effect_is_described_by_its_best_member_whose_description_is_physical
     assert engine._best_admissible(total, coefficients, strength, admissible) == 2
     assert engine._best_admissible(total, coefficients, strength, None) == 0
     assert engine._best_admissible(total, coefficients, strength, lambda i, fit: False) == 0
+
+
+def test_a_plateau_names_the_edge_across_which_the_strength_changes_most():
+    """A weaker band that barely differs from the material above and a large rise at its bottom is a step at the
+    bottom edge: the description says so (the ratio across it: the strength below over the band's); a band
+    whose top edge changes most names its top, and so does one whose larger bottom change is the less certain."""
+    layer = EFFECTS["strength_layer"]
+    weaker = next(m for m in layer.members if m.params.get("band") == "weaker")
+    stronger = next(m for m in layer.members if m.params.get("band") == "stronger")
+    context = {"cs_mean": 2.0}
+    step_below = layer.describe(weaker, np.array([0.02, 1.8]), context)  # band ×0.99, then +0.9 of Cs below it
+    assert step_below["main_edge_mm"] == weaker.params["bottom_mm"]
+    assert step_below["main_edge_ratio"] == pytest.approx((1 - 0.01 + 0.9) / (1 - 0.01))
+    band = layer.describe(stronger, np.array([1.0, 0.2]), context)  # ×1.5 band, most of it kept below
+    assert band["main_edge_mm"] == stronger.params["depth_mm"]
+    assert band["main_edge_ratio"] == pytest.approx(1.5)
+    # a larger change at the bottom that the null replicates scatter widely (the runs' last millimetres see it)
+    # is less certain than the top's: the top is the main edge
+    uncertain = layer.describe(weaker, np.array([0.8, 2.0]), {**context, "coefficient_spread": np.array([0.1, 3.0])})
+    assert uncertain["main_edge_mm"] == weaker.params["depth_mm"]
+    assert uncertain["main_edge_ratio"] == pytest.approx(0.6)
+    step = layer.describe(next(m for m in layer.members if m.params["shape"] != "plateau"), np.array([1.0]), context)
+    assert "main_edge_mm" not in step

@@ -1292,7 +1292,8 @@ def report_effects(baseline: Baseline, scan: FamilyScan, drive: DriveView, reque
                                          for c, s in zip(coefs, spread_c)],
                      "shapes_chosen_per_fold": _shape_spread(chosen)}
         reports[e.name] = EffectReport(
-            e.name, e.side, "resistance", e.describe(cand.member, coefs, _own_context(baseline.context, fit)),
+            e.name, e.side, "resistance",
+            e.describe(cand.member, coefs, {**_own_context(baseline.context, fit), "coefficient_spread": spread_c}),
             intervals, math.sqrt(max(family.heldout[0], 0.0)), round(shrink, 2), _counts(S0, t, scan.z_threshold),
             round(t.z, 2), (S0[0] - family.heldout[0]) / scan.excess if scan.excess > 0 else None,
             math.sqrt(max(t.centre + scan.z_threshold * t.scale, 0.0)))
