@@ -204,6 +204,17 @@ def _series(wk, n, x, v, F0, k, m, b, d):
 
 
 @njit(**_JIT)
+def _event(event, depth, xk, in_spring, creep_at):
+    """(end code, depth it happens at [m], whether it can happen) of a step's events, in the order they are
+    looked for: full depth, the springs at free length, creep (``creep_at`` NaN: the design cannot creep)."""
+    if event == 0:
+        return FULL_DEPTH, depth, True
+    if event == 1:
+        return _KINK, xk, in_spring and xk < depth
+    return CREEP, creep_at, creep_at == creep_at
+
+
+@njit(**_JIT)
 def _step_length(X, V, n, x_tol, v_tol):
     """The step whose last two terms of the series of degree n stay within x_tol and v_tol (Jorba & Zou's
     rule); inf when they vanish. [s]"""
@@ -332,12 +343,7 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est, wk):
             s_end, kind = _root(V, n, 0.0, 0.0, h, v, v_far), ARREST
             x_far = _poly(X, n, s_end)
         for event in range(3):  # the first of: full depth, springs at free length, creep — before s_end
-            if event == 0:
-                name, target, applies = FULL_DEPTH, depth, True
-            elif event == 1:
-                name, target, applies = _KINK, xk, in_spring and xk < depth
-            else:
-                name, target, applies = CREEP, creep_at, creep_at == creep_at  # not nan: the design can creep
+            name, target, applies = _event(event, depth, xk, in_spring, creep_at)
             if not (applies and target > x and x_far >= target):
                 continue
             s_hit = _root(X, n, target, 0.0, s_end, x - target, x_far - target)
@@ -420,12 +426,7 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est, wk):
         x_far = _at(s_end, flow)[0]  # x rises while v > 0
         # the first of: full depth, springs at free length, creep — each before s_end
         for event in range(3):
-            if event == 0:
-                name, target, applies = FULL_DEPTH, depth, True
-            elif event == 1:
-                name, target, applies = _KINK, xk, in_spring and xk < depth
-            else:
-                name, target, applies = CREEP, creep_at, creep_at == creep_at  # not nan: the design can creep
+            name, target, applies = _event(event, depth, xk, in_spring, creep_at)
             if not (applies and target > x and x_far >= target):
                 continue
             s_hit = _bisect(1, target, s_end, flow)
