@@ -5,7 +5,8 @@ Run: python -m bench.bench_cone_diagnose [--seeds START END]
 Each seed fires two campaigns of six shots of the 10 cm² CPT cone (``cone_10cm2``) on the simulated rig (``pen
 acquire``'s sim driver, whose true world writes the cone's resistance itself) into MPACS C blocks of 5.6-8.2 MPa on
 2, 4 and 6 springs: one with a strength layer drawn at 20-50 mm where the strength steps by a ratio of 0.5-0.7 or
-1.4-1.8 (the simulated rig's layer: 50 mm thick, so its bottom edge steps back by 1/ratio), one without.  Both are tared, inertia-subtracted and diagnosed (200 replicates, 1 % false-alarm rate).
+1.4-1.8 (the simulated rig's layer: 50 mm thick, so its bottom edge steps back by 1/ratio), one
+without.  Both are tared, inertia-subtracted and diagnosed (200 replicates, 1 % false-alarm rate).
 The verdict's edge is a step's, or a plateau's main edge (its more certain change of strength).  A layer is *found*
 when the verdict is ``strength_layer`` and that edge lies within 5 mm of one of the layer's two edges and changes the
 strength the way that edge does; *found at its top* when it is the top edge.

@@ -6,8 +6,8 @@ Each seed draws a layered ground (``pencli.testing.soundings.six_rate_site``: 1 
 pushes the simulated constant-rate cone (:mod:`pencli.acquire.sounding`) through it six times, at 5-65 mm/s,
 with a rate effect of K per decade (default −0.15: faster is weaker, as in a silty sand where drainage goes from
 partial to undrained) and again with none; the units are the 20 mm/s sounding's layers.  Each site is diagnosed
-(every ordering of the six rates, the default 0.2 % false-alarm rate).  Prints a row per seed, then how many effects were named with
-their sign and how many nulls were called.  Seeds START to END (default 1000-1020, the hold-out range).
+(every ordering of the six rates, the default 0.2 % false-alarm rate).  Prints a row per seed, then how many
+effects were named with their sign and how many nulls were called.  Seeds START to END (default 1000-1020, the hold-out range).
 """
 
 from __future__ import annotations

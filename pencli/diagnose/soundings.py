@@ -127,8 +127,8 @@ def diagnose_soundings(per_sounding: Sequence[Sequence[UnitMean]], *, reference_
                      f"(p = {p_value:.3f}): the soundings scatter about each other more than the unit means' "
                      "error says")
     if 1.0 / (1 + len(orders)) > false_alarm:
-        notes.append(f"{len(orders)} {'orderings' if exact else 'shuffles'} of the rates cannot "
-                     f"resolve a false-alarm rate of {false_alarm:g}: the smallest p-value is {1 / (1 + len(orders)):.3g}")
+        notes.append(f"{len(orders)} {'orderings' if exact else 'shuffles'} of the rates cannot resolve a "
+                     f"false-alarm rate of {false_alarm:g}: the smallest p-value is {1 / (1 + len(orders)):.3g}")
     return SoundingDiagnosis(verdict=verdict, effect=effect, improvement=float(improvement), p_value=p_value,
                              false_alarm=false_alarm, heldout_rms_reference=float(np.sqrt(base / n)),
                              heldout_rms_effect=float(np.sqrt(with_effect / n)), soundings=len(groups),

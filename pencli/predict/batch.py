@@ -176,9 +176,9 @@ def _time_estimate(v0, m, kd, xk, mg, a0, a1, b, dd, depth):
                  types.float64[:, ::1], types.int8[::1]), **_JIT)
 def _simulate_all(v0, m, kd, stroke, s0, g, a0, a1, b, dd, depth, speed_given, skip, out, code):
     """Each design from contact to its end, its figures into the rows of ``out`` (:data:`_ROWS`) and its end
-    into ``code``: the closed form at C = 0, the damped path (Taylor steps, then the exact linear flow) otherwise; a design with a ``skip`` code is not
-    simulated, nor is one whose forces are beyond float64's useful range (``overflow``): their figures are
-    NaN (:data:`NOT_SIMULATED`)."""
+    into ``code``: the closed form at C = 0, the damped path (Taylor steps, then the exact linear flow)
+    otherwise; a design with a ``skip`` code is not simulated, nor is one whose forces are beyond float64's
+    useful range (``overflow``): their figures are NaN (:data:`NOT_SIMULATED`)."""
     wk = np.empty((damped.WORK_ROWS, damped.ORDER + 1))
     for i in range(v0.size):
         u_start = s0[i] if speed_given else 0.0  # a given speed at contact starts the books at the surface

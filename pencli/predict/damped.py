@@ -463,5 +463,5 @@ def run_one(v0, m, kd, xk, mg, a0, a1, b, d, depth, t_est, wk):
     return t, x, v, e_damp, e_inert, peak, peak_x, STALLED
 
 
-__all__ = ["ARREST", "CREEP", "FULL_DEPTH", "HANDOVER_STEPS", "LINEAR_TOL", "MAX_STEPS", "ORDER", "STALLED", "STEPS", "TAYLOR_TOL", "WORK_ROWS",
-           "rest_depth", "run_one"]
+__all__ = ["ARREST", "CREEP", "FULL_DEPTH", "HANDOVER_STEPS", "LINEAR_TOL", "MAX_STEPS", "ORDER", "STALLED", "STEPS",
+           "TAYLOR_TOL", "WORK_ROWS", "rest_depth", "run_one"]
