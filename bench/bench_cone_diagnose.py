@@ -11,8 +11,9 @@ The verdict's edge is a step's, or a plateau's main edge (its more certain chang
 when the verdict is ``strength_layer`` and that edge lies within 5 mm of one of the layer's two edges and changes the
 strength the way that edge does; *found at its top* when it is the top edge.
 Prints a row per seed, then the layers found (softer and stronger apart) and the nulls called.  Seeds START to END
-(default 2000-2010, the hold-out range; 0-4 is the range the cone's diagnosis was made on, and 1000-1009 were
-looked at when a layer's description was held to a strength the material can hold).
+(default 4000-4010, the hold-out range; 0-4 is the range the cone's diagnosis was made on, 1000-1009 were looked
+at when a layer's description was held to a strength the material can hold, and 2000-2009 and 3000-3009 when a
+plateau's main edge was chosen; 5000 on are unused).
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ def main() -> None:
     check_options(__doc__, ("--seeds",))
     args = sys.argv[1:]
     start, end = (int(v) for v in args[args.index("--seeds") + 1:args.index("--seeds") + 3]) \
-        if "--seeds" in args else (2000, 2010)
+        if "--seeds" in args else (4000, 4010)
     from pencli.acquire.truth import TRUE_EFFECTS
 
     thickness_mm = TRUE_EFFECTS["strength_layer"].defaults["thickness_mm"]  # the simulated rig's layer
