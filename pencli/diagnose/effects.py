@@ -507,7 +507,7 @@ def _describe_layer(m: Member, c, ctx) -> dict:
         out["bottom_mm"] = m.params["bottom_mm"]
         out["band"] = m.params["band"]
         out["ratio_below"] = 1.0 + top * (float(c[0]) - float(c[1])) / ctx["cs_mean"]
-        out.update(_main_edge(out, float(c[0]), float(c[1]), ctx.get("coefficient_spread")))
+        out = {**_main_edge(out, float(c[0]), float(c[1]), ctx.get("coefficient_spread")), **out}  # read first
     return out
 
 
