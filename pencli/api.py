@@ -956,10 +956,10 @@ def sweep(penetrator: str, material: str, energizing: str, *, vary: Sequence[str
                 table.write({**{k: np.asarray(v, dtype=float) for k, v in chunk.items()}, **result})
             stats["full_penetration"] += int(np.sum(result["full_penetration"]))
             stats["near_critical"] += int(np.sum(result["near_critical"]))
-            codes, counts = np.unique(np.asarray(result["end"]), return_counts=True)  # codes into ENDS
-            for code, count in zip(codes.tolist(), counts.tolist()):
-                if code >= NOT_SIMULATED:
-                    not_simulated[ENDS[code]] = not_simulated.get(ENDS[code], 0) + count
+            counts = np.bincount(np.asarray(result["end"]), minlength=len(ENDS))  # per code into ENDS, no sort
+            for code in range(NOT_SIMULATED, len(ENDS)):
+                if counts[code]:
+                    not_simulated[ENDS[code]] = not_simulated.get(ENDS[code], 0) + int(counts[code])
             for key in ("penetration_time_s", "peak_resistance_n", "final_depth_mm"):
                 values = result[key][np.isfinite(result[key])]  # not simulated: NaN, no figure
                 if values.size:
