@@ -109,8 +109,7 @@ def diagnose_soundings(per_sounding: Sequence[Sequence[UnitMean]], *, reference_
     improvement = base - with_effect
     exact = math.factorial(len(groups)) <= permutations + 1
     if exact:  # every ordering (the data's among them)
-        orders = [np.array(order) for order in itertools.permutations(range(len(groups)))]
-        orders = [o for o in orders if np.any(o != np.arange(len(groups)))]
+        orders = [np.array(order) for order in itertools.permutations(range(len(groups)))][1:]  # the first: the data's
     else:
         rng = np.random.default_rng(seed)
         orders = [rng.permutation(len(groups)) for _ in range(permutations)]

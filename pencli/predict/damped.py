@@ -53,7 +53,9 @@ STEPS = 160
 """A design that is linear from contact starts the linear flow on a step of its estimated penetration time
 over STEPS (the flow is exact; the steps double from there)."""
 _PEAK_SAMPLES = 8
-"""The slope of R is sampled at this many points of a Taylor step to find where it turns (a peak). [–]"""
+"""The slope of R is sampled at this many points of a Taylor step to find where it turns (a peak), four at a time
+(a multiple of 4). [–]"""
+assert _PEAK_SAMPLES % 4 == 0
 LINEAR_TOL = 1e-5
 """Hand a design to the exact linear flow once d·v ≤ LINEAR_TOL·b. [–]"""
 LINEARISE_TOL = 1e-9
