@@ -1,4 +1,5 @@
-"""How often `pen drops diagnose` names a hidden layer, and calls nothing in a bed without one.
+"""How often `pen drops diagnose` names a hidden layer and a hidden accelerometer bias, and calls nothing in a bed
+without either.
 
 Run: python -m bench.bench_drops_diagnose [--seeds START END]
 
@@ -8,9 +9,13 @@ there, and drops the simulated BlueDrop (:mod:`pencli.acquire.freefall`) from 0.
 with the layer and into the same bed without it, each accelerometer with its own bias within ±0.03 g.  The
 drops are read, integrated and diagnosed (the probe's drag and added mass fitted, 199 rotations, a 1 %
 false-alarm rate).  A layer is *met* when at least two drops go 10 mm past it (fewer: no method can tell it from
-one drop's own misfit) and *found* when the verdict is ``layer`` within 10 mm of its depth.  Prints a row per
-seed, then the layers found among those met, and the nulls called.  Seeds START to END (default 5000-5020,
-unused; 0-6 is the range the diagnosis was made on, 1000-1019 and 4000-4019 have been run and looked at).
+one drop's own misfit) and *found* when the verdict is ``layer`` within 10 mm of its depth.  Two more worlds
+per seed, into the bed without the layer: *shifted*, each accelerometer's bias shifting at the impact by
+0.005-0.03 g of either sign (a shock's zero offset, which the rests before and after cannot show), found when
+the verdict is ``accelerometer_bias``; and *drifting*, each bias drifting in time by up to ±0.002 g/s (which
+the pipeline takes out between the rests), a null.  Prints a row per seed, then the layers found among those
+met, the shifts found, and the nulls (plain and drifting) called.  Seeds START to END (default 6000-6020,
+unused; 0-6 is the range the diagnosis was made on, 1000-1019, 4000-4019 and 5000-5019 have been run and looked at).
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ HEIGHTS_M = (0.5, 1.0, 3.0, 8.0)
 FOUND_WITHIN_M = 0.010
 
 
-def _drops(seed: int, layered: bool):
+def _drops(seed: int, layered: bool, **sensors):
     from pencli import api
     from pencli.acquire.freefall import Bed, Probe
     from pencli.testing.drops import drops_into
@@ -36,7 +41,7 @@ def _drops(seed: int, layered: bool):
     depth = float(rng.uniform(0.13, 0.22))
     step = float(rng.choice([-1.0, 1.0]) * rng.uniform(0.25, 0.6) * (sigma + gradient * depth))
     bed = Bed(sigma, gradient, damping, depth, step) if layered else Bed(sigma, gradient, damping)
-    made = drops_into(probe, bed, HEIGHTS_M, rng, seed)
+    made = drops_into(probe, bed, HEIGHTS_M, rng, seed, **sensors)
     past = sum(truth.penetration_m > depth + FOUND_WITHIN_M for truth, _, _ in made)
     return [api.Drop(record, motion) for _, record, motion in made], bed, past >= 2
 
@@ -49,11 +54,11 @@ def main() -> None:
 
     args = sys.argv[1:]
     start, end = (int(v) for v in args[args.index("--seeds") + 1:args.index("--seeds") + 3]) \
-        if "--seeds" in args else (5000, 5020)
+        if "--seeds" in args else (6000, 6020)
     truth_probe = Probe()
     guess = FreeFallProbe(truth_probe.mass_kg, truth_probe.volume_m3, truth_probe.half_angle_rad,
                           truth_probe.shaft_radius_m, 0.8, 0.3)
-    found = called = met = found_unmet = 0
+    found = called = met = found_unmet = shifts = drifts = 0
     for seed in range(start, end):
         drops, bed, reached = _drops(seed, True)
         layer = api.diagnose_drops(drops, guess)
@@ -64,13 +69,18 @@ def main() -> None:
         drops, _, _ = _drops(seed, False)
         null = api.diagnose_drops(drops, guess)
         called += null.verdict != "none"
+        shifted = api.diagnose_drops(_drops(seed, False, impact_shift_g=(0.005, 0.03))[0], guess)
+        shifts += shifted.verdict == "accelerometer_bias"
+        drifting = api.diagnose_drops(_drops(seed, False, drift_g_per_s=0.002)[0], guess)
+        drifts += drifting.verdict != "none"
         print(f"seed {seed}: layer {1e3 * bed.layer_depth_m:.0f} mm {bed.layer_step_kpa:+.1f} kPa -> {layer.verdict} "
               f"{1e3 * layer.layer_depth_m:.0f} mm {layer.layer_step_kpa:+.1f} kPa (p {layer.p_value:.3f}, share "
               f"{layer.share:.2f}){' FOUND' if hit else ''}{'' if reached else ' (met by fewer than two drops)'}; null -> {null.verdict} (p {null.p_value:.3f}, share "
-              f"{null.share:.2f})", flush=True)
+              f"{null.share:.2f}); shifted -> {shifted.verdict}; drifting -> {drifting.verdict}", flush=True)
     total = end - start
     print(f"layers met by two drops or more: found {found} of {met}; of the {total - met} others, found "
-          f"{found_unmet}; nulls called {called} of {total}")
+          f"{found_unmet}; hidden shifts found {shifts} of {total}; nulls called {called} of {total}, drifting nulls "
+          f"called {drifts} of {total}")
 
 
 if __name__ == "__main__":

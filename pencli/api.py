@@ -1675,7 +1675,6 @@ def read_drops(refs: Sequence[str | Path], db: str | Path | None = None,
                calibration: str | Path | None = None) -> list[Drop]:
     """The drops of BlueDrop files (read with the probe's ``calibration`` sheet) or of records of workspace ``db``,
     each integrated to its motion; a record whose motion cannot be found is one line naming it."""
-    from pencli.filter.freefall import drop_motion
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G
 
     out = []
@@ -1683,13 +1682,21 @@ def read_drops(refs: Sequence[str | Path], db: str | Path | None = None,
         missing = [c for c in ACCELEROMETER_RANGES_G if c not in record.channels]
         if missing:
             raise DataError(f"{record.source}: no {', '.join(missing)} channel in the calibration")
-        try:
-            motion = drop_motion(record.time_s, {c: record.channels[c] for c in ACCELEROMETER_RANGES_G},
-                                 ACCELEROMETER_RANGES_G)
-        except ValueError as error:
-            raise DataError(f"{record.source}: {error}") from None
-        out.append(Drop(record, motion))
+        out.append(Drop(record, _drop_motion(record)))
     return out
+
+
+def _drop_motion(record, bias_at: str = "ramp"):
+    """A record's motion (:func:`pencli.filter.freefall.drop_motion`, the bias between the rests as ``bias_at``
+    says); a record whose motion cannot be found is one line naming it."""
+    from pencli.filter.freefall import drop_motion
+    from pencli.io.bluedrop import ACCELEROMETER_RANGES_G
+
+    try:
+        return drop_motion(record.time_s, {c: record.channels[c] for c in ACCELEROMETER_RANGES_G},
+                           ACCELEROMETER_RANGES_G, bias_at=bias_at)
+    except ValueError as error:
+        raise DataError(f"{record.source}: {error}") from None
 
 
 def free_fall_probe(penetrator: str | Path, energizing: str | Path):
@@ -1739,11 +1746,11 @@ def report_drops(drops: Sequence[Drop], out: str | Path, *, pdf: bool = True, pr
 
 
 def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ...], bias_g: float = 0.0,
-                       seed: int = 0, calibration_out: str | Path | None = None):
+                       seed: int = 0, calibration_out: str | Path | None = None, impact_shift_g: float = 0.0):
     """``pen drops simulate``: a drop of the simulated BlueDrop (:mod:`pencli.acquire.freefall`, the
     ``freefall_cone`` probe in ``drop_water``) released ``height_m`` above a bed of q = σ + b·z + c·v (``bed``:
     kPa, kPa/m, kPa·s/m; two more: a layer's depth [m] and step [kPa]), each accelerometer with a random bias
-    within ±``bias_g``, written as a BlueDrop record and its calibration sheet (CSV; default ``calibration.csv``
+    within ±``bias_g`` that shifts by ``impact_shift_g`` at the impact, written as a BlueDrop record and its calibration sheet (CSV; default ``calibration.csv``
     beside it), both or neither.  Returns (the simulation's truth, the sheet's path, each sensor's bias)."""
     from pencli.acquire.freefall import Bed, Probe, Sensors, simulate_drop
     from pencli.io.atomic import atomic_group
@@ -1759,8 +1766,11 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ..
                              f"above 0 below it")
     if not 0.0 <= bias_g <= 0.5:
         raise ParameterError(f"--bias-g {bias_g:g}: expected 0 … 0.5 g")
+    if not -0.5 <= impact_shift_g <= 0.5:
+        raise ParameterError(f"--impact-shift-g {impact_shift_g:g}: expected −0.5 … 0.5 g")
     rng = np.random.default_rng(seed)
-    sensors = Sensors(bias_g={name: float(rng.uniform(-bias_g, bias_g)) for name in ACCELEROMETER_RANGES_G})
+    sensors = Sensors(bias_g={name: float(rng.uniform(-bias_g, bias_g)) for name in ACCELEROMETER_RANGES_G},
+                      impact_shift_g={name: float(impact_shift_g) for name in ACCELEROMETER_RANGES_G})
     try:
         truth = simulate_drop(Probe(), Bed(*bed), height_m, sensors=sensors, seed=seed)
     except ValueError as error:
@@ -1777,17 +1787,25 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ..
 
 def diagnose_drops(drops: Sequence[Drop], probe, *, false_alarm: float | None = None, shuffles: int | None = None,
                    seed: int = 0):
-    """``pen drops diagnose``: a layer across the drops (:func:`pencli.diagnose.drops.diagnose_drops`), on the bed's
-    pressure with the probe's drag and added mass fitted across them first."""
+    """``pen drops diagnose``: the accelerometers' check (:func:`pencli.diagnose.drops.accelerometer_check`), then
+    a layer across the drops (:func:`pencli.diagnose.drops.diagnose_drops`), on the bed's pressure with the
+    probe's drag and added mass fitted across them first (a drop whose bias a step at the impact accounts for is
+    read with that step)."""
     from pencli.diagnose import FALSE_ALARM, SHUFFLES
     from pencli.diagnose.drops import BedRows, diagnose_drops as diagnose
     from pencli.fit.freefall import bed_pressure
 
+    from pencli.diagnose.drops import accelerometer_check, with_sensors
+
+    false_alarm = FALSE_ALARM if false_alarm is None else false_alarm
+    stepped = {d.name: _drop_motion(d.record, "impact") for d in drops}
+    check = accelerometer_check({d.name: (d.motion, stepped[d.name]) for d in drops}, false_alarm)
+    drops = [replace(d, motion=stepped[d.name]) if d.name in check.stepped else d for d in drops]
     fit = fit_drops(drops, probe)
     fitted = replace(probe, drag_coefficient=fit.drag_coefficient, added_mass_coefficient=fit.added_mass_coefficient)
     rows = [BedRows(d.name, *bed_pressure(d.motion, fitted)) for d in drops]
     try:
-        return diagnose(rows, false_alarm=FALSE_ALARM if false_alarm is None else false_alarm,
-                        shuffles=SHUFFLES if shuffles is None else shuffles, seed=seed)
+        bed = diagnose(rows, false_alarm=false_alarm, shuffles=SHUFFLES if shuffles is None else shuffles, seed=seed)
     except ValueError as error:
         raise FitError(f"the drops cannot be diagnosed: {error}") from None
+    return with_sensors(bed, check)

@@ -85,6 +85,7 @@ def test_a_report_draws_each_drop_and_the_bed(runner, drops, tmp_path):
     (["fit", "{drop}", "--calibration", "{cal}", "-p", "al6061_1mm"], ["geometry blade", "cone"]),
     (["fit", "{drop}", "--calibration", "{cal}", "-e", "springs_4"], ["drive springs", "free_fall"]),
     (["simulate", "--out", "{tmp}/x.bin", "--bed", "0,1,1"], ["--bed", "σ > 0"]),
+    (["simulate", "--out", "{tmp}/x.bin", "--impact-shift-g", "0.9"], ["--impact-shift-g 0.9", "0.5 g"]),
     (["show", "{tmp}/missing.bin", "--calibration", "{cal}"], ["missing.bin", "no such file"]),
 ])
 def test_bad_input_is_one_line(runner, drops, tmp_path, args, said):
@@ -115,3 +116,32 @@ def test_a_layer_the_drops_cross_is_named_where_it_is_and_a_bed_without_one_is_n
     plain = json.loads(invoke(runner, "drops", "diagnose", *sorted(root.glob("drop-*.bin")), "--calibration",
                               root / "calibration.csv", "--json").stdout)
     assert plain["verdict"] == "none" and plain["layer_depth_m"] is None
+
+
+def test_a_bias_that_shifts_at_the_impact_is_named_and_a_step_there_closes_it(runner, drops, tmp_path):
+    """Each accelerometer's bias shifts by 0.01 g at the impact (the simulated rig's sensor model): the rests before
+    the release and after the stop cannot show it, but the speed integrated over the rest after the stop can; the
+    drops of the plain bed (same biases at rest, no shift) pass the same check."""
+    root, truths = drops
+    for k, height in enumerate(HEIGHTS_M):
+        r = invoke(runner, "drops", "simulate", "--height-m", height, "--bed", ",".join(map(str, BED)),
+                   "--bias-g", 0.03, "--impact-shift-g", 0.01, "--seed", 40 + k, "--out", tmp_path / f"drop-{k}.bin")
+        assert r.exit_code == 0, r.stderr
+    shifted = json.loads(invoke(runner, "drops", "diagnose", *sorted(tmp_path.glob("drop-*.bin")), "--calibration",
+                                tmp_path / "calibration.csv", "--json").stdout)
+    check = shifted["accelerometer"]
+    assert shifted["verdict"] == "accelerometer_bias" and shifted["bed_verdict"] == "none"
+    long_falls = [f"drop-{k}" for k, h in enumerate(HEIGHTS_M) if h >= 2.0]
+    assert set(long_falls) <= set(check["biased"])  # a fall of a second or more integrates it well past the noise
+    assert set(check["stepped_at_impact"]) == set(check["biased"])
+    for name in check["biased"]:
+        speeds = check["rest_speed"][name]
+        assert speeds["ramp_m_s"] > 0.01  # a bias rising at the impact, ramped over the fall: read too fast
+        assert abs(speeds["step_m_s"]) < 0.25 * speeds["ramp_m_s"]
+    plain = json.loads(invoke(runner, "drops", "diagnose", *sorted(root.glob("drop-*.bin")), "--calibration",
+                              root / "calibration.csv", "--json").stdout)
+    assert plain["accelerometer"]["biased"] == [] and plain["verdict"] == "none"
+    # read with the step, the penetration is the simulation's again
+    shown = json.loads(invoke(runner, "drops", "show", tmp_path / f"drop-{len(HEIGHTS_M) - 1}.bin", "--calibration",
+                              tmp_path / "calibration.csv", "--json").stdout)[0]
+    assert shown["penetration_mm"] > truths[-1]["penetration_mm"] * 1.005  # the ramp's reading: too deep

@@ -12,7 +12,10 @@ DOP853) and ends where the probe stops; it then rests on the bed.
 
 The sensors: each axial accelerometer reads the specific force along the
 axis, (g − a)/g in g (1 at rest, 0 in a vacuum's free fall), plus its own
-bias and white noise, clipped to its range and rounded to its counts; the
+bias and white noise, clipped to its range and rounded to its counts.  The
+bias may drift in time (a warming sensor) and may shift at the impact (the
+zero offset a shock leaves in a strained sensing element), by a sensor's
+own amounts; the
 pore pressure is the water's at the probe's depth; the tilt channels read
 noise about zero.  The counts follow the calibration (raw = value·scale −
 offset) and are written in the BlueDrop format
@@ -75,10 +78,13 @@ class Bed:
 
 @dataclass(frozen=True)
 class Sensors:
-    """The sensor chain: each accelerometer's bias [g] (a missing one is 0) and white noise [g], the pressure
-    noise [psi], and the calibration (offset, scale) of every channel."""
+    """The sensor chain: each accelerometer's bias [g] (a missing one is 0), its drift in time [g/s] and its shift
+    from the impact on [g], the white noise [g], the pressure noise [psi], and the calibration (offset, scale)
+    of every channel."""
 
     bias_g: dict[str, float] = field(default_factory=dict)
+    drift_g_per_s: dict[str, float] = field(default_factory=dict)
+    impact_shift_g: dict[str, float] = field(default_factory=dict)
     noise_g: float = 0.002
     pressure_noise_psi: float = 0.01
     calibration: dict[str, ChannelCalibration] = field(default_factory=lambda: default_calibration())
@@ -161,8 +167,11 @@ def simulate_drop(probe: Probe, bed: Bed, drop_height_m: float, *, sensors: Sens
     specific = (G - accel) / G
     raw = np.zeros((n, len(CHANNELS)), dtype=np.int64)
     raw[:, 0] = np.arange(n) % (1 << 23)
+    after_impact = t >= hold_s + t_impact
     for name, span in ACCELEROMETER_RANGES_G.items():
-        value = np.clip(specific + sensors.bias_g.get(name, 0.0) + rng.normal(0.0, sensors.noise_g, n), -span, span)
+        bias = (sensors.bias_g.get(name, 0.0) + sensors.drift_g_per_s.get(name, 0.0) * t
+                + np.where(after_impact, sensors.impact_shift_g.get(name, 0.0), 0.0))
+        value = np.clip(specific + bias + rng.normal(0.0, sensors.noise_g, n), -span, span)
         cal = sensors.calibration[name]
         raw[:, CHANNELS.index(name)] = np.rint(value * cal.scale - cal.offset)
     depth_below_surface = water_depth_m - drop_height_m + x

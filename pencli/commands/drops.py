@@ -36,7 +36,8 @@ def _drop_record(drop) -> dict:
             "impact_s": float(m.impact_s), "impact_speed_m_s": float(m.impact_speed_m_s),
             "penetration_mm": 1e3 * float(m.penetration_m), "stop_s": float(t[m.stop]),
             "peak_deceleration_g": drop.motion.peak_deceleration_g,
-            "bias_g": {name: list(pair) for name, pair in m.bias_g.items()}}
+            "bias_g": {name: list(pair) for name, pair in m.bias_g.items()},
+            "rest_speed_m_s": None if m.rest_speed_m_s != m.rest_speed_m_s else float(m.rest_speed_m_s)}
 
 
 @drops_app.command("show")
@@ -121,11 +122,13 @@ def diagnose(
     json_out: bool = typer.Option(False, "--json", help='Print {"verdict", "layer_depth_m", "p_value", ...}.'),
     db: Optional[Path] = DbOption,
 ) -> None:
-    """Is there a layer in the bed the drops share? The bed's straight law q = σ + b·z + c·v is fitted across the
-    drops; a step in q below a depth is tried at every depth two drops cross, and the largest share of the misfit
-    it removes is set against the same with each drop's misfit rotated along its own samples. Verdict 'layer' (its
-    depth [mm] and step [kPa]), 'unexplained' (the misfit lines up across drops but a step removes less than half
-    of it) or 'none'.
+    """Is there a layer in the bed the drops share, or a bias in the accelerometers? First the sensors: the speed
+    integrated over the rest after each stop must be 0 [m/s]; beyond what the integration and the noise leave, the
+    verdict is 'accelerometer_bias' (and a bias stepping at the impact is tried in its place). Then the bed: its
+    straight law q = σ + b·z + c·v is fitted across the drops; a step in q below a depth is tried at every depth two
+    drops cross, and the largest share of the misfit it removes is set against the same with each drop's misfit
+    rotated along its own samples. Verdict 'layer' (its depth [mm] and step [kPa]), 'unexplained' (the misfit lines
+    up across drops but a step removes less than half of it) or 'none'.
 
     Example: pen drops diagnose 'drop-*' -p freefall_cone -e drop_water
     """
@@ -140,17 +143,32 @@ def diagnose(
               "reference": dict(zip(("strength_kpa", "gradient_kpa_m", "damping_kpa_s_m"), result.reference)),
               "heldout_rms_reference_kpa": result.heldout_rms_reference_kpa,
               "heldout_rms_layer_kpa": result.heldout_rms_layer_kpa, "drops": result.drops,
+              "bed_verdict": result.bed_verdict, "accelerometer": _accelerometer_record(result.accelerometer),
               "notes": list(result.notes)}
     if json_out:
         print_json(record)
         return
     said = (f"layer at {1e3 * result.layer_depth_m:.0f} mm, q {'rises' if result.layer_step_kpa > 0 else 'falls'} by "
-            f"{abs(result.layer_step_kpa):.1f} kPa below it" if result.verdict == "layer" else result.verdict)
+            f"{abs(result.layer_step_kpa):.1f} kPa below it" if result.verdict == "layer" else
+            f"accelerometer_bias in {', '.join(result.accelerometer.biased)} (the bed: {result.bed_verdict})"
+            if result.verdict == "accelerometer_bias" else result.verdict)
     console.print(f"{result.drops} drops: {said}  (p = {result.p_value:.3f} against {shuffles} rotations; the step "
                   f"removes {100 * result.share:.0f} % of the straight law's misfit; held-out RMS "
                   f"{result.heldout_rms_reference_kpa:.2f} kPa without, {result.heldout_rms_layer_kpa:.2f} kPa with)")
     for note in result.notes:
         console.print(f"  note: {escape(note)}")
+
+
+def _accelerometer_record(check) -> dict | None:
+    """The accelerometers' check as JSON: the drops it finds biased, those a step at the impact accounts for, and
+    each drop's speed at rest and its z under both bias models."""
+    if check is None:
+        return None
+    return {"biased": list(check.biased), "stepped_at_impact": list(check.stepped), "threshold_z": check.threshold_z,
+            "untested": list(check.untested),
+            "rest_speed": {name: {"ramp_m_s": check.ramp[name].speed_m_s, "ramp_z": check.ramp[name].z,
+                                  "step_m_s": check.step[name].speed_m_s, "step_z": check.step[name].z}
+                           for name in check.ramp}}
 
 
 @drops_app.command("report")
@@ -191,6 +209,8 @@ def simulate(
     layer: Optional[str] = typer.Option(None, "--layer", metavar="DEPTH_M:STEP_KPA",
                                         help="A layer: q changes by STEP [kPa] below DEPTH [m] into the bed."),
     bias_g: float = typer.Option(0.02, "--bias-g", help="Each accelerometer's bias drawn within ± this [g]."),
+    impact_shift_g: float = typer.Option(0.0, "--impact-shift-g", help="Each accelerometer's bias shifts by this "
+                                         "at the impact (a shock's zero offset, hidden from the rests) [g]."),
     seed: int = typer.Option(0, "--seed", help="Seed of the biases and the sensors' noise."),
     calibration_out: Optional[Path] = typer.Option(None, "--calibration-out", help="Where the calibration sheet "
                                                    "goes (CSV; default calibration.csv beside --out)."),
@@ -223,7 +243,7 @@ def simulate(
     if calibration_out is not None:
         api.check_output(calibration_out, db_path(db), "--calibration-out")
     truth, sheet, biases = api.simulate_drop_file(out, height_m=height_m, bed=values, bias_g=bias_g, seed=seed,
-                                                  calibration_out=calibration_out)
+                                                  calibration_out=calibration_out, impact_shift_g=impact_shift_g)
     record = {"out": str(out), "calibration": str(sheet), "release_s": truth.release_s, "impact_s": truth.impact_s,
               "impact_speed_m_s": truth.impact_speed_m_s, "penetration_mm": 1e3 * truth.penetration_m,
               "stop_s": truth.stop_s, "bias_g": biases}

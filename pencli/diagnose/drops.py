@@ -23,17 +23,30 @@ The verdict:
   other way: a gradient that changes, a rate law that is not straight);
 - ``none`` otherwise.
 
+Before the bed, the sensors (:func:`accelerometer_check`): the probe lies
+still after it stops, so the speed integrated from its accelerometers must
+come back to 0 there.  A drop whose speed at rest is beyond what the
+trapezoid rule and the sensors' noise leave (both read from the drop
+itself, :class:`pencli.filter.freefall.DropMotion`), at the false-alarm rate
+shared by the drops, carries a bias the rests before the release and after
+the stop did not show: the verdict is ``accelerometer_bias``, whatever the
+bed.  The same drop integrated with each sensor's bias stepping at the
+impact instead of drifting between the rests (a shock's zero offset) says
+whether that form accounts for it; where it does, the bed is read from that
+motion.
+
 Pure functions, no I/O.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
 
 from pencli.diagnose import FALSE_ALARM, SHUFFLES
+from pencli.diagnose.null import normal_quantile
 
 MATERIAL_SHARE = 0.05
 """A misfit whose held-out RMS is under this share of the bed's mean pressure is below what pen states a bed's
@@ -83,6 +96,59 @@ class DropDiagnosis:
     """The same with the step at its depth. [kPa]"""
     drops: int
     notes: tuple[str, ...] = ()
+    bed_verdict: str = ""
+    """The bed's own verdict (``layer``, ``unexplained``, ``none``); the verdict is ``accelerometer_bias`` instead
+    where the sensors fail their check."""
+    accelerometer: AccelerometerCheck | None = None
+
+
+@dataclass(frozen=True)
+class RestSpeed:
+    """One drop's speed over the rest after its stop, under a bias model: the speed [m/s] and how many standard
+    deviations of the sensors' integrated noise it stands beyond the trapezoid rule's bound (NaN: no rest after
+    the stop)."""
+
+    speed_m_s: float
+    z: float
+
+
+@dataclass(frozen=True)
+class AccelerometerCheck:
+    """Whether the drops' accelerometers carry a bias their rests did not show."""
+
+    biased: tuple[str, ...]
+    """Drops whose speed at rest is beyond what the integration and the noise leave."""
+    stepped: tuple[str, ...]
+    """Of those, the ones a bias stepping at the impact accounts for (their bed is read from that motion)."""
+    ramp: dict[str, RestSpeed]
+    """Each drop's speed at rest with the bias drifting in a straight line between the rests (pen's reading)."""
+    step: dict[str, RestSpeed]
+    """The same with each sensor's bias stepping at the impact."""
+    threshold_z: float
+    """The z a drop must exceed: two-sided, the false-alarm rate shared by the drops."""
+    untested: tuple[str, ...] = ()
+    """Drops with no rest after the stop to check."""
+
+
+def rest_speed(motion) -> RestSpeed:
+    """The speed at rest of a :class:`pencli.filter.freefall.DropMotion` and its z."""
+    v = float(motion.rest_speed_m_s)
+    z = (abs(v) - motion.rest_speed_bound_m_s) / max(motion.rest_speed_sd_m_s, 1e-12)
+    return RestSpeed(v, float(z))
+
+
+def accelerometer_check(motions: dict, false_alarm: float = FALSE_ALARM) -> AccelerometerCheck:
+    """The check of the drops' sensors: ``motions`` maps each drop's name to its motion integrated with the bias
+    drifting between the rests and with it stepping at the impact
+    (:func:`pencli.filter.freefall.drop_motion`'s two models)."""
+    ramp = {name: rest_speed(pair[0]) for name, pair in motions.items()}
+    step = {name: rest_speed(pair[1]) for name, pair in motions.items()}
+    untested = tuple(name for name, r in ramp.items() if not np.isfinite(r.z))
+    tested = max(1, len(ramp) - len(untested))
+    threshold = normal_quantile(false_alarm / (2 * tested))  # two-sided, shared by the drops tested
+    biased = tuple(name for name, r in ramp.items() if r.z > threshold)
+    stepped = tuple(name for name in biased if step[name].z <= threshold)
+    return AccelerometerCheck(biased, stepped, ramp, step, threshold, untested)
 
 
 def _design(rows: Sequence[BedRows]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -182,7 +248,31 @@ def diagnose_drops(rows: Sequence[BedRows], *, false_alarm: float = FALSE_ALARM,
                      f"{1e3 * grid[best]:.0f} mm removes only {100 * share[best]:.0f} % of it: {said}")
     return DropDiagnosis(verdict, float(grid[best]), step, float(share[best]), p_value, false_alarm,
                          tuple(float(v) for v in theta), heldout, _heldout(rows, float(grid[best])), len(rows),
-                         tuple(notes))
+                         tuple(notes), bed_verdict=verdict)
 
 
-__all__ = ["BedRows", "DropDiagnosis", "EXPLAINED_SHARE", "candidate_depths", "diagnose_drops", "step_shares"]
+def with_sensors(bed: DropDiagnosis, check: AccelerometerCheck) -> DropDiagnosis:
+    """The bed's diagnosis with the sensors' check: verdict ``accelerometer_bias`` where a drop fails it, a note
+    for each such drop and for drops that could not be checked."""
+    notes = []
+    for name in check.biased:
+        ramp, step = check.ramp[name], check.step[name]
+        said = (f"a bias stepping at the impact accounts for it ({step.speed_m_s:+.3f} m/s, z {step.z:.1f}); the "
+                f"bed is read with it" if name in check.stepped else
+                f"neither a drift between the rests nor a step at the impact accounts for it (a step leaves "
+                f"{step.speed_m_s:+.3f} m/s, z {step.z:.1f})")
+        notes.append(f"{name}: the speed after the stop is {ramp.speed_m_s:+.3f} m/s where the probe lies still "
+                     f"(z {ramp.z:.1f} beyond what the integration and the noise leave, threshold "
+                     f"{check.threshold_z:.1f}): an accelerometer bias the rests did not show; {said}")
+    if check.untested:
+        notes.append(f"{', '.join(check.untested)}: no rest after the stop, so the accelerometers' bias could not "
+                     f"be checked there")
+    if check.biased and bed.bed_verdict != "none":
+        notes.append(f"the bed's own verdict, {bed.bed_verdict}, rests on motions "
+                     f"{'corrected as above' if set(check.biased) == set(check.stepped) else 'some of which are wrong'}")
+    return replace(bed, verdict="accelerometer_bias" if check.biased else bed.verdict,
+                   notes=(*notes, *bed.notes), accelerometer=check)
+
+
+__all__ = ["AccelerometerCheck", "BedRows", "DropDiagnosis", "EXPLAINED_SHARE", "RestSpeed", "accelerometer_check",
+           "candidate_depths", "diagnose_drops", "rest_speed", "step_shares", "with_sensors"]

@@ -7,13 +7,24 @@ acceleration, positive down): 1 at rest, 0 in a vacuum's free fall, above
 release and where it lies on the bed after it stopped, f must be 1; what
 the stitched reading shows there beyond 1 is the sensors' bias, taken out
 along a straight line in time between the two rests (a constant bias when
-one rest is missing).  Then a = g·(1 − f) is integrated from the release
+one rest is missing), or held at the first rest's until the impact and at
+the last rest's from it on (``bias_at="impact"``: the zero offset a shock
+leaves in a sensor).  Then a = g·(1 − f) is integrated from the release
 (v = 0) by the trapezoid rule.  Each accelerometer has its own bias, so
-each is corrected at rest before the readings are stitched.  Pure functions, no I/O.
+each is corrected at rest before the readings are stitched.
+
+The probe lies still after the stop, so the integrated speed must be 0
+there; what it shows over the rest after the stop (:attr:`DropMotion.rest_speed_m_s`)
+is the integral of what the bias model missed during the drop, plus the
+trapezoid rule's error where the deceleration ends within a sample (at
+most half a sample of it, :attr:`DropMotion.rest_speed_bound_m_s`) and the
+sensors' noise integrated (:attr:`DropMotion.rest_speed_sd_m_s`, from the
+scatter at rest).  Pure functions, no I/O.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,6 +51,10 @@ LEVEL_MS = 50.0
 
 IMPACT_SIGMAS = 5.0
 """Scatters of the pre-impact level a reading must exceed to belong to the impact (traced back from the rise)."""
+
+BIAS_MODELS = ("ramp", "impact")
+"""How a sensor's bias goes from the rest before the release to the rest after the stop: along a straight line in
+time (a drift), or as a step at the impact (a shock's zero offset)."""
 
 STOP_SPEED_M_S = 0.02
 """Speed above the least after the impact at which the probe counts as stopped: the 2 kHz samples leave the
@@ -77,6 +92,16 @@ class DropMotion:
     impact_speed_m_s: float
     penetration_m: float
     bias_g: dict[str, tuple[float, float]]
+    rest_speed_m_s: float = math.nan
+    """Mean integrated speed over the rest after the stop, where the probe lies still (NaN: no such rest). [m/s]"""
+    rest_speed_bound_m_s: float = 0.0
+    """The most the trapezoid rule leaves there from a deceleration that ends within a sample: half a sample of
+    the largest deceleration in the samples before the stop. [m/s]"""
+    rest_speed_sd_m_s: float = 0.0
+    """Standard deviation the sensors' white noise (their scatter at rest) gives it: integrated from the release,
+    and through the two rests' bias estimates. [m/s]"""
+    bias_at: str = "ramp"
+    """The bias model the motion was integrated with (:data:`BIAS_MODELS`)."""
 
     @property
     def peak_deceleration_g(self) -> float:
@@ -129,9 +154,13 @@ def impact_row(specific_g: np.ndarray, release: int, rate_hz: float) -> int:
     raise ValueError(f"no impact: the specific force never rises {IMPACT_RISE_G} g above its level after the release")
 
 
-def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: dict[str, float]) -> DropMotion:
+def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: dict[str, float],
+                bias_at: str = "ramp") -> DropMotion:
     """The motion of one drop from its axial accelerometers (``channels`` in g, ``ranges_g`` their ranges): each
-    sensor's bias taken out where the probe rests, then stitched (:func:`stitch`) and integrated."""
+    sensor's bias taken out where the probe rests (between the rests as ``bias_at`` says, :data:`BIAS_MODELS`),
+    then stitched (:func:`stitch`) and integrated."""
+    if bias_at not in BIAS_MODELS:
+        raise ValueError(f"bias model {bias_at!r}: expected one of {', '.join(BIAS_MODELS)}")
     time_s = np.asarray(time_s, dtype=float)
     rate = 1.0 / float(np.median(np.diff(time_s)))
     rest = max(1, int(REST_MS * 1e-3 * rate))
@@ -145,18 +174,32 @@ def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: d
     after = slice(stop + rest // 2, stop + rest // 2 + rest)
     last = {name: (_rest_bias(values[after]) if values[after].size >= rest // 2 else first[name])
             for name, values in channels.items()}
-    t0, t1 = time_s[max(0, release - rest // 2)], time_s[min(time_s.size - 1, stop + rest)]
-    share = np.clip((time_s - t0) / max(t1 - t0, 1e-12), 0.0, 1.0)
+    if bias_at == "ramp":
+        t0, t1 = time_s[max(0, release - rest // 2)], time_s[min(time_s.size - 1, stop + rest)]
+        share = np.clip((time_s - t0) / max(t1 - t0, 1e-12), 0.0, 1.0)
+    else:
+        share = (np.arange(time_s.size) >= impact).astype(float)
     f = stitch({n: v - (first[n] + (last[n] - first[n]) * share) for n, v in channels.items()}, ranges_g)
     accel, speed, travel = _integrate(time_s, f, release)
     stop = _stop(speed, impact)
     hit = impact_time(time_s, f, release)
     at_hit = float(np.interp(hit, time_s, travel))
+    after = slice(stop + rest // 2, stop + rest // 2 + rest)
+    still = speed[after]
+    before = raw[max(0, release - rest): release]
+    noise = float(np.std(before)) if before.size > 1 else 0.0  # the finest sensor's scatter at rest [g]
+    dt = 1.0 / rate
+    span = (stop + rest - release) * dt  # release to the middle of the rest after the stop [s]
+    walk = G * noise * math.sqrt(span * dt)  # white noise integrated over it
+    estimates = G * noise / math.sqrt(max(rest, 1)) * span  # a rest's mean bias off by its standard error, over it
     return DropMotion(time_s=time_s, accel_m_s2=accel, speed_m_s=speed, travel_m=travel, release=release,
                       impact=int(np.searchsorted(time_s, hit)), stop=stop, impact_s=hit,
                       impact_speed_m_s=float(np.interp(hit, time_s, speed)),
                       penetration_m=float(travel[stop] - at_hit),
-                      bias_g={name: (first[name], last[name]) for name in channels})
+                      bias_g={name: (first[name], last[name]) for name in channels},
+                      rest_speed_m_s=float(np.mean(still)) if still.size >= rest // 2 else math.nan,
+                      rest_speed_bound_m_s=0.5 * dt * float(np.max(np.abs(accel[max(release, stop - 3): stop + 1]))),
+                      rest_speed_sd_m_s=math.hypot(walk, estimates), bias_at=bias_at)
 
 
 def _rest_bias(values: np.ndarray) -> float:

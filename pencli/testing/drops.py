@@ -12,9 +12,12 @@ import numpy as np
 
 
 def drops_into(probe, bed, heights_m: Sequence[float], rng: np.random.Generator, seed: int,
-               bias_g: float = 0.03) -> list[tuple]:
+               bias_g: float = 0.03, drift_g_per_s: float = 0.0, impact_shift_g: tuple[float, float] | None = None
+               ) -> list[tuple]:
     """(truth, record, motion) of a drop of ``probe`` into ``bed`` from each height, each accelerometer with a bias
-    drawn from ``rng`` within ±``bias_g`` and the sensors' noise seeded by ``seed``."""
+    drawn from ``rng`` within ±``bias_g``, a drift in time within ±``drift_g_per_s``, a shift at the impact whose
+    size is drawn within ``impact_shift_g`` (low, high) with either sign (none by default), and the sensors' noise
+    seeded by ``seed``."""
     from pencli.acquire.freefall import Sensors, simulate_drop
     from pencli.filter.freefall import drop_motion
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, bluedrop_bytes, read_bluedrop
@@ -22,7 +25,13 @@ def drops_into(probe, bed, heights_m: Sequence[float], rng: np.random.Generator,
     out = []
     with tempfile.TemporaryDirectory() as tmp:
         for k, height in enumerate(heights_m):
-            sensors = Sensors(bias_g={n: float(rng.uniform(-bias_g, bias_g)) for n in ACCELEROMETER_RANGES_G})
+            names = list(ACCELEROMETER_RANGES_G)
+            shift = ({} if impact_shift_g is None else
+                     {n: float(rng.choice([-1.0, 1.0]) * rng.uniform(*impact_shift_g)) for n in names})
+            sensors = Sensors(bias_g={n: float(rng.uniform(-bias_g, bias_g)) for n in names},
+                              drift_g_per_s=({n: float(rng.uniform(-drift_g_per_s, drift_g_per_s)) for n in names}
+                                             if drift_g_per_s else {}),
+                              impact_shift_g=shift)
             truth = simulate_drop(probe, bed, height, sensors=sensors, seed=seed * 10 + k)
             path = Path(tmp) / f"drop-{k}.bin"
             path.write_bytes(bluedrop_bytes(truth.raw))
