@@ -186,8 +186,8 @@ def plot_prediction(prediction: Prediction, path: str | Path) -> str:
     title = f"{prediction.penetrator.name} · {prediction.material.name} · {prediction.energizing.name}"
     fig, caption = prediction_figure(title, prediction.result.trajectory, prediction.result.summary,
                                      prediction.band(), shape=prediction.penetrator.geometry,
-                                     drive_work="springs" if prediction.energizing.drive == "springs" else
-                                     "buoyancy and drag")
+                                     drive_work={"springs": "springs", "free_fall": "buoyancy and drag"}.get(
+                                         prediction.energizing.drive, "push"))
     return _save_captioned(fig, caption, path, fontsize=9, dpi=200)
 
 
@@ -589,6 +589,9 @@ def acquire(*, springs: int | None, penetrator: str, material: str, energizing: 
             raise ParameterError("give --springs N (2, 4 or 6) or --energizing PRESET_OR_FILE")
         energizing = f"springs_{springs}"
     e = resolve(energizing, "energizing", allow_out_of_range=allow_out_of_range)
+    if e.drive != "springs":
+        raise ParameterError(f"{e.source}: drive {e.drive}: pen acquire fires the spring rig; a "
+                             f"{e.drive.replace('_', ' ')} is predicted by `pen predict`")
     if springs is not None and int(e.values["spring_count"]) != springs:
         raise ParameterError(f"--springs {springs} but {e.source} has spring_count {e.values['spring_count']}")
     p = resolve(penetrator, "penetrator", allow_out_of_range=allow_out_of_range)

@@ -362,3 +362,75 @@ def test_a_fit_of_tapered_blades_fired_by_the_simulated_rig_recovers_the_materia
     truth = yaml.safe_load((REPO_PRESETS / "material" / "grill_brick.yaml").read_text())["coefficients"]
     for name in ("strength_factor", "sidewall_pressure_kpa", "inertia_coefficient"):
         assert fitted[name].value == pytest.approx(truth[name], rel=0.03), name
+
+
+@pytest.mark.parametrize("rate_mm_s", [5.0, 20.0, 65.0])
+def test_a_cone_pushed_at_a_constant_rate_meets_what_its_areas_give_at_that_speed(tmp_path, runner, rate_mm_s):
+    """A push at a set rate prescribes the motion: full depth at d/v, the resistance read along x = v·t from the
+    areas' closed forms at the one speed v, its work their integral (here by quadrature), and the push's work
+    that less gravity's plus the kinetic energy it gave: the energy closes by construction, the figures do not."""
+    from scipy.integrate import quad
+
+    push = {"kind": "energizing", "name": "push", "drive": "constant_rate", "surface_offset_mm": 0.0,
+            "push_rate_mm_s": rate_mm_s}
+    files = [write(tmp_path, n, m) for n, m in (("cone", CONE), ("soft", MATERIAL), ("push", push))]
+    result = invoke(runner, "predict", "-p", files[0], "-m", files[1], "-e", files[2], "--json")
+    assert result.exit_code == 0, result.output + result.stderr
+    s = json.loads(result.stdout)
+    v, depth = rate_mm_s / 1e3, CONE["penetration_depth_mm"] / 1e3
+    assert s["model"] == "pen-1dof/cone+constant_rate" and s["end"] == "full_depth" and s["full_penetration"]
+    assert s["contact_speed_m_s"] == pytest.approx(v, rel=1e-12)
+    assert s["penetration_time_s"] == pytest.approx(depth / v, rel=1e-12)
+    corner = (CONE["shaft_diameter_mm"] - CONE["tip_flat_diameter_mm"]) / 2e3 / math.tan(math.radians(30.0))
+    work = quad(cone_resistance, 0.0, depth, args=(v,), points=[corner], epsrel=1e-12)[0]
+    assert s["energy_other_j"] == pytest.approx(work, rel=1e-8)
+    assert s["peak_resistance_n"] == pytest.approx(max(cone_resistance(depth * k / 2000, v) for k in range(2001)),
+                                                   rel=1e-9)
+    mass = CONE["sprung_mass_kg"]
+    assert s["gravity_work_j"] == pytest.approx(mass * 9.81 * depth, rel=1e-12)
+    assert s["spring_energy_j"] == pytest.approx(work - mass * 9.81 * depth + 0.5 * mass * v * v, rel=1e-8)
+
+
+def test_a_blade_pushed_at_a_constant_rate_books_each_term_at_that_speed(tmp_path, runner):
+    """Eq. 9 along x = v·t: strength a0·d, friction ½·a1·d², damping b·v·d, inertia (d·v²)·d, with a0, a1, b, d
+    written here from the paper's terms; the rate terms are a constant force along the push."""
+    blade = {"kind": "penetrator", "name": "b", "blade_width_mm": 150.0, "blade_thickness_mm": 2.0,
+             "tip_angle_deg": 60.0, "penetration_depth_mm": 120.0, "sprung_mass_kg": 2.0, "load_cell_mass_kg": 0.3}
+    push = {"kind": "energizing", "name": "push", "drive": "constant_rate", "surface_offset_mm": 0.0,
+            "push_rate_mm_s": 40.0}
+    files = [write(tmp_path, n, m) for n, m in (("b", blade), ("soft", MATERIAL), ("push", push))]
+    result = invoke(runner, "predict", "-p", files[0], "-m", files[1], "-e", files[2], "--json")
+    assert result.exit_code == 0, result.output + result.stderr
+    s = json.loads(result.stdout)
+    m, c = MATERIAL, MATERIAL["coefficients"]
+    w, T, theta = 0.150, 0.002, math.radians(60.0)
+    mu, v, depth = m["friction_coefficient"], 0.040, 0.120
+    a0 = w * T * c["strength_factor"] * m["microstructure_strength_kpa"] * 1e3 * (math.sin(theta)
+                                                                                  + mu * math.cos(theta))
+    a1 = 2 * mu * c["sidewall_pressure_kpa"] * 1e3 * w
+    b = w * T * c["damping_kpa_s_m"] * 1e3
+    d = w * T * c["inertia_coefficient"] * m["density_kg_m3"]
+    assert s["energy_strength_j"] == pytest.approx(a0 * depth, rel=1e-12)
+    assert s["energy_friction_j"] == pytest.approx(0.5 * a1 * depth ** 2, rel=1e-12)
+    assert s["energy_damping_j"] == pytest.approx(b * v * depth, rel=1e-12)
+    assert s["energy_inertia_j"] == pytest.approx(d * v * v * depth, rel=1e-12)
+    assert s["peak_resistance_n"] == pytest.approx(a0 + a1 * depth + b * v + d * v * v, rel=1e-12)
+    assert s["peak_resistance_depth_mm"] == pytest.approx(120.0)
+    assert abs(s["energy_balance_error_j"]) < 1e-9
+
+
+@pytest.mark.parametrize("args, said", [
+    (["predict", "-p", "cone_10cm2", "-m", "mpacs_c", "-e", "push_20mm_s", "--speed-at-contact", "3"],
+     ["speed at contact of 3 m/s", "push_rate_mm_s"]),
+    (["acquire", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "push_20mm_s", "--yes"],
+     ["push_20mm_s", "drive constant_rate", "spring rig"]),
+    (["acquire", "-p", "al6061_1mm", "-m", "mpacs_c", "-e", "drop_water", "--yes"],
+     ["drop_water", "drive free_fall", "spring rig"]),
+])
+def test_what_a_push_or_a_drop_cannot_take_is_one_line(tmp_path, runner, monkeypatch, args, said):
+    monkeypatch.setenv("PEN_DB", str(tmp_path / "runs.duckdb"))
+    result = invoke(runner, *args)
+    assert result.exit_code == 1 and "Traceback" not in result.output + result.stderr
+    line = result.stderr.strip()
+    assert "\n" not in line and all(w in line for w in said), line
+    assert not (tmp_path / "runs.duckdb").exists()

@@ -190,7 +190,14 @@ def _free_fall(**kwargs):
     return FreeFall(**kwargs)
 
 
-DRIVES = {"springs": Springs, "free_fall": _free_fall}
+def _constant_rate(**kwargs):
+    from pencli.model.push import ConstantRate
+
+    kwargs.pop("drag_area_m2", None)  # no fluid: nothing drags
+    return ConstantRate(**kwargs)
+
+
+DRIVES = {"springs": Springs, "free_fall": _free_fall, "constant_rate": _constant_rate}
 """Every drive by the name a launcher file's ``drive:`` gives it; its constructor's keywords are the SI names of
 the parameters that build it (``builds="drive"`` in :data:`pencli.params.definitions.PARAMETERS`) and, for a
 drive that drags the body through a fluid, ``drag_area_m2``."""

@@ -264,6 +264,41 @@ def _root(fn, lo: float, hi: float) -> float:
     return float(brentq(fn, lo, hi, xtol=1e-15, rtol=4 * np.finfo(float).eps))
 
 
+PRESCRIBED_GRID = 401
+"""Points of a prescribed path's grid (its dense output's work integral, and where the peak of R is looked for
+before it is refined)."""
+
+
+def _prescribed_penetration(design: Design, law: ResistanceLaw, t0: float, v: float, extra=None):
+    """The penetration of a drive that holds the speed ``v`` (:mod:`pencli.model.push`): x = v·(t − t0) to full
+    depth, the rate terms' work b·v·x and d·v²·x, an extra resistance's ∫ R dx by adaptive quadrature (its
+    running value on a grid, Simpson's rule between the nodes); as :func:`_integrate_penetration` returns."""
+    from scipy.integrate import cumulative_simpson, quad
+
+    depth = design.penetration_depth_m
+    if not v > 0.0:
+        raise ModelError(f"a push at {v:g} m/s: expected a rate above 0")
+    t_end = t0 + depth / v
+    damping, inertia = law.damping_n_s_m * v, law.inertia_n_s2_m2 * v * v  # forces along the path [N]
+    grid = np.linspace(0.0, depth, PRESCRIBED_GRID)
+    if extra is not None:
+        running = cumulative_simpson(np.array([extra(float(x), v) for x in grid]), x=grid, initial=0.0)
+        total = quad(lambda x: extra(float(x), v), 0.0, depth, epsabs=0.0, epsrel=1e-11, limit=500)[0]
+        running *= total / running[-1] if running[-1] != 0.0 else 1.0  # ends on the quadrature's value
+
+    def dense(t):
+        x = np.clip(v * (np.asarray(t, dtype=float) - t0), 0.0, depth)
+        rows = [x, np.full_like(x, v), damping * x, inertia * x]
+        if extra is not None:
+            rows.append(np.interp(x, grid, running))
+        return np.array(rows)
+
+    steps = t0 + grid / v
+    y_end = dense(np.array([t_end]))[:, 0]
+    y_end[0] = depth
+    return [(t0, t_end, dense, steps)], "full_depth", t_end, y_end
+
+
 def _integrate_penetration(design: Design, law: ResistanceLaw, t0: float, v0: float, rtol: float = _RTOL,
                            extra=None, drive: Drive = SPRINGS, budget: int = MAX_EVALUATIONS):
     """Integrate from contact; returns (segments, end, t_end, y_end)."""
@@ -449,6 +484,9 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         extra_resistance = other if extra_resistance is None else _sum(other, extra_resistance)
     mass = inertia_of(drive, design)  # inertia; the weight is the body's own
     flight = drive.flight(design)
+    if speed_at_contact_m_s is not None and getattr(drive, "prescribed_speed_m_s", None) is not None:
+        raise ModelError(f"a speed at contact of {speed_at_contact_m_s:g} m/s for a push at a constant rate, "
+                         f"which meets the surface at its own rate: set push_rate_mm_s instead")
 
     if speed_at_contact_m_s is None:
         t_contact, v_contact = flight.reach(design.surface_offset_m)
@@ -461,8 +499,12 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         u_start, initial_ke = design.surface_offset_m, 0.5 * mass * v_contact ** 2
 
     _check_scales(design, law, v_contact, drive, other)
-    segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact, rtol, extra_resistance,
-                                                         drive, max_evaluations)
+    prescribed = getattr(drive, "prescribed_speed_m_s", None) is not None
+    if prescribed:  # the motion is the push's (pencli.model.push): read the resistance along it
+        segments, end, t_end, y_end = _prescribed_penetration(design, law, t_contact, v_contact, extra_resistance)
+    else:
+        segments, end, t_end, y_end = _integrate_penetration(design, law, t_contact, v_contact, rtol,
+                                                             extra_resistance, drive, max_evaluations)
     x_end, v_end = float(y_end[0]), float(y_end[1])
     full = end == "full_depth"
 
@@ -477,6 +519,8 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
     gravity_j = design.effective_mass_kg * design.gravity_m_s2 * (u_end - u_start)
     final_ke = 0.5 * mass * v_end ** 2
     e_extra = float(y_end[4]) if len(y_end) > 4 else 0.0
+    if prescribed:  # the push does what the motion takes: the resistance's work and the speed, less gravity's
+        spring_j = e_strength + e_friction + e_damping + e_inertia + e_extra + final_ke - initial_ke - gravity_j
     balance = initial_ke + spring_j + gravity_j - (final_ke + e_strength + e_friction + e_damping + e_inertia
                                                    + e_extra)
 
@@ -595,8 +639,12 @@ def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_
     resistance = strength + friction + damping + inertia
     if extra is not None:
         resistance = resistance + mask * np.vectorize(extra, otypes=[float])(x, np.maximum(v, 0.0))
-    spring = drive.force(design, x + design.surface_offset_m)
-    a = np.where(in_material, (spring + weight - resistance) / mass, a_flight)
+    if getattr(drive, "prescribed_speed_m_s", None) is not None:  # the push holds the speed: it takes R − m·g
+        spring = np.where(in_material, resistance - weight, 0.0)
+        a = np.zeros_like(t)
+    else:
+        spring = drive.force(design, x + design.surface_offset_m)
+        a = np.where(in_material, (spring + weight - resistance) / mass, a_flight)
     load_cell = resistance + design.load_cell_mass_kg * a
     return Trajectory(t, x, v, a, strength, friction, damping, inertia, resistance, spring, load_cell, phase)
 

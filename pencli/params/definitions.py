@@ -145,7 +145,7 @@ GEOMETRY_NAMES: tuple[str, ...] = ("blade", "cone", "tapered_blade")
 """The penetrator geometries a file's ``geometry:`` may name (default ``blade``, CONTRACT §2's); each is a class
 in :data:`pencli.model.geometry.GEOMETRIES` (a test checks the two agree)."""
 DEFAULT_GEOMETRY = "blade"
-DRIVE_NAMES: tuple[str, ...] = ("springs", "free_fall")
+DRIVE_NAMES: tuple[str, ...] = ("springs", "free_fall", "constant_rate")
 """The drives a launcher (energizing) file's ``drive:`` may name (default ``springs``, CONTRACT §2's); each is a
 class in :data:`pencli.model.drive.DRIVES` (a test checks the two agree)."""
 DEFAULT_DRIVE = "springs"
@@ -189,7 +189,8 @@ CHOICES: list[Choice] = [
     Choice("drive", "energizing", "what drives the body into the material", DRIVE_NAMES, DEFAULT_DRIVE,
            ("the spring launcher (CONTRACT §2)",
             "a free fall from a height through a fluid (air, water): weight, buoyancy, drag to the surface, added "
-            "mass")),
+            "mass", "a push at a set rate from the surface to full depth (a cone penetration test): the motion is "
+            "prescribed, the push is what it takes")),
 ]
 """The named-choice parameters, by kind; values are the option names as written (a list: a variant registered
 by :func:`register_variant` adds its own)."""
@@ -293,6 +294,10 @@ PARAMETERS: list[Param] = [
     _P("displaced_volume_l", "energizing", "V", "the body's volume, which the fluid buoys and accelerates", "L",
        "displaced_volume_m3", 1e-3, hard_min=0, range_min=0, range_max=1000, geometries=("free_fall",),
        builds="drive"),
+    # --- energizing: a push at a constant rate ----------------------------------------
+    _P("push_rate_mm_s", "energizing", "v", "the rate the rig pushes the body at, from the surface to full depth "
+       "(20 for a standard CPT)", "mm/s", "rate_m_s", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=0.1,
+       range_max=1000, geometries=("constant_rate",), builds="drive"),
 ]
 
 EITHER_OR: dict[str, tuple[str, Callable[[dict[str, float]], float]]] = {
