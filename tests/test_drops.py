@@ -77,6 +77,7 @@ def test_a_report_draws_each_drop_and_the_bed(runner, drops, tmp_path):
     assert r.exit_code == 0, r.stderr
     html = out.read_text()
     assert html.count("<svg") >= len(HEIGHTS_M) and "The bed across the drops" in html
+    assert html.count("Over the rest after the stop") == len(HEIGHTS_M)  # each drop's speed at rest, checked
     assert (tmp_path / "drops.pdf").stat().st_size > 0
 
 

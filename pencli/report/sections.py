@@ -366,16 +366,23 @@ def snow_section(result) -> Section:
 def drop_section(drop) -> Section:
     """A free-fall drop (:class:`pencli.api.Drop`): release, impact, speed at impact, penetration, the sensors'
     biases, and its figure."""
+    from pencli.diagnose.drops import rest_speed
     from pencli.report import figures
 
     m = drop.motion
     t = m.time_s
+    still = rest_speed(m)
+    checked = (f" Over the rest after the stop, where the probe lies still, the integrated speed is "
+               f"{still.speed_m_s:+.4f} m/s, {still.z:.1f} standard deviations of the integrated noise beyond the "
+               f"{m.rest_speed_bound_m_s:.4f} m/s the integration leaves (pen drops diagnose names a bias the rests "
+               f"did not show from this)." if still.speed_m_s == still.speed_m_s else
+               " The record has no rest after the stop, so the bias there is not checked.")
     section = Section(f"Free-fall drop {drop.name}",
                       text=f"Released at {t[m.release]:.3f} s, met the bed at {m.impact_s:.4f} s at "
                            f"{m.impact_speed_m_s:.3f} m/s and stopped {1e3 * m.penetration_m:.1f} mm into it at "
                            f"{t[m.stop]:.3f} s; largest deceleration {m.peak_deceleration_g:.1f} g. The speed and "
                            f"depth are the stitched accelerometers integrated from the release, each sensor's bias "
-                           f"taken at rest before the release and after the stop.",
+                           f"taken at rest before the release and after the stop." + checked,
                       provenance={"source": str(drop.record.source)})
     section.tables.append(("each accelerometer's bias at rest", ["sensor", "before the release [g]",
                                                                  "after the stop [g]"],
