@@ -13,9 +13,11 @@ one drop's own misfit) and *found* when the verdict is ``layer`` within 10 mm of
 per seed, into the bed without the layer: *shifted*, each accelerometer's bias shifting at the impact by
 0.005-0.03 g of either sign (a shock's zero offset, which the rests before and after cannot show), found when
 the verdict is ``accelerometer_bias``; and *drifting*, each bias drifting in time by up to ±0.002 g/s (which
-the pipeline takes out between the rests), a null.  Prints a row per seed, then the layers found among those
-met, the shifts found, and the nulls (plain and drifting) called.  Seeds START to END (default 6000-6020,
-unused; 0-6 is the range the diagnosis was made on, 1000-1019, 4000-4019 and 5000-5019 have been run and looked at).
+the pipeline takes out between the rests), a null; and *leaning*, each drop coming to rest leaning by up to
+15° towards a random side (its axial sensors then read cos θ of gravity; pen reads the lean from the tilt
+channels), a null.  Prints a row per seed, then the layers found among those met, the shifts found, and the
+nulls (plain, drifting and leaning) called.  Seeds START to END (default 7000-7020,
+unused; 0-6 is the range the diagnosis was made on, 1000-1019, 4000-4019, 5000-5019 and 6000-6019 have been run and looked at).
 """
 
 from __future__ import annotations
@@ -54,11 +56,11 @@ def main() -> None:
 
     args = sys.argv[1:]
     start, end = (int(v) for v in args[args.index("--seeds") + 1:args.index("--seeds") + 3]) \
-        if "--seeds" in args else (6000, 6020)
+        if "--seeds" in args else (7000, 7020)
     truth_probe = Probe()
     guess = FreeFallProbe(truth_probe.mass_kg, truth_probe.volume_m3, truth_probe.half_angle_rad,
                           truth_probe.shaft_radius_m, 0.8, 0.3)
-    found = called = met = found_unmet = shifts = drifts = 0
+    found = called = met = found_unmet = shifts = drifts = leans = 0
     for seed in range(start, end):
         drops, bed, reached = _drops(seed, True)
         layer = api.diagnose_drops(drops, guess)
@@ -73,14 +75,16 @@ def main() -> None:
         shifts += shifted.verdict == "accelerometer_bias"
         drifting = api.diagnose_drops(_drops(seed, False, drift_g_per_s=0.002)[0], guess)
         drifts += drifting.verdict != "none"
+        leaning = api.diagnose_drops(_drops(seed, False, rest_tilt_deg=15.0)[0], guess)
+        leans += leaning.verdict != "none"
         print(f"seed {seed}: layer {1e3 * bed.layer_depth_m:.0f} mm {bed.layer_step_kpa:+.1f} kPa -> {layer.verdict} "
               f"{1e3 * layer.layer_depth_m:.0f} mm {layer.layer_step_kpa:+.1f} kPa (p {layer.p_value:.3f}, share "
               f"{layer.share:.2f}){' FOUND' if hit else ''}{'' if reached else ' (met by fewer than two drops)'}; null -> {null.verdict} (p {null.p_value:.3f}, share "
-              f"{null.share:.2f}); shifted -> {shifted.verdict}; drifting -> {drifting.verdict}", flush=True)
+              f"{null.share:.2f}); shifted -> {shifted.verdict}; drifting -> {drifting.verdict}; leaning -> {leaning.verdict}", flush=True)
     total = end - start
     print(f"layers met by two drops or more: found {found} of {met}; of the {total - met} others, found "
           f"{found_unmet}; hidden shifts found {shifts} of {total}; nulls called {called} of {total}, drifting nulls "
-          f"called {drifts} of {total}")
+          f"called {drifts} of {total}, leaning nulls called {leans} of {total}")
 
 
 if __name__ == "__main__":

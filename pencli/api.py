@@ -1691,13 +1691,16 @@ def read_drops(refs: Sequence[str | Path], db: str | Path | None = None,
 
 def _drop_motion(record, bias_at: str = "ramp"):
     """A record's motion (:func:`pencli.filter.freefall.drop_motion`, the bias between the rests as ``bias_at``
-    says); a record whose motion cannot be found is one line naming it."""
+    says, a lean at rest read through the tilt channels where the record has them); a record whose motion cannot
+    be found is one line naming it."""
     from pencli.filter.freefall import drop_motion
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G
 
+    tilt = (record.channels["tilt_x"], record.channels["tilt_y"]) if {"tilt_x", "tilt_y"} <= set(record.channels) \
+        else None
     try:
         return drop_motion(record.time_s, {c: record.channels[c] for c in ACCELEROMETER_RANGES_G},
-                           ACCELEROMETER_RANGES_G, bias_at=bias_at)
+                           ACCELEROMETER_RANGES_G, bias_at=bias_at, tilt=tilt)
     except ValueError as error:
         raise DataError(f"{record.source}: {error}") from None
 
@@ -1749,11 +1752,13 @@ def report_drops(drops: Sequence[Drop], out: str | Path, *, pdf: bool = True, pr
 
 
 def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ...], bias_g: float = 0.0,
-                       seed: int = 0, calibration_out: str | Path | None = None, impact_shift_g: float = 0.0):
+                       seed: int = 0, calibration_out: str | Path | None = None, impact_shift_g: float = 0.0,
+                       rest_tilt_deg: float = 0.0):
     """``pen drops simulate``: a drop of the simulated BlueDrop (:mod:`pencli.acquire.freefall`, the
     ``freefall_cone`` probe in ``drop_water``) released ``height_m`` above a bed of q = σ + b·z + c·v (``bed``:
     kPa, kPa/m, kPa·s/m; two more: a layer's depth [m] and step [kPa]), each accelerometer with a random bias
-    within ±``bias_g`` that shifts by ``impact_shift_g`` at the impact, written as a BlueDrop record and its calibration sheet (CSV; default ``calibration.csv``
+    within ±``bias_g`` that shifts by ``impact_shift_g`` at the impact, the probe leaning ``rest_tilt_deg`` once
+    stopped, written as a BlueDrop record and its calibration sheet (CSV; default ``calibration.csv``
     beside it), both or neither.  Returns (the simulation's truth, the sheet's path, each sensor's bias)."""
     from pencli.acquire.freefall import Bed, Probe, Sensors, simulate_drop
     from pencli.io.atomic import atomic_group
@@ -1771,11 +1776,14 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ..
         raise ParameterError(f"--bias-g {bias_g:g}: expected 0 … 0.5 g")
     if not -0.5 <= impact_shift_g <= 0.5:
         raise ParameterError(f"--impact-shift-g {impact_shift_g:g}: expected −0.5 … 0.5 g")
+    if not 0.0 <= rest_tilt_deg <= 60.0:
+        raise ParameterError(f"--rest-tilt-deg {rest_tilt_deg:g}: expected 0 … 60°")
     rng = np.random.default_rng(seed)
     sensors = Sensors(bias_g={name: float(rng.uniform(-bias_g, bias_g)) for name in ACCELEROMETER_RANGES_G},
                       impact_shift_g={name: float(impact_shift_g) for name in ACCELEROMETER_RANGES_G})
     try:
-        truth = simulate_drop(Probe(), Bed(*bed), height_m, sensors=sensors, seed=seed)
+        truth = simulate_drop(Probe(), Bed(*bed), height_m, sensors=sensors, seed=seed, rest_tilt_deg=rest_tilt_deg,
+                              tilt_azimuth_deg=float(rng.uniform(0.0, 360.0)) if rest_tilt_deg else 0.0)
     except ValueError as error:
         raise ParameterError(f"--bed: {error}") from None
     out = Path(out)

@@ -87,6 +87,7 @@ def test_a_report_draws_each_drop_and_the_bed(runner, drops, tmp_path):
     (["fit", "{drop}", "--calibration", "{cal}", "-e", "springs_4"], ["drive springs", "free_fall"]),
     (["simulate", "--out", "{tmp}/x.bin", "--bed", "0,1,1"], ["--bed", "σ > 0"]),
     (["simulate", "--out", "{tmp}/x.bin", "--impact-shift-g", "0.9"], ["--impact-shift-g 0.9", "0.5 g"]),
+    (["simulate", "--out", "{tmp}/x.bin", "--rest-tilt-deg", "75"], ["--rest-tilt-deg 75", "60°"]),
     (["show", "{tmp}/missing.bin", "--calibration", "{cal}"], ["missing.bin", "no such file"]),
 ])
 def test_bad_input_is_one_line(runner, drops, tmp_path, args, said):
@@ -146,3 +147,25 @@ def test_a_bias_that_shifts_at_the_impact_is_named_and_a_step_there_closes_it(ru
     shown = json.loads(invoke(runner, "drops", "show", tmp_path / f"drop-{len(HEIGHTS_M) - 1}.bin", "--calibration",
                               tmp_path / "calibration.csv", "--json").stdout)[0]
     assert shown["penetration_mm"] > truths[-1]["penetration_mm"] * 1.005  # the ramp's reading: too deep
+
+
+def test_a_probe_that_rests_leaning_is_read_through_its_tilt_channels(runner, tmp_path):
+    """The probes come to rest leaning 12° (the simulated rig's truth: the axial sensors then read cos θ of
+    gravity, the tilt channels sin θ): read as a bias at rest, that lean would drift the speed and the depth; read
+    through the tilt channels, each drop stops where the simulation did and the check finds no bias."""
+    truths = []
+    for k, height in enumerate(HEIGHTS_M):
+        r = invoke(runner, "drops", "simulate", "--height-m", height, "--bed", ",".join(map(str, BED)),
+                   "--bias-g", 0.03, "--rest-tilt-deg", 12, "--seed", 40 + k, "--out", tmp_path / f"drop-{k}.bin",
+                   "--json")
+        assert r.exit_code == 0, r.stderr
+        truths.append(json.loads(r.stdout))
+    files = sorted(tmp_path.glob("drop-*.bin"))
+    shown = json.loads(invoke(runner, "drops", "show", *files, "--calibration", tmp_path / "calibration.csv",
+                              "--json").stdout)
+    for record, truth in zip(shown, truths):
+        assert record["penetration_mm"] == pytest.approx(truth["penetration_mm"], rel=0.01)
+        assert abs(record["rest_speed_m_s"]) < 0.01
+    result = json.loads(invoke(runner, "drops", "diagnose", *files, "--calibration", tmp_path / "calibration.csv",
+                               "--json").stdout)
+    assert result["verdict"] == "none" and result["accelerometer"]["biased"] == []

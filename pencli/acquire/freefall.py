@@ -15,9 +15,11 @@ axis, (g − a)/g in g (1 at rest, 0 in a vacuum's free fall), plus its own
 bias and white noise, clipped to its range and rounded to its counts.  The
 bias may drift in time (a warming sensor) and may shift at the impact (the
 zero offset a shock leaves in a strained sensing element), by a sensor's
-own amounts; the
-pore pressure is the water's at the probe's depth; the tilt channels read
-noise about zero.  The counts follow the calibration (raw = value·scale −
+own amounts.  The pore pressure is the water's at the probe's depth; the
+tilt channels (lateral accelerometers) read noise about zero while the
+probe is vertical.  Once stopped, the probe may lean (``rest_tilt_deg``):
+the axial sensors then read cos θ of gravity and the tilt channels the
+rest.  The counts follow the calibration (raw = value·scale −
 offset) and are written in the BlueDrop format
 (:func:`pencli.io.bluedrop.bluedrop_bytes`).  This is the truth the
 free-fall filters and fit (:mod:`pencli.filter.freefall`) are checked
@@ -149,11 +151,19 @@ def _motion(probe: Probe, bed: Bed, drop_height_m: float, water_density: float):
             float(solution.sol(t_stop)[0]) - drop_height_m)
 
 
+SETTLE_S = 0.02
+"""Time a probe takes to lean to its resting tilt once it has stopped in the bed. [s]"""
+
+
 def simulate_drop(probe: Probe, bed: Bed, drop_height_m: float, *, sensors: Sensors | None = None,
                   water_depth_m: float = 10.0, water_density: float = 1025.0, hold_s: float = 0.5,
-                  rest_s: float = 0.5, seed: int = 0) -> Drop:
+                  rest_s: float = 0.5, seed: int = 0, rest_tilt_deg: float = 0.0,
+                  tilt_azimuth_deg: float = 0.0) -> Drop:
     """A drop released ``drop_height_m`` above the bed, with ``hold_s`` at rest before and ``rest_s`` on the bed
-    after, sampled at ``RATE_HZ`` and read by ``sensors``; the bed lies ``water_depth_m`` below the surface."""
+    after, sampled at ``RATE_HZ`` and read by ``sensors``; the bed lies ``water_depth_m`` below the surface.
+    Once stopped, the probe leans over ``SETTLE_S`` to ``rest_tilt_deg`` from the vertical, towards
+    ``tilt_azimuth_deg`` between the tilt channels' axes: the axial accelerometers then read gravity's share
+    along the axis, cos θ, and the tilt channels the rest, sin θ·(cos φ, sin φ)."""
     sensors = sensors or Sensors()
     rng = np.random.default_rng(seed)
     solution, rhs, t_impact, v_impact, t_stop, final = _motion(probe, bed, drop_height_m, water_density)
@@ -164,7 +174,8 @@ def simulate_drop(probe: Probe, bed: Bed, drop_height_m: float, *, sensors: Sens
     accel = np.zeros(n)
     x[falling] = solution.sol(t[falling] - hold_s)[0]
     accel[falling] = [rhs(tt - hold_s, solution.sol(tt - hold_s))[1] for tt in t[falling]]  # the equation's own
-    specific = (G - accel) / G
+    lean = math.radians(rest_tilt_deg) * np.clip((t - hold_s - t_stop) / SETTLE_S, 0.0, 1.0)  # at rest only
+    specific = (G - accel) / G * np.cos(lean)
     raw = np.zeros((n, len(CHANNELS)), dtype=np.int64)
     raw[:, 0] = np.arange(n) % (1 << 23)
     after_impact = t >= hold_s + t_impact
@@ -179,8 +190,10 @@ def simulate_drop(probe: Probe, bed: Bed, drop_height_m: float, *, sensors: Sens
                     + rng.normal(0, sensors.pressure_noise_psi, n))
     cal = sensors.calibration["pore_pressure"]
     raw[:, CHANNELS.index("pore_pressure")] = np.rint(pressure_psi * cal.scale - cal.offset)
-    for name in ("tilt_x", "tilt_y"):
+    azimuth = math.radians(tilt_azimuth_deg)
+    for name, share in (("tilt_x", math.cos(azimuth)), ("tilt_y", math.sin(azimuth))):
         cal = sensors.calibration[name]
-        raw[:, CHANNELS.index(name)] = np.rint(rng.normal(0.0, sensors.noise_g, n) * cal.scale - cal.offset)
+        value = np.sin(lean) * share + rng.normal(0.0, sensors.noise_g, n)
+        raw[:, CHANNELS.index(name)] = np.rint(value * cal.scale - cal.offset)
     return Drop(raw=raw, release_s=hold_s, impact_s=hold_s + t_impact, impact_speed_m_s=v_impact,
                 stop_s=hold_s + t_stop, penetration_m=final)

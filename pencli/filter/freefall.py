@@ -155,10 +155,11 @@ def impact_row(specific_g: np.ndarray, release: int, rate_hz: float) -> int:
 
 
 def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: dict[str, float],
-                bias_at: str = "ramp") -> DropMotion:
+                bias_at: str = "ramp", tilt: tuple[np.ndarray, np.ndarray] | None = None) -> DropMotion:
     """The motion of one drop from its axial accelerometers (``channels`` in g, ``ranges_g`` their ranges): each
     sensor's bias taken out where the probe rests (between the rests as ``bias_at`` says, :data:`BIAS_MODELS`),
-    then stitched (:func:`stitch`) and integrated."""
+    then stitched (:func:`stitch`) and integrated.  With ``tilt`` (the two lateral channels, in g), a probe that
+    rests leaning is read through them (:func:`_lean`)."""
     if bias_at not in BIAS_MODELS:
         raise ValueError(f"bias model {bias_at!r}: expected one of {', '.join(BIAS_MODELS)}")
     time_s = np.asarray(time_s, dtype=float)
@@ -168,11 +169,14 @@ def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: d
     release = release_row(raw)
     impact = impact_row(raw, release, rate)
     # the stop from a first pass with each sensor's bias at the first rest, then each one's at the rest after it
-    first = {name: _rest_bias(values[max(0, release - rest): release]) for name, values in channels.items()}
+    lean = _lean(tilt, rate, time_s.size, release, None)
+    before = slice(max(0, release - rest), release)
+    first = {name: _rest_bias(values[before], lean[before]) for name, values in channels.items()}
     _, speed, _ = _integrate(time_s, stitch({n: v - first[n] for n, v in channels.items()}, ranges_g), release)
     stop = _stop(speed, impact)
+    lean = _lean(tilt, rate, time_s.size, release, stop)
     after = slice(stop + rest // 2, stop + rest // 2 + rest)
-    last = {name: (_rest_bias(values[after]) if values[after].size >= rest // 2 else first[name])
+    last = {name: (_rest_bias(values[after], lean[after]) if values[after].size >= rest // 2 else first[name])
             for name, values in channels.items()}
     if bias_at == "ramp":
         t0, t1 = time_s[max(0, release - rest // 2)], time_s[min(time_s.size - 1, stop + rest)]
@@ -180,6 +184,7 @@ def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: d
     else:
         share = (np.arange(time_s.size) >= impact).astype(float)
     f = stitch({n: v - (first[n] + (last[n] - first[n]) * share) for n, v in channels.items()}, ranges_g)
+    f = f * np.sqrt(1.0 - lean) + lean  # the vertical specific force where the probe rests leaning
     accel, speed, travel = _integrate(time_s, f, release)
     stop = _stop(speed, impact)
     hit = impact_time(time_s, f, release)
@@ -202,9 +207,39 @@ def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: d
                       rest_speed_sd_m_s=math.hypot(walk, estimates), bias_at=bias_at)
 
 
-def _rest_bias(values: np.ndarray) -> float:
-    """What a sensor reads beyond 1 g at rest (0 where there is no rest). [g]"""
-    return float(np.mean(values) - 1.0) if values.size else 0.0
+TILT_SMOOTH_MS = 20.0
+"""Span of the moving mean the tilt channels are read through at rest (their noise squared would otherwise add
+to the lean). [ms]"""
+
+
+def _lean(tilt, rate_hz: float, rows: int, release: int, stop: int | None) -> np.ndarray:
+    """sin²θ of the probe's lean from the vertical, row by row, where it rests (before the release and, once
+    ``stop`` is known, from the stop on; 0 while it moves, and everywhere without ``tilt``).
+
+    At rest the specific force is gravity, 1 g up; leaning by θ, the axial sensors read cos θ of it and the
+    lateral (tilt) channels sin θ between them, so sin²θ = t_x² + t_y² (through a moving mean of
+    ``TILT_SMOOTH_MS``).  The vertical specific force is then the axial reading (bias out) times cos θ plus
+    sin²θ, and a rest's bias is its axial reading less cos θ.  While the probe moves it is taken as vertical:
+    the lateral channels then read the impact's shocks, not gravity."""
+    out = np.zeros(rows)
+    if tilt is None:
+        return out
+    width = max(1, int(TILT_SMOOTH_MS * 1e-3 * rate_hz))
+    kernel = np.ones(width) / width
+    s2 = np.clip(sum(np.convolve(np.asarray(c, dtype=float), kernel, mode="same") ** 2 for c in tilt), 0.0, 1.0)
+    resting = np.arange(rows) < release
+    if stop is not None:
+        resting |= np.arange(rows) >= stop
+    out[resting] = s2[resting]
+    return out
+
+
+def _rest_bias(values: np.ndarray, lean: np.ndarray | None = None) -> float:
+    """What a sensor reads beyond gravity's share along its axis at rest, cos θ (1 g upright; 0 where there is
+    no rest). [g]"""
+    if not values.size:
+        return 0.0
+    return float(np.mean(values - (1.0 if lean is None else np.sqrt(1.0 - lean))))
 
 
 def _integrate(time_s: np.ndarray, specific_g: np.ndarray, release: int):

@@ -12,12 +12,13 @@ import numpy as np
 
 
 def drops_into(probe, bed, heights_m: Sequence[float], rng: np.random.Generator, seed: int,
-               bias_g: float = 0.03, drift_g_per_s: float = 0.0, impact_shift_g: tuple[float, float] | None = None
-               ) -> list[tuple]:
+               bias_g: float = 0.03, drift_g_per_s: float = 0.0, impact_shift_g: tuple[float, float] | None = None,
+               rest_tilt_deg: float = 0.0) -> list[tuple]:
     """(truth, record, motion) of a drop of ``probe`` into ``bed`` from each height, each accelerometer with a bias
     drawn from ``rng`` within ±``bias_g``, a drift in time within ±``drift_g_per_s``, a shift at the impact whose
-    size is drawn within ``impact_shift_g`` (low, high) with either sign (none by default), and the sensors' noise
-    seeded by ``seed``."""
+    size is drawn within ``impact_shift_g`` (low, high) with either sign (none by default), the probe leaning once
+    stopped by an angle drawn within ``rest_tilt_deg`` towards a random side, and the sensors' noise seeded by
+    ``seed``; the motion read as ``pen drops`` reads it (the tilt channels with the accelerometers)."""
     from pencli.acquire.freefall import Sensors, simulate_drop
     from pencli.filter.freefall import drop_motion
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, bluedrop_bytes, read_bluedrop
@@ -32,12 +33,14 @@ def drops_into(probe, bed, heights_m: Sequence[float], rng: np.random.Generator,
                               drift_g_per_s=({n: float(rng.uniform(-drift_g_per_s, drift_g_per_s)) for n in names}
                                              if drift_g_per_s else {}),
                               impact_shift_g=shift)
-            truth = simulate_drop(probe, bed, height, sensors=sensors, seed=seed * 10 + k)
+            lean = ({"rest_tilt_deg": float(rng.uniform(0.0, rest_tilt_deg)),
+                     "tilt_azimuth_deg": float(rng.uniform(0.0, 360.0))} if rest_tilt_deg else {})
+            truth = simulate_drop(probe, bed, height, sensors=sensors, seed=seed * 10 + k, **lean)
             path = Path(tmp) / f"drop-{k}.bin"
             path.write_bytes(bluedrop_bytes(truth.raw))
             record = read_bluedrop(path, sensors.calibration)
             motion = drop_motion(record.time_s, {n: record.channels[n] for n in ACCELEROMETER_RANGES_G},
-                                 ACCELEROMETER_RANGES_G)
+                                 ACCELEROMETER_RANGES_G, tilt=(record.channels["tilt_x"], record.channels["tilt_y"]))
             out.append((truth, record, motion))
     return out
 
