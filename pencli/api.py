@@ -186,7 +186,7 @@ def plot_prediction(prediction: Prediction, path: str | Path) -> str:
     title = f"{prediction.penetrator.name} · {prediction.material.name} · {prediction.energizing.name}"
     fig, caption = prediction_figure(title, prediction.result.trajectory, prediction.result.summary,
                                      prediction.band(), shape=prediction.penetrator.geometry,
-                                     drive_work={"springs": "springs", "free_fall": "buoyancy and drag"}.get(
+                                     drive_work={"springs": "springs", "free_fall": "buoyancy, drag and tether"}.get(
                                          prediction.energizing.drive, "push"))
     return _save_captioned(fig, caption, path, fontsize=9, dpi=200)
 
@@ -1724,7 +1724,8 @@ def free_fall_probe(penetrator: str | Path, energizing: str | Path):
                          half_angle_rad=cone.half_angle_rad, shaft_radius_m=cone.shaft_radius_m,
                          drag_coefficient=float(e.values["drag_coefficient"]),
                          added_mass_coefficient=float(e.values.get("added_mass_coefficient", 0.0)),
-                         water_density=float(e.values["fluid_density_kg_m3"]))
+                         water_density=float(e.values["fluid_density_kg_m3"]),
+                         tether_force_n=float(e.values.get("tether_force_n", 0.0)))
 
 
 def fit_drops(drops: Sequence[Drop], probe, *, nuisances: bool = True):

@@ -49,7 +49,7 @@ FIGURES: dict[str, Quantity] = {
 
 DRIVE_WORK: dict[str, Quantity] = {
     "springs": FIGURES["spring_energy_j"],
-    "free_fall": Quantity("work of buoyancy and drag", "J"),
+    "free_fall": Quantity("work of buoyancy, drag and tether", "J"),
     "constant_rate": Quantity("work of the push", "J"),
 }
 """How ``spring_energy_j`` (the drive's work, CONTRACT §5's name) is shown for each drive."""

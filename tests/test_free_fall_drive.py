@@ -23,6 +23,7 @@ DROPS = {
     "air": {"kind": "energizing", "name": "air", "drive": "free_fall", "surface_offset_mm": 1800.0,
             "fluid_density_kg_m3": 1.2, "drag_coefficient": 1.1, "displaced_volume_l": 1.6},
 }
+DROPS["tethered"] = {**DROPS["water"], "name": "tethered", "tether_force_n": 12.0}
 G = 9.81
 
 
@@ -46,7 +47,7 @@ def independent_drop(drop: dict):
     def rhs(_t, y):
         x, v = y[0], y[1]
         fluid = drag * v * abs(v) if x < 0.0 else 0.0
-        force = m * G - rho * volume * G - fluid - cone_resistance(x, v)
+        force = m * G - rho * volume * G - drop.get("tether_force_n", 0.0) - fluid - cone_resistance(x, v)
         return [v, force / (m + added), fluid * v]
 
     contact = lambda _t, y: y[0]  # noqa: E731
@@ -62,7 +63,7 @@ def independent_drop(drop: dict):
     return t_c, v_c, bed.y_events[0][0][0], bed.t_events[0][0], w_drag
 
 
-@pytest.mark.parametrize("fluid", ["water", "air"])
+@pytest.mark.parametrize("fluid", ["water", "air", "tethered"])
 def test_a_drop_predicts_what_an_integration_from_release_gives(tmp_path, runner, fluid):
     drop = DROPS[fluid]
     s = predict(tmp_path, runner, drop)
@@ -76,7 +77,7 @@ def test_a_drop_predicts_what_an_integration_from_release_gives(tmp_path, runner
     # resistance takes what they leave
     s0 = drop["surface_offset_mm"] / 1e3
     travel = s0 + depth
-    buoyancy = drop["fluid_density_kg_m3"] * drop["displaced_volume_l"] / 1e3 * G
+    buoyancy = drop["fluid_density_kg_m3"] * drop["displaced_volume_l"] / 1e3 * G + drop.get("tether_force_n", 0.0)
     assert s["gravity_work_j"] == pytest.approx(HEAVY_CONE["sprung_mass_kg"] * G * travel, rel=1e-8)
     assert s["spring_energy_j"] == pytest.approx(-buoyancy * travel - w_drag, rel=1e-8)
     assert s["energy_other_j"] == pytest.approx(s["gravity_work_j"] + s["spring_energy_j"], rel=1e-8)

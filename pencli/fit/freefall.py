@@ -36,7 +36,7 @@ MIN_SPEED_M_S = 0.05
 @dataclass(frozen=True)
 class FreeFallProbe:
     """What the fit must know of the probe: mass [kg], volume [m³], its cone (half-angle [rad], shaft radius [m]),
-    drag and added-mass coefficients [–], and the water's density [kg/m³]."""
+    drag and added-mass coefficients [–], the water's density [kg/m³] and a tether's tension [N]."""
 
     mass_kg: float
     volume_m3: float
@@ -45,6 +45,12 @@ class FreeFallProbe:
     drag_coefficient: float
     added_mass_coefficient: float
     water_density: float = 1025.0
+    tether_force_n: float = 0.0
+
+    @property
+    def net_weight_n(self) -> float:
+        """(m − ρ_w·V)·g − T: the weight less the buoyancy and the tether's pull. [N]"""
+        return (self.mass_kg - self.water_density * self.volume_m3) * G - self.tether_force_n
 
 
 @dataclass(frozen=True)
@@ -74,7 +80,7 @@ def bed_force_n(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, n
     rho = probe.water_density
     m_eff = probe.mass_kg + probe.added_mass_coefficient * rho * probe.volume_m3
     section = math.pi * probe.shaft_radius_m ** 2
-    force = ((probe.mass_kg - rho * probe.volume_m3) * G - 0.5 * rho * probe.drag_coefficient * section * speed
+    force = (probe.net_weight_n - 0.5 * rho * probe.drag_coefficient * section * speed
              * np.abs(speed) - m_eff * accel)
     return depth, speed, force
 
@@ -119,13 +125,13 @@ def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe, *, nuisances: b
         bed = slice(motion.impact, motion.stop + 1)
         v, a = motion.speed_m_s[bed][inside], motion.accel_m_s2[bed][inside]
         rows.append(np.column_stack(columns + [0.5 * rho * section * v * np.abs(v), rho * volume * a]))
-        targets.append((probe.mass_kg - rho * volume) * G - probe.mass_kg * a)
+        targets.append(probe.net_weight_n - probe.mass_kg * a)
         start = int(np.searchsorted(motion.time_s, motion.time_s[motion.release] + FLIGHT_SKIP_S))
         flight = slice(start, motion.impact)
         v, a = motion.speed_m_s[flight], motion.accel_m_s2[flight]
         zero = np.zeros(v.size)
         rows.append(np.column_stack([zero, zero, zero, 0.5 * rho * section * v * np.abs(v), rho * volume * a]))
-        targets.append((probe.mass_kg - rho * volume) * G - probe.mass_kg * a)
+        targets.append(probe.net_weight_n - probe.mass_kg * a)
         in_bed.append(np.zeros(v.size, dtype=bool))
     X, y = np.vstack(rows), np.concatenate(targets)
     theta, *_ = np.linalg.lstsq(X, y, rcond=None)

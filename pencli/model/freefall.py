@@ -4,7 +4,9 @@ The body (mass m, volume V, drag coefficient C_D on its largest frontal area A) 
 s0 above the bed in a fluid of density ρ_f.  The fluid buoys it (ρ_f·V·g up), carries an added mass
 m_a = C_a·ρ_f·V along with it (inertia without weight) and, until the tip meets the surface, drags it with
 ½·ρ_f·C_D·A·v².  Below the surface the frontal area is in the bed, whose resistance replaces the drag; the
-buoyancy and the added mass stay (the bed's pore fluid and the fluid above it still surround the body).
+buoyancy and the added mass stay (the bed's pore fluid and the fluid above it still surround the body).  A
+tether the body pays out pulls back with a constant tension T from release to rest, which adds to the
+buoyancy wherever it appears below (ρ_f·V·g stands for ρ_f·V·g + T).
 
 The flight is closed form.  With m' = m + m_a, g' = (m − ρ_f·V)·g/m' and the terminal speed
 v_t² = 2·(m − ρ_f·V)·g/(ρ_f·C_D·A):
@@ -100,18 +102,20 @@ class FreeFall:
     displaced_volume_m3: float
     drag_area_m2: float
     added_mass_coefficient: float = 0.0
+    tether_force_n: float = 0.0
+    """The tension of a line the body pays out as it falls (a spool's drag), constant from release to rest. [N]"""
     name: str = "free_fall"
     closed_form: bool = False
     keys: tuple[str, ...] = ("fluid_density_kg_m3", "drag_coefficient", "displaced_volume_l",
-                             "added_mass_coefficient")
+                             "added_mass_coefficient", "tether_force_n")
 
     def added_mass_kg(self, design) -> float:
         """m_a = C_a·ρ_f·V: fluid the body carries along (inertia, no weight). [kg]"""
         return self.added_mass_coefficient * self.fluid_density_kg_m3 * self.displaced_volume_m3
 
     def buoyancy_n(self, design) -> float:
-        """ρ_f·V·g. [N]"""
-        return self.fluid_density_kg_m3 * self.displaced_volume_m3 * float(design.gravity_m_s2)
+        """ρ_f·V·g and the tether's tension: the drive's constant upward forces. [N]"""
+        return self.fluid_density_kg_m3 * self.displaced_volume_m3 * float(design.gravity_m_s2) + self.tether_force_n
 
     def drag_n_s2_m2(self) -> float:
         """½·ρ_f·C_D·A. [N·s²/m²]"""
@@ -147,7 +151,7 @@ class FreeFall:
         return -buoyancy - np.where(inside, k * vt2 * -np.expm1(-np.clip(u, 0.0, None) / scale), 0.0)
 
     def work(self, design, u0: float, u1: float) -> float:
-        """−ρ_f·V·g·(u1 − u0) less the drag's work over the part of [u0, u1] above the surface. [J]"""
+        """−(ρ_f·V·g + T)·(u1 − u0) less the drag's work over the part of [u0, u1] above the surface. [J]"""
         s0 = float(design.surface_offset_m)
         total = -self.buoyancy_n(design) * (u1 - u0)
         vt2, scale = self._drag_scale(design)
