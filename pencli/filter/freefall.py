@@ -159,7 +159,7 @@ def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: d
     """The motion of one drop from its axial accelerometers (``channels`` in g, ``ranges_g`` their ranges): each
     sensor's bias taken out where the probe rests (between the rests as ``bias_at`` says, :data:`BIAS_MODELS`),
     then stitched (:func:`stitch`) and integrated.  With ``tilt`` (the two lateral channels, in g), a probe that
-    rests leaning is read through them (:func:`_lean`)."""
+    rests leaning is read through them (:func:`_lean`, :func:`_at_rest`)."""
     if bias_at not in BIAS_MODELS:
         raise ValueError(f"bias model {bias_at!r}: expected one of {', '.join(BIAS_MODELS)}")
     time_s = np.asarray(time_s, dtype=float)
@@ -169,12 +169,13 @@ def drop_motion(time_s: np.ndarray, channels: dict[str, np.ndarray], ranges_g: d
     release = release_row(raw)
     impact = impact_row(raw, release, rate)
     # the stop from a first pass with each sensor's bias at the first rest, then each one's at the rest after it
-    lean = _lean(tilt, rate, time_s.size, release, None)
+    leaning = _lean(tilt, rate, time_s.size)
+    lean = _at_rest(leaning, release, None)
     before = slice(max(0, release - rest), release)
     first = {name: _rest_bias(values[before], lean[before]) for name, values in channels.items()}
     _, speed, _ = _integrate(time_s, stitch({n: v - first[n] for n, v in channels.items()}, ranges_g), release)
     stop = _stop(speed, impact)
-    lean = _lean(tilt, rate, time_s.size, release, stop)
+    lean = _at_rest(leaning, release, stop)
     after = slice(stop + rest // 2, stop + rest // 2 + rest)
     last = {name: (_rest_bias(values[after], lean[after]) if values[after].size >= rest // 2 else first[name])
             for name, values in channels.items()}
@@ -212,26 +213,27 @@ TILT_SMOOTH_MS = 20.0
 to the lean). [ms]"""
 
 
-def _lean(tilt, rate_hz: float, rows: int, release: int, stop: int | None) -> np.ndarray:
-    """sin²θ of the probe's lean from the vertical, row by row, where it rests (before the release and, once
-    ``stop`` is known, from the stop on; 0 while it moves, and everywhere without ``tilt``).
+def _lean(tilt, rate_hz: float, rows: int) -> np.ndarray:
+    """sin²θ of the probe's lean from the vertical as the tilt channels read it, row by row (0 without them).
 
     At rest the specific force is gravity, 1 g up; leaning by θ, the axial sensors read cos θ of it and the
     lateral (tilt) channels sin θ between them, so sin²θ = t_x² + t_y² (through a moving mean of
     ``TILT_SMOOTH_MS``).  The vertical specific force is then the axial reading (bias out) times cos θ plus
-    sin²θ, and a rest's bias is its axial reading less cos θ.  While the probe moves it is taken as vertical:
-    the lateral channels then read the impact's shocks, not gravity."""
-    out = np.zeros(rows)
+    sin²θ, and a rest's bias is its axial reading less cos θ."""
     if tilt is None:
-        return out
+        return np.zeros(rows)
     width = max(1, int(TILT_SMOOTH_MS * 1e-3 * rate_hz))
     kernel = np.ones(width) / width
-    s2 = np.clip(sum(np.convolve(np.asarray(c, dtype=float), kernel, mode="same") ** 2 for c in tilt), 0.0, 1.0)
-    resting = np.arange(rows) < release
-    if stop is not None:
-        resting |= np.arange(rows) >= stop
-    out[resting] = s2[resting]
-    return out
+    return np.clip(sum(np.convolve(np.asarray(c, dtype=float), kernel, mode="same") ** 2 for c in tilt), 0.0, 1.0)
+
+
+def _at_rest(lean: np.ndarray, release: int, stop: int | None) -> np.ndarray:
+    """``lean`` where the probe rests (before the release and, once ``stop`` is known, from the stop on), 0 while
+    it moves: the lateral channels then read the impact's shocks, not gravity, and the probe is taken as
+    vertical."""
+    rows = np.arange(lean.size)
+    resting = rows < release if stop is None else (rows < release) | (rows >= stop)
+    return np.where(resting, lean, 0.0)
 
 
 def _rest_bias(values: np.ndarray, lean: np.ndarray | None = None) -> float:
