@@ -177,6 +177,12 @@ SPRINGS = Springs()
 """The contract's drive, the default of every simulation."""
 
 
+def prescribed_speed(drive: Drive) -> float | None:
+    """The speed a drive holds from the surface to full depth (a push at a constant rate, :mod:`pencli.model.push`),
+    or None for a drive that pushes with a force and leaves the motion to the equation of motion. [m/s]"""
+    return getattr(drive, "prescribed_speed_m_s", None)
+
+
 def inertia_of(drive: Drive, design: Design) -> float:
     """What the forces accelerate: the body's effective mass and any mass its drive adds (fluid carried along,
     which has no weight). [kg]"""
@@ -223,4 +229,4 @@ def build_drive(name: str, values, design: Design, geometry) -> Drive:
 
 
 __all__ = ["DRIVES", "SPRINGS", "Drive", "Flight", "FlightPath", "Springs", "build_drive", "drive_of", "flight_of",
-           "inertia_of"]
+           "inertia_of", "prescribed_speed"]

@@ -43,7 +43,7 @@ from pencli.errors import ModelError
 from pencli.model.design import (CREEP_DISTANCE_M, FORCE_LIMIT_N, Design, beyond_limit, creep_point,
                                  creep_time_constant, damping_ratio_at_rest, force_scales,
                                  near_critical, static_work)
-from pencli.model.drive import SPRINGS, Drive, Flight, FlightPath, flight_of, inertia_of
+from pencli.model.drive import SPRINGS, Drive, Flight, FlightPath, flight_of, inertia_of, prescribed_speed
 from pencli.model.geometry import BLADE, Geometry
 from pencli.model.resistance import TERMS, ResistanceLaw, parse_terms, reduced, term_keys
 
@@ -484,7 +484,8 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         extra_resistance = other if extra_resistance is None else _sum(other, extra_resistance)
     mass = inertia_of(drive, design)  # inertia; the weight is the body's own
     flight = drive.flight(design)
-    if speed_at_contact_m_s is not None and getattr(drive, "prescribed_speed_m_s", None) is not None:
+    prescribed = prescribed_speed(drive) is not None
+    if speed_at_contact_m_s is not None and prescribed:
         raise ModelError(f"a speed at contact of {speed_at_contact_m_s:g} m/s for a push at a constant rate, "
                          f"which meets the surface at its own rate: set push_rate_mm_s instead")
 
@@ -499,7 +500,6 @@ def simulate(design: Design, terms: Iterable[str] | str | None = None, *,
         u_start, initial_ke = design.surface_offset_m, 0.5 * mass * v_contact ** 2
 
     _check_scales(design, law, v_contact, drive, other)
-    prescribed = getattr(drive, "prescribed_speed_m_s", None) is not None
     if prescribed:  # the motion is the push's (pencli.model.push): read the resistance along it
         segments, end, t_end, y_end = _prescribed_penetration(design, law, t_contact, v_contact, extra_resistance)
     else:
@@ -639,7 +639,7 @@ def _sample(design, law, flight, segments, with_flight, t_contact, v_contact, t_
     resistance = strength + friction + damping + inertia
     if extra is not None:
         resistance = resistance + mask * np.vectorize(extra, otypes=[float])(x, np.maximum(v, 0.0))
-    if getattr(drive, "prescribed_speed_m_s", None) is not None:  # the push holds the speed: it takes R − m·g
+    if prescribed_speed(drive) is not None:  # the push holds the speed: it takes R − m·g
         spring = np.where(in_material, resistance - weight, 0.0)
         a = np.zeros_like(t)
     else:

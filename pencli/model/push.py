@@ -13,11 +13,12 @@ rate terms at the one speed v (so one sounding cannot tell a rate term from a st
 rates can, :mod:`pencli.fit.rate_effect`).  The push's work is the resistance's less gravity's, so the
 energy balance closes by construction.
 
-:func:`pencli.model.dynamics.simulate` takes a drive with ``prescribed_speed_m_s`` on this path; the
+:func:`pencli.model.dynamics.simulate` takes a drive with ``prescribed_speed_m_s``
+(:func:`pencli.model.drive.prescribed_speed`) on this path; the
 launcher file names it ``drive: constant_rate`` with ``push_rate_mm_s`` (and a stand-off, crossed at the same
 rate; 0: the push starts with the tip at the surface).
 
-Pure: ``math`` only, SI units.
+Pure: numpy only, SI units.
 """
 
 from __future__ import annotations
