@@ -95,26 +95,85 @@ def test_readme_and_docs_commands_are_found():
     assert not any(c.startswith(SETUP) for c in commands + documented)
 
 
-def _run_all(commands: list[str], root: Path) -> list[str]:
+def shown_outputs(text: str) -> dict[str, list[str]]:
+    """The output the README shows under each ``$ pen …`` line of its indented blocks (up to the next command or
+    the block's end): command → lines."""
+    out: dict[str, list[str]] = {}
+    command = None
+    for line in text.splitlines():
+        if not line.startswith("    "):
+            command = None
+            continue
+        body = line[4:]
+        if body.startswith("$ "):
+            command = re.sub(r"\s{2,}#.*$", "", body[2:]).strip()
+            out[command] = []
+        elif command is not None:
+            out[command].append(body)
+    return {c: lines for c, lines in out.items() if lines}
+
+
+def _squeezed(text: str) -> str:
+    return " ".join(text.split())
+
+
+def missing_from(shown: list[str], output: str) -> list[str]:
+    """The shown lines the output does not hold, whitespace aside: "…" stands for what is left out (a time that
+    varies, the rest of a long line, or, alone, lines), and the pieces around it must each be printed."""
+    printed = _squeezed(output)
+    missing = []
+    for line in shown:
+        pieces = [_squeezed(piece) for piece in line.split("…")]
+        if any(piece and piece not in printed for piece in pieces):
+            missing.append(line)
+    return missing
+
+
+def _run_all(commands: list[str], root: Path) -> tuple[list[str], dict[str, str]]:
+    """(failures, each command's output): the commands run in order in the scratch folder ``root``."""
     _prepare(root)
     env = {k: v for k, v in os.environ.items() if k != "PEN_DB"}
     env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
-    failures = []
+    env["COLUMNS"] = "200"  # the README shows tables and lines unwrapped
+    failures, outputs = [], {}
     for command in commands:
         done = subprocess.run(["bash", "-c", command], cwd=root, env=env, capture_output=True, text=True,
                               timeout=600)
+        outputs[command] = done.stdout + done.stderr
         if done.returncode != 0:
             failures.append(f"{command}\n  exit {done.returncode}: {(done.stderr or done.stdout).strip()[-400:]}")
-    return failures
+    return failures, outputs
 
 
 @pytest.mark.slow
-def test_every_readme_command_runs_as_written(tmp_path):
-    failures = _run_all(readme_commands((REPO / "README.md").read_text()), tmp_path)
+def test_every_readme_command_runs_as_written_and_prints_what_it_shows(tmp_path):
+    """Each command runs, and each line of output the README shows under it is in what the command prints now (a
+    figure the README quotes cannot go stale as the presets and the model change)."""
+    text = (REPO / "README.md").read_text()
+    failures, outputs = _run_all(readme_commands(text), tmp_path)
+    for command, shown in shown_outputs(text).items():
+        missing = missing_from(shown, outputs.get(command, ""))
+        if missing:
+            failures.append(f"{command}\n  shows lines it no longer prints: {missing}")
     assert not failures, "\n".join(failures)
 
 
+def test_the_output_check_finds_a_stale_figure_and_passes_the_same_figure():
+    shown = ["│ speed at contact │  3.4630 │ m/s  │", "verdict: none   over 6 runs", "…",
+             "baseline held-out RMS 2.2 N (NRMSE 0.001); its null …", "100 designs in … designs/s); 20.0 % reach"]
+    printed = ("│ speed at contact                  │  3.4630 │ m/s  │\nverdict: none   over 6 runs\n"
+               "baseline held-out RMS 2.2 N (NRMSE 0.001); its null replicates 2.4 N\n"
+               "100 designs in 0.61 s (164 designs/s); 20.0 % reach full depth")
+    assert missing_from(shown, printed) == []
+    assert missing_from(["│ speed at contact │  2.8752 │ m/s  │"], printed) == ["│ speed at contact │  2.8752 │ m/s  │"]
+
+
 @pytest.mark.slow
-def test_every_documented_command_runs_as_written(tmp_path):
-    failures = _run_all(docs_commands(), tmp_path)
+def test_every_documented_command_runs_as_written_and_prints_what_it_shows(tmp_path):
+    failures, outputs = _run_all(docs_commands(), tmp_path)
+    for page in docs_pages():
+        for command, shown in shown_outputs(page.read_text()).items():
+            missing = missing_from(shown, outputs.get(command, ""))
+            if missing:
+                failures.append(f"{page.name}: {command}\n  shows lines it no longer prints: {missing}")
     assert not failures, "\n".join(failures)
