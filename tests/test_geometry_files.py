@@ -392,8 +392,8 @@ def test_a_cone_pushed_at_a_constant_rate_meets_what_its_areas_give_at_that_spee
 
 
 def test_a_blade_pushed_at_a_constant_rate_books_each_term_at_that_speed(tmp_path, runner):
-    """Eq. 9 along x = v·t: strength a0·d, friction ½·a1·d², damping b·v·d, inertia (d·v²)·d, with a0, a1, b, d
-    written here from the paper's terms; the rate terms are a constant force along the push."""
+    """Eq. 9 along x = v·t: strength a0·d, friction ½·a1·d², damping b·v·d, inertia (d·v²)·d, with a0, a1, b,
+    d written here from the paper's terms; the rate terms are a constant force along the push."""
     blade = {"kind": "penetrator", "name": "b", "blade_width_mm": 150.0, "blade_thickness_mm": 2.0,
              "tip_angle_deg": 60.0, "penetration_depth_mm": 120.0, "sprung_mass_kg": 2.0, "load_cell_mass_kg": 0.3}
     push = {"kind": "energizing", "name": "push", "drive": "constant_rate", "surface_offset_mm": 0.0,

@@ -152,8 +152,8 @@ def diagnose(
             f"{abs(result.layer_step_kpa):.1f} kPa below it" if result.verdict == "layer" else
             f"accelerometer_bias in {', '.join(result.accelerometer.biased)} (the bed: {result.bed_verdict})"
             if result.verdict == "accelerometer_bias" else result.verdict)
-    console.print(f"{result.drops} drops: {said}  (p = {result.p_value:.3f} against {shuffles} rotations; the step "
-                  f"removes {100 * result.share:.0f} % of the straight law's misfit; held-out RMS "
+    console.print(f"{result.drops} drops: {said}  (p = {result.p_value:.3f} against {shuffles} rotations; a "
+                  f"layer's step removes {100 * result.share:.0f} % of the straight law's misfit; held-out RMS "
                   f"{result.heldout_rms_reference_kpa:.2f} kPa without, {result.heldout_rms_layer_kpa:.2f} kPa with)")
     for note in result.notes:
         console.print(f"  note: {escape(note)}")

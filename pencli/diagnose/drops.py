@@ -268,8 +268,9 @@ def with_sensors(bed: DropDiagnosis, check: AccelerometerCheck) -> DropDiagnosis
         notes.append(f"{', '.join(check.untested)}: no rest after the stop, so the accelerometers' bias could not "
                      f"be checked there")
     if check.biased and bed.bed_verdict != "none":
+        corrected = set(check.biased) == set(check.stepped)
         notes.append(f"the bed's own verdict, {bed.bed_verdict}, rests on motions "
-                     f"{'corrected as above' if set(check.biased) == set(check.stepped) else 'some of which are wrong'}")
+                     f"{'corrected as above' if corrected else 'some of which are wrong'}")
     return replace(bed, verdict="accelerometer_bias" if check.biased else bed.verdict,
                    notes=(*notes, *bed.notes), accelerometer=check)
 
