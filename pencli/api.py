@@ -1685,11 +1685,11 @@ def read_drops(refs: Sequence[str | Path], db: str | Path | None = None,
         missing = [c for c in ACCELEROMETER_RANGES_G if c not in record.channels]
         if missing:
             raise DataError(f"{record.source}: no {', '.join(missing)} channel in the calibration")
-        out.append(Drop(record, _drop_motion(record)))
+        out.append(Drop(record, drop_motion_of(record)))
     return out
 
 
-def _drop_motion(record, bias_at: str = "ramp"):
+def drop_motion_of(record, bias_at: str = "ramp"):
     """A record's motion (:func:`pencli.filter.freefall.drop_motion`, the bias between the rests as ``bias_at``
     says, a lean at rest read through the tilt channels where the record has them); a record whose motion cannot
     be found is one line naming it."""
@@ -1810,7 +1810,7 @@ def diagnose_drops(drops: Sequence[Drop], probe, *, false_alarm: float | None = 
     from pencli.diagnose.drops import accelerometer_check, with_sensors
 
     false_alarm = FALSE_ALARM if false_alarm is None else false_alarm
-    stepped = {d.name: _drop_motion(d.record, "impact") for d in drops}
+    stepped = {d.name: drop_motion_of(d.record, "impact") for d in drops}
     check = accelerometer_check({d.name: (d.motion, stepped[d.name]) for d in drops}, false_alarm)
     drops = [replace(d, motion=stepped[d.name]) if d.name in check.stepped else d for d in drops]
     fit = fit_drops(drops, probe)

@@ -37,7 +37,7 @@ def _drop_record(drop) -> dict:
             "penetration_mm": 1e3 * float(m.penetration_m), "stop_s": float(t[m.stop]),
             "peak_deceleration_g": drop.motion.peak_deceleration_g,
             "bias_g": {name: list(pair) for name, pair in m.bias_g.items()},
-            "rest_speed_m_s": None if m.rest_speed_m_s != m.rest_speed_m_s else float(m.rest_speed_m_s)}
+            "rest_speed_m_s": float(m.rest_speed_m_s)}  # NaN (no rest after the stop) is written as null
 
 
 @drops_app.command("show")

@@ -199,19 +199,21 @@ def _free_fall(**kwargs):
 def _constant_rate(**kwargs):
     from pencli.model.push import ConstantRate
 
-    kwargs.pop("drag_area_m2", None)  # no fluid: nothing drags
     return ConstantRate(**kwargs)
 
 
 DRIVES = {"springs": Springs, "free_fall": _free_fall, "constant_rate": _constant_rate}
 """Every drive by the name a launcher file's ``drive:`` gives it; its constructor's keywords are the SI names of
 the parameters that build it (``builds="drive"`` in :data:`pencli.params.definitions.PARAMETERS`) and, for a
-drive that drags the body through a fluid, ``drag_area_m2``."""
+drive in :data:`IN_A_FLUID`, ``drag_area_m2``."""
+IN_A_FLUID = frozenset({"free_fall"})
+"""The drives that move the body through a fluid: :func:`build_drive` gives them the geometry's largest frontal
+area, on which the fluid drags."""
 
 
 def drive_of(energizing, design: Design, geometry) -> Drive:
     """The drive a launcher file names, built from its keys (SI, by each definition's scale); a drive in a fluid
-    drags on the geometry's largest frontal area (at full depth)."""
+    (:data:`IN_A_FLUID`) drags on the geometry's largest frontal area (at full depth)."""
     return build_drive(energizing.drive, energizing.values, design, geometry)
 
 
@@ -224,9 +226,10 @@ def build_drive(name: str, values, design: Design, geometry) -> Drive:
         return SPRINGS
     kwargs = {p.si_name: float(values[p.key]) * p.si_scale for p in params_of("energizing", name)
               if p.builds == "drive" and p.key in values and not math.isnan(float(values[p.key]))}
-    kwargs["drag_area_m2"] = float(geometry.frontal_area_m2(design, float(design.penetration_depth_m)))
+    if name in IN_A_FLUID:
+        kwargs["drag_area_m2"] = float(geometry.frontal_area_m2(design, float(design.penetration_depth_m)))
     return DRIVES[name](**kwargs)
 
 
-__all__ = ["DRIVES", "SPRINGS", "Drive", "Flight", "FlightPath", "Springs", "build_drive", "drive_of", "flight_of",
+__all__ = ["DRIVES", "IN_A_FLUID", "SPRINGS", "Drive", "Flight", "FlightPath", "Springs", "build_drive", "drive_of", "flight_of",
            "inertia_of", "prescribed_speed"]

@@ -43,7 +43,7 @@ class FreeFallFlight:
     mass_kg: float
     """m + m_a: what the forces accelerate. [kg]"""
     net_weight_n: float
-    """(m − ρ_f·V)·g: the weight less the buoyancy. [N]"""
+    """(m − ρ_f·V)·g − T: the weight less the buoyancy and any tether's tension. [N]"""
     drag_n_s2_m2: float
     """½·ρ_f·C_D·A. [N·s²/m²]"""
 
@@ -113,8 +113,8 @@ class FreeFall:
         """m_a = C_a·ρ_f·V: fluid the body carries along (inertia, no weight). [kg]"""
         return self.added_mass_coefficient * self.fluid_density_kg_m3 * self.displaced_volume_m3
 
-    def buoyancy_n(self, design) -> float:
-        """ρ_f·V·g and the tether's tension: the drive's constant upward forces. [N]"""
+    def upward_n(self, design) -> float:
+        """ρ_f·V·g + T: the buoyancy and the tether's tension, the drive's constant upward forces. [N]"""
         return self.fluid_density_kg_m3 * self.displaced_volume_m3 * float(design.gravity_m_s2) + self.tether_force_n
 
     def drag_n_s2_m2(self) -> float:
@@ -124,7 +124,7 @@ class FreeFall:
     def flight(self, design) -> FreeFallFlight:
         mass = float(design.effective_mass_kg) + self.added_mass_kg(design)
         return FreeFallFlight(mass, float(design.effective_mass_kg) * float(design.gravity_m_s2)
-                              - self.buoyancy_n(design), self.drag_n_s2_m2())
+                              - self.upward_n(design), self.drag_n_s2_m2())
 
     def _drag_scale(self, design) -> tuple[float, float]:
         """(v_t², the travel scale v_t²/(2 g')) of the flight; (inf, inf) without drag or when it floats."""
@@ -138,22 +138,22 @@ class FreeFall:
     def force(self, design, u):
         vt2, scale = self._drag_scale(design)
         s0 = float(design.surface_offset_m)
-        buoyancy = self.buoyancy_n(design)
+        upward = self.upward_n(design)
         k = self.drag_n_s2_m2()
         if isinstance(u, float):
             if u >= s0 or not math.isfinite(scale) or u <= 0.0:
-                return -buoyancy
-            return -buoyancy - k * vt2 * -math.expm1(-u / scale)
+                return -upward
+            return -upward - k * vt2 * -math.expm1(-u / scale)
         u = np.asarray(u, dtype=float)
         if not math.isfinite(scale):
-            return np.full_like(u, -buoyancy)
+            return np.full_like(u, -upward)
         inside = (u > 0.0) & (u < s0)
-        return -buoyancy - np.where(inside, k * vt2 * -np.expm1(-np.clip(u, 0.0, None) / scale), 0.0)
+        return -upward - np.where(inside, k * vt2 * -np.expm1(-np.clip(u, 0.0, None) / scale), 0.0)
 
     def work(self, design, u0: float, u1: float) -> float:
         """−(ρ_f·V·g + T)·(u1 − u0) less the drag's work over the part of [u0, u1] above the surface. [J]"""
         s0 = float(design.surface_offset_m)
-        total = -self.buoyancy_n(design) * (u1 - u0)
+        total = -self.upward_n(design) * (u1 - u0)
         vt2, scale = self._drag_scale(design)
         if math.isfinite(scale):
             a, b = min(max(u0, 0.0), s0), min(max(u1, 0.0), s0)
@@ -172,7 +172,7 @@ class FreeFall:
     def largest_force(self, design) -> float:
         vt2, _ = self._drag_scale(design)
         drag = self.drag_n_s2_m2() * vt2 if math.isfinite(vt2) else 0.0
-        return float(self.buoyancy_n(design) + drag)
+        return float(self.upward_n(design) + drag)
 
 
 __all__ = ["FreeFall", "FreeFallFlight"]

@@ -20,7 +20,7 @@ def drops_into(probe, bed, heights_m: Sequence[float], rng: np.random.Generator,
     stopped by an angle drawn within ``rest_tilt_deg`` towards a random side, and the sensors' noise seeded by
     ``seed``; the motion read as ``pen drops`` reads it (the tilt channels with the accelerometers)."""
     from pencli.acquire.freefall import Sensors, simulate_drop
-    from pencli.filter.freefall import drop_motion
+    from pencli.api import drop_motion_of
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, bluedrop_bytes, read_bluedrop
 
     out = []
@@ -39,8 +39,7 @@ def drops_into(probe, bed, heights_m: Sequence[float], rng: np.random.Generator,
             path = Path(tmp) / f"drop-{k}.bin"
             path.write_bytes(bluedrop_bytes(truth.raw))
             record = read_bluedrop(path, sensors.calibration)
-            motion = drop_motion(record.time_s, {n: record.channels[n] for n in ACCELEROMETER_RANGES_G},
-                                 ACCELEROMETER_RANGES_G, tilt=(record.channels["tilt_x"], record.channels["tilt_y"]))
+            motion = drop_motion_of(record)
             out.append((truth, record, motion))
     return out
 
