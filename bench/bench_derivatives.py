@@ -6,12 +6,20 @@ each method differentiates the quantised encoder record (0.16 mm counts at
 30 kHz); errors are RMS over the penetration window against the true
 motion, and the acceleration error is also shown as the force error it
 causes (× load-cell mass) relative to the peak resistance.
+
+``--cones``: instead, nine cones (25, 35.7 and 50 mm shafts, 30° half-angle; 2, 4 and 6 springs) into MPACS C,
+four encoder phases each: the smoothing spline, the least-squares spline, and the least-squares spline joined
+where the tip passes the cone's shoulder (the inertia stage's choice for a resistance with a corner,
+``pencli.filter.inertia.method_for``); force error m_lc·(a − a_true) over the peak resistance, mean and RMS
+inside the window and by distance from its edges.
 """
 
 from __future__ import annotations
 
 import itertools
+import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -19,8 +27,12 @@ from pencli.acquire.calibration import load_force_calibration, load_position_cal
 from pencli.acquire.drivers import ShotSetup
 from pencli.acquire.rig import rig_from_mapping
 from pencli.acquire.sim import SimRig
-from pencli.filter.derivatives import DEFAULT_METHOD, METHODS
+from pencli.filter.derivatives import CORNER_METHOD, DEFAULT_METHOD, METHODS
 from pencli.filter.tare import detect_events
+from pencli.model.geometry import corner_depths_m, geometry_of
+from pencli.model.design import design_from_sets
+from pencli.params.validate import validate_mapping
+from pencli.testing.options import check_options
 from pencli.filter.windows import FIT_EDGE_MARGINS_S, WINDOW_TRIM_S
 from pencli.params.load import load_preset
 
@@ -29,9 +41,10 @@ SHOTS = [("grill_brick", "1", 2), ("grill_brick", "1.5", 4), ("grill_brick", "2"
 
 
 def shot(material, blade, springs, seed, phase=0.5):
+    """A simulated shot of the bundled blade ``blade`` mm thick, or of the penetrator parameter set ``blade``."""
     rig = SimRig(rig_from_mapping({"seed": seed}), load_position_calibration(), load_force_calibration())
-    p, m, e = load_preset(f"al6061_{blade}mm", "penetrator"), load_preset(material, "material"), \
-        load_preset(f"springs_{springs}", "energizing")
+    p = blade if not isinstance(blade, str) else load_preset(f"al6061_{blade}mm", "penetrator")
+    m, e = load_preset(material, "material"), load_preset(f"springs_{springs}", "energizing")
     rig.arm(ShotSetup(30000.0, 1.0, 0.2, p, m, e))
     rig.fire()
     motion = rig.motion
@@ -42,6 +55,55 @@ def shot(material, blade, springs, seed, phase=0.5):
     x = counts / 6.25 * 1e-3 - e.values["surface_offset_mm"] * 1e-3
     events = detect_events(t, x, p.values["penetration_depth_mm"] * 1e-3)
     return motion, t, x, events, rig.world.true_load_cell_mass_kg, pad
+
+
+CONE = {"kind": "penetrator", "name": "cone", "geometry": "cone", "cone_half_angle_deg": 30.0,
+        "penetration_depth_mm": 133.0, "sprung_mass_kg": 2.443, "load_cell_mass_kg": 0.389}
+"""The cones of ``--cones`` (a shaft diameter is added per shot)."""
+
+
+def cones() -> None:
+    """The three ways on nine cones × four encoder phases (see the module docstring)."""
+    from pencli.filter.derivatives import derivatives
+    from pencli.filter.inertia import corner_times, motion_breaks, motion_joins
+
+    ways = {"spline": ("spline", False), "lsq_spline": ("lsq_spline", False),
+            f"{CORNER_METHOD} joined": (CORNER_METHOD, True)}
+    rows = {name: {"inside": [], "contact": [], "stop": []} for name in ways}
+    material = load_preset("mpacs_c", "material")
+    for i, (diameter, springs) in enumerate(itertools.product((25.0, 35.7, 50.0), (2, 4, 6))):
+        penetrator = validate_mapping({**CONE, "shaft_diameter_mm": diameter}, "cone")
+        corners = corner_depths_m(geometry_of(penetrator), design_from_sets(
+            penetrator, material, load_preset(f"springs_{springs}", "energizing")))
+        for phase in (0.5, 0.1, 0.35, 0.8):
+            motion, t, x, events, m_lc, pad = shot("mpacs_c", penetrator, springs, 100 + i, phase)
+            c = int(np.searchsorted(t, events.contact_s))
+            s = min(int(np.searchsorted(t, events.stop_s)), pad + motion.acceleration_m_s2.size)
+            window, truth = slice(c, s), slice(c - pad, s - pad)
+            for name, (method, joined) in ways.items():
+                ev = replace(events, corners_s=corner_times(t, x, events, corners)) if joined else events
+                _, a = derivatives(x, 30000.0, motion_breaks(t, ev), method, count_m=0.16e-3,
+                                   joins=motion_joins(t, ev))
+                error = (a[window] - motion.acceleration_m_s2[truth]) * m_lc / np.max(motion.resistance_n[truth])
+                after, before = t[window] - events.contact_s, events.stop_s - t[window]
+                inside = (after > FIT_EDGE_MARGINS_S[0]) & (before > FIT_EDGE_MARGINS_S[1])
+                rows[name]["inside"].append((np.mean(error[inside]), np.mean(error[inside] ** 2)))
+                rows[name]["contact"].append(_profile(after, error))
+                rows[name]["stop"].append(_profile(before, error))
+    print(f"force error m_lc*(a - a_true) / peak R on 9 cones x 4 encoder phases (MPACS C): mean (a bias the "
+          f"records share) | RMS; inside = {1e3 * FIT_EDGE_MARGINS_S[0]:g} ms after contact to "
+          f"{1e3 * FIT_EDGE_MARGINS_S[1]:g} ms before the stop (the fit's rows)")
+    print(f"{'':22s} {'inside':>14s}   by distance from the window's edges: "
+          + " ".join(f"{f'{lo:g}-{hi:g} ms':>13s}" for lo, hi in zip(EDGE_BINS_MS[:-1], EDGE_BINS_MS[1:])))
+    for name, parts in rows.items():
+        inside = np.array(parts["inside"])
+        for edge in ("contact", "stop"):
+            arr = np.array(parts[edge])
+            mean, rms = np.nanmean(arr[:, :, 0], axis=0), np.sqrt(np.nanmean(arr[:, :, 1], axis=0))
+            head = (f"{100 * np.mean(inside[:, 0]):+6.3f}%|{100 * np.sqrt(np.mean(inside[:, 1])):5.3f}"
+                    if edge == "contact" else "")
+            print(f"{name if edge == 'contact' else '':22s} {head:>14s}   from {edge:7s} "
+                  + " ".join(f"{100 * m:+6.2f}%|{100 * r:4.2f}" for m, r in zip(mean, rms)))
 
 
 def main() -> None:
@@ -122,4 +184,5 @@ def _profile(distance_s: np.ndarray, error: np.ndarray) -> np.ndarray:
 
 
 if __name__ == "__main__":
-    main()
+    check_options(__doc__, ("--cones",))
+    cones() if "--cones" in sys.argv else main()

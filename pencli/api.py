@@ -683,15 +683,13 @@ def tare_runs(db: str | Path, refs: Sequence[str], *, window_ms: tuple[float, fl
 
 def subtract_inertia_runs(db: str | Path, refs: Sequence[str], *, method: str | None = None,
                           use_flight_mass: bool = False, progress: Progress | None = None) -> list[StageOutcome]:
-    """``pen subtract-inertia``: v and a from the encoder, R = F − m_lc·a; a new stage."""
-    from pencli.filter.derivatives import DEFAULT_METHOD
-
-    chosen = method or DEFAULT_METHOD
+    """``pen subtract-inertia``: v and a from the encoder, R = F − m_lc·a; a new stage (``method`` None: each
+    run's own, :func:`pencli.filter.inertia.method_for`)."""
 
     def work(ws, run_id):
         if not any(r.stage == "tare" for r in ws.stages(run_id)):
             raise DataError(f"run '{run_id}' has no tare stage; run `pen tare {run_id}` first")
-        run, est = ws.load_run(run_id, "tare").inertia_subtracted(chosen, use_flight_mass=use_flight_mass)
+        run, est = ws.load_run(run_id, "tare").inertia_subtracted(method, use_flight_mass=use_flight_mass)
         record = ws.save_stage(run)
         warnings = []
         if est is not None and est.disagrees:

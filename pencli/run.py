@@ -188,19 +188,24 @@ class Run:
                                parameters={"offsets": tared.offsets, "events": tared.events.to_dict(),
                                            "window_ms": list(window_ms) if window_ms else None})
 
-    def inertia_subtracted(self, method: str, *, use_flight_mass: bool = False):
+    def inertia_subtracted(self, method: str | None = None, *, use_flight_mass: bool = False):
         """``pen subtract-inertia``: v and a from the encoder, R = F − m_lc·a (needs the tare stage).
 
+        ``method``: the derivative method (default: :func:`~pencli.filter.inertia.method_for` the run, which
+        joins the derivatives where the tip passes a corner of its geometry's resistance).
         Returns ``(run, estimate)``: the run one stage on, and the load-cell mass the free flight reads
         (:class:`~pencli.filter.inertia.MassEstimate`, None when the flight is too short to tell).
         """
-        from pencli.filter.inertia import subtract_inertia
+        from pencli.filter.inertia import corner_times, subtract_inertia
+        from pencli.model.geometry import corner_depths_m
 
         if self.stage != "tare":
             raise DataError(f"run '{self.name}': subtract-inertia starts from the tare stage, not the {self.stage} "
                             f"stage; run `pen tare {self.name}` first")
-        events = self.require_events()
         col = self.columns
+        events = self.require_events()
+        events = replace(events, corners_s=corner_times(col["time_s"], col["depth_m"], events,
+                                                        corner_depths_m(self.geometry, self.design)))
         m_lc = float(self.penetrator.get("load_cell_mass_kg"))
         kin = subtract_inertia(col["time_s"], col["depth_m"], col["fz_n"], events, m_lc, method=method,
                                use_flight_mass=use_flight_mass)
@@ -209,10 +214,11 @@ class Run:
                    "force_n": col["fz_n"], "resistance_n": kin.resistance_n,
                    **{n: col[n] for n in ("fx_n", "fy_n", "tx_nm", "ty_nm", "tz_nm")}}
         estimate = kin.mass_estimate.to_dict() if kin.mass_estimate else None
-        parameters = {"method": method, "load_cell_mass_kg": kin.mass_used_kg, "encoder_step_m": kin.encoder_step_m,
+        parameters = {"method": kin.method, "load_cell_mass_kg": kin.mass_used_kg, "encoder_step_m": kin.encoder_step_m,
                       "mass_from": "flight" if use_flight_mass else "file", "mass_estimate": estimate,
                       "events": events.to_dict()}
-        return self.with_stage("inertia", columns, command="pen subtract-inertia", parameters=parameters), \
+        return self.with_stage("inertia", columns, command="pen subtract-inertia", parameters=parameters,
+                               events=events), \
             kin.mass_estimate
 
 

@@ -11,7 +11,7 @@ from rich.markup import escape
 from pencli.lazy import lazy
 from pencli.commands.common import (DbOption, PenTyper, console, db_path, err_console, number_pair, print_json,
                                     progress_bar)
-from pencli.filter.derivatives import DEFAULT_METHOD, METHODS
+from pencli.filter.derivatives import CORNER_METHOD, DEFAULT_METHOD, METHODS
 
 api = lazy("pencli.api")  # loaded when a command runs, not for --help
 
@@ -64,7 +64,9 @@ def tare(
 @app.command("subtract-inertia")
 def subtract_inertia(
     runs: List[str] = typer.Argument(..., help="Run ids or run folders (runs/*), or 'all'."),
-    method: str = typer.Option(DEFAULT_METHOD, "--method", help=f"Derivative method: {', '.join(METHODS)}."),
+    method: Optional[str] = typer.Option(None, "--method", help=f"Derivative method: {', '.join(METHODS)} "
+                                         f"[default: {DEFAULT_METHOD}; {CORNER_METHOD} joined at the corners of a "
+                                         f"resistance that has some, such as a cone's shoulder]."),
     mass_from: str = typer.Option("file", "--mass-from", help="Load-cell mass to subtract: 'file' (penetrator "
                                                               "file) or 'flight' (estimated from free flight)."),
     json_out: bool = typer.Option(False, "--json", help="Print one record per run as JSON."),
@@ -77,7 +79,7 @@ def subtract_inertia(
     (where R = 0) and warns when it disagrees with the penetrator file.
     Example: pen subtract-inertia runs/* --mass-from file
     """
-    if method not in METHODS:
+    if method is not None and method not in METHODS:
         raise typer.BadParameter(f"'{method}' is not one of {', '.join(METHODS)}", param_hint="--method")
     if mass_from not in ("file", "flight"):
         raise typer.BadParameter(f"'{mass_from}' is not file or flight", param_hint="--mass-from")

@@ -100,6 +100,9 @@ class _RunView:
     surface_m: float = 0.0
     """Where the block's surface lies on the depth record (0: at the file's stand-off); the Eq. 9 columns and the
     depth laws are evaluated at the depth below it (:func:`surfaces`). [m]"""
+    corners_s: tuple[float, ...] = ()
+    """When the tip passed a corner of its geometry's resistance (:attr:`pencli.filter.tare.Events.corners_s`),
+    where the derivatives join. [s]"""
 
     @property
     def rate_hz(self) -> float:
@@ -181,7 +184,8 @@ def views(runs: Sequence[Run | _RunView]) -> list[_RunView]:
                             events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
                             events.end, events.contact_speed_m_s, mass, step, method,
                             kinematic_events(t, force, events).contact_s if steps else None,
-                            late_force_rise(t, force, events, LAG_SPAN_S) if steps else None, geometry=geometry))
+                            late_force_rise(t, force, events, LAG_SPAN_S) if steps else None, geometry=geometry,
+                            corners_s=events.corners_s))
     return out
 
 

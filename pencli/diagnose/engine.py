@@ -798,7 +798,8 @@ def _null_of(run: _RunView, use_ctx: np.ndarray, fitted_ctx: np.ndarray, values:
     ctx_idx = np.flatnonzero(run.context)
     use[ctx_idx[use_ctx] - start] = True
     events = Events(run.motion_start_s, run.contact_s, run.contact_speed_m_s, run.stop_s,
-                    float(run.depth_m[min(stop, t.size) - 1]), run.end, run.window_start_s, run.window_end_s)
+                    float(run.depth_m[min(stop, t.size) - 1]), run.end, run.window_start_s, run.window_end_s,
+                    run.corners_s)
     at_rest = (ts < run.motion_start_s - 1.0 / run.rate_hz) | (ts > run.stop_s)
     pre = run.pre_trigger
     noise = fit_noise(run.resistance_n[pre])

@@ -220,6 +220,16 @@ With a budget of exactly one quantisation variance the smoothing spline failed o
 worst).  Errors gather in the first and last few samples of the window, hence the analysis window's inner
 limits (:data:`pencli.filter.tare.WINDOW_TRIM_S`)."""
 
+CORNER_METHOD = "lsq_spline"
+"""The method for a run whose resistance has a corner inside its motion (a cone's shoulder, a taper's end), joined
+there (:func:`pencli.filter.inertia.method_for`).  ``python -m bench.bench_derivatives --cones`` (9 cones × 4
+encoder phases, MPACS C): force error m_lc·(a − a_true) inside the fit's rows (2 ms after contact to 3 ms before
+the stop), RMS over the peak resistance — smoothing spline 0.68 %, least-squares spline 0.37 %, joined at the
+shoulder 0.17 %; 0–0.5 ms after contact 6.2 %, 2.4 %, 0.84 %.  Over a blade's window one quintic meets the
+smoothing spline's budget and follows the motion; over a cone's it meets the budget too, but bends through the
+shoulder instead of turning there, and a fit of the cone's sidewall pressure (a few per cent of its force) came
+out 8 % high from it."""
+
 
 def derivatives(x: np.ndarray, rate_hz: float, breaks: Sequence[int], method: str = DEFAULT_METHOD, *,
                 count_m: float | None = None, joins: Sequence[tuple[float, int]] | None = None,

@@ -13,10 +13,11 @@ flight :math:`R = 0`, so the same record also measures :math:`m_{lc}`
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, replace
+from typing import Sequence
 
 import numpy as np
 
-from pencli.filter.derivatives import DEFAULT_METHOD, derivatives, encoder_step_m
+from pencli.filter.derivatives import CORNER_METHOD, DEFAULT_METHOD, derivatives, encoder_step_m
 from pencli.filter.tare import STANDOFF_TOLERANCE_M, Events, force_onset
 
 
@@ -50,6 +51,8 @@ class Kinematics:
     mass_estimate: MassEstimate | None
     encoder_step_m: float
     """The position quantum the spline smoothed for. [m]"""
+    method: str = DEFAULT_METHOD
+    """The derivative method used."""
 
 
 def effective_samples(residuals: np.ndarray, max_lag: int = 2000) -> float:
@@ -92,7 +95,7 @@ def estimate_load_cell_mass(time_s: np.ndarray, force_n: np.ndarray, acceleratio
 
 
 def subtract_inertia(time_s: np.ndarray, depth_m: np.ndarray, force_n: np.ndarray, events: Events,
-                     load_cell_mass_kg: float, *, method: str = DEFAULT_METHOD, use_flight_mass: bool = False
+                     load_cell_mass_kg: float, *, method: str | None = None, use_flight_mass: bool = False
                      ) -> Kinematics:
     """Velocity, acceleration and R = F − m_lc·a of a tared run.
 
@@ -103,18 +106,19 @@ def subtract_inertia(time_s: np.ndarray, depth_m: np.ndarray, force_n: np.ndarra
     force_n : tared axial force, compression positive. [N]
     events : from :func:`pencli.filter.tare.detect_events`.
     load_cell_mass_kg : m_lc from the penetrator file. [kg]
-    method : derivative method (:data:`pencli.filter.derivatives.METHODS`).
+    method : derivative method (:data:`pencli.filter.derivatives.METHODS`); default :func:`method_for` the events.
     use_flight_mass : subtract with the mass estimated from the free flight instead.
     """
     rate = (time_s.size - 1) / (time_s[-1] - time_s[0])
     step = encoder_step_m(depth_m)
     motion = kinematic_events(time_s, force_n, events)
+    method = method or method_for(events)
     velocity, acceleration = derivatives(depth_m, rate, motion_breaks(time_s, motion), method, count_m=step,
                                          joins=motion_joins(time_s, motion), at_rest=rest_mask(time_s, events))
     estimate = estimate_load_cell_mass(time_s, force_n, acceleration, events, load_cell_mass_kg)
     mass = estimate.value_kg if (use_flight_mass and estimate is not None) else load_cell_mass_kg
     resistance = force_n - mass * acceleration  # R = F − m_lc·a
-    return Kinematics(velocity, acceleration, resistance, mass, estimate, step)
+    return Kinematics(velocity, acceleration, resistance, mass, estimate, step, method)
 
 
 def kinematic_events(time_s: np.ndarray, force_n: np.ndarray, events: Events) -> Events:
@@ -154,11 +158,42 @@ def late_force_rise(time_s: np.ndarray, force_n: np.ndarray, events: Events, lag
 
 def motion_joins(time_s: np.ndarray, events: Events, contact: bool = True) -> list[tuple[float, int]]:
     """Release, contact (unless ``contact`` is False: a sharp tip, whose force rises from nothing, puts no jump
-    in the acceleration there) and stop as (time since the first sample [s], continuity): the velocity is
-    continuous at each (1) except at the hard stops (0)."""
+    in the acceleration there), the corners of the resistance the tip passed (:attr:`Events.corners_s`) and stop
+    as (time since the first sample [s], continuity): the velocity is continuous at each (1) except at the hard
+    stops (0); at a corner the acceleration is continuous too and only its slope jumps (2)."""
     t0 = float(time_s[0])
-    return [(events.motion_start_s - t0, 1), *([(events.contact_s - t0, 1)] if contact else []),
+    corners = [(c - t0, CORNER_CONTINUITY) for c in events.corners_s if events.contact_s < c < events.stop_s]
+    return [(events.motion_start_s - t0, 1), *([(events.contact_s - t0, 1)] if contact else []), *corners,
             (events.stop_s - t0, 0 if events.end == "full_depth" else 1)]
+
+
+CORNER_CONTINUITY = 2
+"""At a corner of the resistance the force, and so the acceleration, is continuous; its slope is not."""
+
+
+def corner_times(time_s: np.ndarray, depth_m: np.ndarray, events: Events, depths_m: Sequence[float]
+                 ) -> tuple[float, ...]:
+    """When the record first reaches each corner depth (:func:`pencli.model.geometry.corner_depths_m`) between
+    contact and stop; a corner the tip never reaches is left out. [s]"""
+    moving = (time_s > events.contact_s) & (time_s < events.stop_s)
+    out = []
+    for depth in depths_m:
+        reached = np.flatnonzero(moving & (depth_m >= depth))
+        if reached.size:
+            out.append(float(time_s[reached[0]]))
+    return tuple(out)
+
+
+def method_for(events: Events) -> str:
+    """The derivative method the inertia stage uses unless told: the smoothing spline, or the least-squares spline
+    joined at the corners where the motion passes one (:data:`~pencli.filter.derivatives.CORNER_METHOD`).
+
+    The smoothing spline spends its residual budget (twice the quantisation variance) on as few knots as it can:
+    over a blade's penetration window one quintic meets it.  A cone's force bends at its shoulder, and a quintic
+    through the bend still meets the budget while its acceleration misses by several per cent of the peak
+    resistance; the least-squares spline, with a knot at the corner that lets the acceleration's slope jump, does
+    not."""
+    return CORNER_METHOD if events.corners_s else DEFAULT_METHOD
 
 
 def rest_mask(time_s: np.ndarray, events: Events) -> np.ndarray:

@@ -77,9 +77,19 @@ class Events:
     """Analysis window, start (default: contact + WINDOW_TRIM_S). [s]"""
     window_end_s: float
     """Analysis window, end (default: stop − WINDOW_TRIM_S). [s]"""
+    corners_s: tuple[float, ...] = ()
+    """When the tip passed a depth where the geometry's resistance has a corner (a cone's shoulder), between
+    contact and stop: set by the inertia stage (:func:`pencli.filter.inertia.corner_times`), where the
+    derivatives join. [s]"""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "corners_s", tuple(float(c) for c in self.corners_s))  # a stored list reads back
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        """The events as stored (a run without corners stores none)."""
+        out = asdict(self)
+        corners = out.pop("corners_s")
+        return {**out, "corners_s": list(corners)} if corners else out
 
 
 @dataclass(frozen=True)

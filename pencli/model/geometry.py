@@ -60,6 +60,8 @@ class Geometry(Protocol):
         [m] and speeds ``v`` [m/s] (arrays): the columns a linear fit of the coefficients multiplies; their
         sum weighted by the coefficients is :meth:`resistance`. [N per file unit]"""
 
+    # optional: ``corners_m(design) -> tuple[float, ...]``, read through :func:`corner_depths_m`
+
 
 @dataclass(frozen=True)
 class Blade:
@@ -158,6 +160,11 @@ class Shape:
     def unit_terms(self, design: Design, x, v) -> tuple:
         return shape_unit_terms(lambda depth: self.areas(design, depth), design, x, v)
 
+    def corners_m(self, design: Design) -> tuple[float, ...]:
+        """Depths where an area's slope jumps, so that the resistance has a corner there (none unless the shape
+        says so; :func:`corner_depths_m`). [m]"""
+        return ()
+
 
 @dataclass(frozen=True)
 class Cone(Shape):
@@ -200,6 +207,10 @@ class Cone(Shape):
     def areas(self, design: Design, x: float) -> tuple[float, float, float]:
         return self.section_areas(x, design.friction_coefficient)
 
+    def corners_m(self, design: Design) -> tuple[float, ...]:
+        """The shoulder, L_c: the frontal area stops growing and the shaft's side area starts. [m]"""
+        return (self.cone_length_m,)
+
     def section_areas(self, x: float, mu: float) -> tuple[float, float, float]:
         """(frontal A_f, bearing B, side S) at depth ``x`` [m] for friction coefficient ``mu``. [m²]"""
         a, rt, rs = self.half_angle_rad, self.tip_radius_m, self.shaft_radius_m
@@ -241,6 +252,10 @@ class TaperedBlade(Shape):
         frontal = design.blade_width_m * thickness
         return (frontal, frontal * _tip_factor(design.tip_angle_rad, design.friction_coefficient),
                 2.0 * design.blade_width_m * x)
+
+    def corners_m(self, design: Design) -> tuple[float, ...]:
+        """The taper's end: the frontal area stops growing. [m]"""
+        return (self.taper_length_m,)
 
 
 GEOMETRIES = {"blade": Blade, "cone": Cone, "tapered_blade": TaperedBlade}
@@ -290,6 +305,15 @@ def force_steps_at_contact(geometry: Geometry, design: Design) -> bool:
     the force's onset marks the contact; a sharp tip's rises from nothing, and its onset lags the contact by
     however deep the tip goes before the force clears the noise."""
     return geometry.frontal_area_m2(design, 0.0) > 0.0
+
+
+def corner_depths_m(geometry: Geometry, design: Design) -> tuple[float, ...]:
+    """Depths where the geometry's resistance has a corner (an area's slope jumps: a cone's shoulder, a taper's
+    end), sorted; none for Eq. 9's blade or a geometry that declares none.  The acceleration's slope jumps where
+    the tip passes one, which the inertia stage's derivatives join at
+    (:func:`pencli.filter.inertia.corner_times`). [m]"""
+    corners = getattr(geometry, "corners_m", None)
+    return tuple(sorted(float(c) for c in corners(design) if c > 0.0)) if corners else ()
 
 
 def geometry_of(penetrator: ParameterSet) -> Geometry:
