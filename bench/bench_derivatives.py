@@ -1,13 +1,14 @@
 """Which derivative method? Error of velocity and acceleration against the simulated rig's true motion.
 
-Run: python -m bench.bench_derivatives
+Run: python -m bench.bench_derivatives [--cones [--material NAME]]
 For a set of simulated shots (two materials, three blades, 2/4/6 springs),
 each method differentiates the quantised encoder record (0.16 mm counts at
 30 kHz); errors are RMS over the penetration window against the true
 motion, and the acceleration error is also shown as the force error it
 causes (× load-cell mass) relative to the peak resistance.
 
-``--cones``: instead, nine cones (25, 35.7 and 50 mm shafts, 30° half-angle; 2, 4 and 6 springs) into MPACS C,
+``--cones``: instead, nine cones (25, 35.7 and 50 mm shafts, 30° half-angle; 2, 4 and 6 springs) into MPACS C
+(or ``--material``),
 four encoder phases each: the smoothing spline, the least-squares spline, and the least-squares spline joined
 where the tip passes the cone's shoulder (the inertia stage's choice for a resistance with a corner,
 ``pencli.filter.inertia.method_for``); force error m_lc·(a − a_true) over the peak resistance, mean and RMS
@@ -70,13 +71,14 @@ def cones() -> None:
     ways = {"spline": ("spline", False), "lsq_spline": ("lsq_spline", False),
             f"{CORNER_METHOD} joined": (CORNER_METHOD, True)}
     rows = {name: {"inside": [], "contact": [], "stop": []} for name in ways}
-    material = load_preset("mpacs_c", "material")
+    chosen = sys.argv[sys.argv.index("--material") + 1] if "--material" in sys.argv else "mpacs_c"
+    material = load_preset(chosen, "material")
     for i, (diameter, springs) in enumerate(itertools.product((25.0, 35.7, 50.0), (2, 4, 6))):
         penetrator = validate_mapping({**CONE, "shaft_diameter_mm": diameter}, "cone")
         corners = corner_depths_m(geometry_of(penetrator), design_from_sets(
             penetrator, material, load_preset(f"springs_{springs}", "energizing")))
         for phase in (0.5, 0.1, 0.35, 0.8):
-            motion, t, x, events, m_lc, pad = shot("mpacs_c", penetrator, springs, 100 + i, phase)
+            motion, t, x, events, m_lc, pad = shot(chosen, penetrator, springs, 100 + i, phase)
             c = int(np.searchsorted(t, events.contact_s))
             s = min(int(np.searchsorted(t, events.stop_s)), pad + motion.acceleration_m_s2.size)
             window, truth = slice(c, s), slice(c - pad, s - pad)
@@ -90,7 +92,7 @@ def cones() -> None:
                 rows[name]["inside"].append((np.mean(error[inside]), np.mean(error[inside] ** 2)))
                 rows[name]["contact"].append(_profile(after, error))
                 rows[name]["stop"].append(_profile(before, error))
-    print(f"force error m_lc*(a - a_true) / peak R on 9 cones x 4 encoder phases (MPACS C): mean (a bias the "
+    print(f"force error m_lc*(a - a_true) / peak R on 9 cones x 4 encoder phases ({chosen}): mean (a bias the "
           f"records share) | RMS; inside = {1e3 * FIT_EDGE_MARGINS_S[0]:g} ms after contact to "
           f"{1e3 * FIT_EDGE_MARGINS_S[1]:g} ms before the stop (the fit's rows)")
     print(f"{'':22s} {'inside':>14s}   by distance from the window's edges: "
@@ -184,5 +186,5 @@ def _profile(distance_s: np.ndarray, error: np.ndarray) -> np.ndarray:
 
 
 if __name__ == "__main__":
-    check_options(__doc__, ("--cones",))
+    check_options(__doc__, ("--cones", "--material"))
     cones() if "--cones" in sys.argv else main()

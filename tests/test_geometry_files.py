@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import pytest
 import yaml
@@ -316,6 +317,27 @@ def test_a_geometry_names_the_depths_where_its_resistance_turns_a_corner(shape):
         assert (abs(jump) > 1e-3 * force(x, 0.0) * h / x) == (x in corners), x
 
 
+def test_the_derivatives_join_at_a_corner_the_record_can_place_and_not_at_one_passed_as_the_tip_comes_to_rest():
+    """A corner joins the least-squares spline with the acceleration continuous (only its slope jumps), unless it
+    lies within one knot spacing of the stop, where the crawling tip leaves its time and the piece after it
+    undetermined; the run still takes the corner's method."""
+    import numpy as np
+
+    from pencli.filter.derivatives import CORNER_METHOD, LSQ_KNOT_S
+    from pencli.filter.inertia import method_for, motion_joins
+    from pencli.filter.tare import Events
+
+    t = np.arange(-0.01, 0.05, 1 / 30000)
+    contact, stop = 0.010, 0.030
+    early, late = contact + 1e-3, stop - 0.5 * LSQ_KNOT_S
+    events = Events(0.0, contact, 3.0, stop, 0.05, "arrest", contact + 5e-4, stop - 5e-4, (early, late))
+    joins = motion_joins(t, events)
+    assert (early - t[0], 2) in joins and not any(abs(j - (late - t[0])) < 1e-12 for j, _ in joins)
+    assert [c for _, c in joins] == [1, 1, 2, 1]
+    assert method_for(events) == CORNER_METHOD and method_for(replace(events, corners_s=(late,))) == CORNER_METHOD
+    assert method_for(replace(events, corners_s=())) == "spline"
+
+
 def test_a_fit_of_cones_fired_by_the_simulated_rig_recovers_the_materials_coefficients(tmp_path):
     """Nine cones (25, 35.7 and 50 mm; 2, 4 and 6 springs) fired by the simulated rig, whose true world writes the
     cone's resistance itself (not pen's geometry): stored, conditioned and fitted on the cone's columns, the
@@ -342,7 +364,7 @@ def test_a_fit_of_cones_fired_by_the_simulated_rig_recovers_the_materials_coeffi
     for run in api.load_campaign(db, ["all"]):  # joined where the depth record first reaches the shoulder
         shoulder = (run.penetrator.get("shaft_diameter_mm") / 2e3) / math.tan(math.radians(30.0))
         events, t, depth = run.require_events(), run.column("time_s"), run.column("depth_m")
-        if events.final_depth_m < shoulder:  # stopped in the cone's tip: no corner, the smoothing spline
+        if depth[t <= events.stop_s].max() < shoulder:  # stopped in the cone's tip: no corner, the smoothing spline
             assert events.corners_s == () and run.stage_parameters["method"] == "spline"
             continue
         (corner,) = events.corners_s

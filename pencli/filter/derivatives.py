@@ -160,8 +160,12 @@ def encoder_step_m(position_m: np.ndarray, default_m: float = 0.16e-3) -> float:
     return float(np.sqrt(12.0) * sigma) if sigma > 0 else default_m
 
 
+LSQ_KNOT_S = 3e-3
+"""The least-squares spline's knot spacing while the blade moves. [s]"""
+
+
 def lsq_spline(x: np.ndarray, rate_hz: float, breaks: Sequence[int], *, t0: float = 0.0,
-               break_times: Sequence[tuple[float, int]] | None = None, knot_s: float = 3e-3,
+               break_times: Sequence[tuple[float, int]] | None = None, knot_s: float = LSQ_KNOT_S,
                rest_knot_s: float = 5e-3) -> tuple[np.ndarray, np.ndarray]:
     """Least-squares quintic spline over the whole record, with knots at the events. [m/s, m/s²]
 
