@@ -5,7 +5,7 @@ Run: python -m bench.bench_geometry_fit [--seed SEED] [--material NAME]
 Nine cones (25, 35.7 and 50 mm, 60° apex) and nine tapered blades (1, 1.5 and 2 mm thick, edges 0.3-0.5 mm over
 8-20 mm), each on 2, 4 and 6 springs, into the material (default MPACS C; its preset's coefficients are the
 rig's truth), stored, tared, inertia-subtracted and fitted; prints each coefficient fitted, its 95 % interval
-and its error against the truth.
+and its error against the truth, then what the fit warns these runs do not determine.
 """
 
 from __future__ import annotations
@@ -61,13 +61,16 @@ def main() -> None:
             db = make_campaign(folder, material, shots=shots, seed=seed)
             api.tare_runs(db, ["all"])
             api.subtract_inertia_runs(db, ["all"])
-            fitted = api.fit(db, material, ["all"], record=False).result.coefficients
+            result = api.fit(db, material, ["all"], record=False).result
+            fitted = result.coefficients
             print(f"{shape}, {len(api.list_runs(db))} runs into {material} (seed {seed}):")
             for name, value in truth.items():
                 c = fitted[name]
                 error = f"{100 * (c.value - value) / value:+.1f} %" if value else f"{c.value:+.3g} (truth 0)"
                 print(f"  {name:24s} {c.value:10.4g}  95 % [{c.ci95[0]:.4g}, {c.ci95[1]:.4g}]  truth {value:g}  "
                       f"{error}")
+            for warning in result.warnings:  # what the fit says these runs do not determine
+                print(f"  fit warns: {warning}")
 
 
 if __name__ == "__main__":
