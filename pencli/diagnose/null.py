@@ -45,7 +45,7 @@ import numpy as np
 from numba import njit
 
 from pencli.errors import DataError
-from pencli.filter.derivatives import derivatives, smooth_motion
+from pencli.filter.derivatives import derivatives, smooth_motion, spline_columns
 from pencli.filter.inertia import motion_breaks, motion_joins
 from pencli.filter.tare import Events, detect_events
 
@@ -723,9 +723,8 @@ def _measured_accelerations(null: RunNull, depth: np.ndarray, motions: Sequence[
     for members in groups.values():
         m = motions[members[0]]
         breaks, joins = motion_breaks(t, m, null.contact_break), motion_joins(t, m, null.contact_break)
-        if null.method == "spline":  # not linear: one replicate at a time
-            for b in members:
-                accel[:, b] = derivatives(depth[:, b], rate, breaks, null.method, count_m=step)[1]
+        if null.method == "spline":  # not linear, but its polynomial pieces are fitted to every replicate at once
+            accel[:, members] = spline_columns(depth[:, members], rate, breaks, step)
         else:  # linear in the record: the replicates of one set of breaks in one call
             accel[:, members] = derivatives(depth[:, members], rate, breaks, null.method, count_m=step,
                                             joins=joins)[1]
