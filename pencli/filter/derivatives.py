@@ -66,6 +66,22 @@ over three counts, would otherwise get a knot every few samples (3,781 knots in 
 knots take 0.4 s there)."""
 
 
+MIN_SPLINE_SAMPLES = 8
+"""A segment shorter than this gets differences, not a spline."""
+
+
+def _budget(samples: int, count_m: float) -> float:
+    """The smoothing spline's residual budget over ``samples``: :data:`SMOOTHING` times their quantisation
+    variance, (encoder step)²/12 each. [m²]"""
+    return SMOOTHING * samples * (count_m / np.sqrt(12.0)) ** 2  # the quantisation error's standard deviation²
+
+
+def _resting(segment: np.ndarray, count_m: float):
+    """Whether a segment (or each column of one) moves a count at most: at rest, an edge under the read head
+    flickering it between two counts."""
+    return np.ptp(segment, axis=0) <= count_m * (1.0 + 1e-9)
+
+
 def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m: float,
                    at_rest: np.ndarray | None = None):
     """(lo, hi, piece) per segment: a quintic smoothing spline, smoothing set by the quantisation; the
@@ -74,12 +90,11 @@ def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
     from scipy.interpolate import make_splrep
 
     t = np.arange(x.size) / rate_hz
-    sigma = count_m / np.sqrt(12.0)  # the quantisation error's standard deviation
     k = 5  # quintic; FITPACK's own bounds on the knots: from 2(k + 1) to n + k + 1
     out = []
     for lo, hi in _segments(x.size, breaks):
         n = hi - lo
-        if n < 8:
+        if n < MIN_SPLINE_SAMPLES:
             out.append((lo, hi, None))
             continue
         seg = x[lo:hi]
@@ -89,7 +104,7 @@ def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
             # in 12,048 samples (407 s for one segment of one run; dev rate_strength-8 of ``--varied 16 255000``)
             out.append((lo, hi, float(np.mean(seg))))
             continue
-        if np.ptp(seg) <= count_m * (1.0 + 1e-9):
+        if _resting(seg, count_m):
             # at rest, flickering between two counts at most (an edge under the read head): its mean; a
             # spline held to the quantisation budget would chase the flicker with hundreds of knots
             out.append((lo, hi, float(np.mean(seg))))
@@ -99,7 +114,7 @@ def _spline_pieces(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
             warnings.simplefilter("ignore", RuntimeWarning)
             # a residual budget of twice the quantisation variance: at exactly one, FITPACK's knot search
             # fails on some encoder phases (slow motion makes the error a sawtooth) and returns wild curves
-            out.append((lo, hi, make_splrep(t[lo:hi], x[lo:hi], k=k, s=SMOOTHING * n * sigma ** 2,
+            out.append((lo, hi, make_splrep(t[lo:hi], x[lo:hi], k=k, s=_budget(n, count_m),
                                             nest=max(min(MAX_KNOTS, n + k + 1), 2 * (k + 1)))))
     return t, out
 
@@ -168,20 +183,19 @@ def spline_columns(x: np.ndarray, rate_hz: float, breaks: Sequence[int], count_m
     n, m = x.shape
     accel = np.zeros((n, m))
     t = np.arange(n) / rate_hz
-    budget = SMOOTHING * (count_m / np.sqrt(12.0)) ** 2  # per sample, as _spline_pieces sets it
     alone = np.zeros(m, dtype=bool)
     for lo, hi in _segments(n, breaks):
         seg = x[lo:hi]
-        if hi - lo < 8:  # as _spline_pieces: too short for a spline, differences where there are 3 samples
+        if hi - lo < MIN_SPLINE_SAMPLES:  # as _spline_pieces: differences where there are 3 samples
             if hi - lo >= 3:
                 accel[lo:hi] = np.gradient(np.gradient(seg, t[lo:hi], axis=0), t[lo:hi], axis=0)
             continue
         basis, solve, second = _quintic(hi - lo, float(rate_hz))
         coef = solve @ seg
         sse = np.sum((seg - basis @ coef) ** 2, axis=0)
-        still = np.ptp(seg, axis=0) <= count_m * (1.0 + 1e-9)  # at rest, flickering a count at most: no motion
+        still = _resting(seg, count_m)  # no motion, as _spline_pieces reads it
         accel[lo:hi] = np.where(still, 0.0, second @ coef)
-        alone |= ~still & (sse > budget * (hi - lo))
+        alone |= ~still & (sse > _budget(hi - lo, count_m))
     for column in np.flatnonzero(alone):
         accel[:, column] = spline(x[:, column], rate_hz, breaks, count_m)[1]
     return accel
