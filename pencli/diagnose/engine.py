@@ -64,7 +64,8 @@ import numpy as np
 from pencli.diagnose import BOOTSTRAP, FALSE_ALARM, WORKERS  # the defaults live in the light package module (CLI)
 from pencli.diagnose.effects import (EFFECTS, INDISTINGUISHABLE, PROBES, Basis, Effect, Member, _RunView, basis_of,
                                      column_strength_factor, surfaces, views)
-from pencli.diagnose.linear import Spec, Statistics, compiled_threads, heldout_residuals, heldout_residuals_every
+from pencli.diagnose.linear import (MAX_COEFFICIENTS, Spec, Statistics, compiled_threads, heldout_residuals,
+                                   heldout_residuals_every)
 from pencli.diagnose import plan
 from pencli.diagnose.rest import rest_drift
 from pencli.diagnose.null import (ModelMotion, NoiseModel, PendingReplicates, RunNull, corner_spreads, fit_noise,
@@ -111,6 +112,10 @@ AXIS_BINS = 20
 RUN_DEPTH_BINS = 4
 """Quantile bins of each run's own depth profile in the ``run`` axis: coarse, so that a profile fitted to one
 run's noise takes little (4 bins a run over thousands of samples). [–]"""
+RUN_PROFILE_DEGREE = RUN_DEPTH_BINS - 1
+"""Each run's own depth profile (:func:`_own_run_columns`): Legendre polynomials of degree 1 to this in the run's
+depth in the material; degree 0 is the run's strength factor, which every model fits already.  As coarse as the
+``run`` axis's bins: a misfit that differs from run to run over tens of millimetres, not one run's noise. [–]"""
 MIN_TRAJECTORY_SAMPLES = 4
 """A simulated trajectory with fewer samples cannot be interpolated onto a run's clock. [–]"""
 
@@ -967,6 +972,8 @@ class FamilyScan:
     gap_threshold: float
     z_probe: float
     resistance_gap: bool
+    own_runs: tuple[int, ...] = ()
+    """Column indices of each run's own depth profile (:func:`_own_run_columns`), run after run."""
 
 
 @dataclass(frozen=True)
@@ -1210,6 +1217,7 @@ def scan_families(baseline: Baseline, calibration: NullCalibration, request: Req
         name: [built[name, i] if (name, i) in built else
                _register(b.columns, b.bases, b.runs, b.uses, m, b.spec, measured, varying) for i, m in enumerate(ms)]
         for name, ms in members.items()}
+    own_runs = _own_run_columns(b)
     matrices = b.columns.matrices()
     stats = Statistics(matrices, [np.column_stack([y, rep.resistance_n]) for y, rep in zip(b.ys, calibration.replicates)],
                        np.array(b.columns.nonnegative), varying,
@@ -1228,7 +1236,24 @@ def scan_families(baseline: Baseline, calibration: NullCalibration, request: Req
                                         request.alpha)
     return FamilyScan(law_effects, candidates, matrices, stats, S0, z_gap, floor_sq, float(S0[0]) - floor_sq, tested,
                       z_threshold, probes, gap_threshold, max(t.z for t in probes.values()),
-                      _shared_gap(S0, probes, gap_threshold))
+                      _shared_gap(S0, probes, gap_threshold), own_runs)
+
+
+def _own_run_columns(b: Baseline) -> tuple[int, ...]:
+    """Register each run's own depth profile: per run, :data:`RUN_PROFILE_DEGREE` columns that are Legendre
+    polynomials of that run's depth in the material (scaled to [−1, 1] over the depths its analysis samples
+    reach) and zero in every other run and in flight; their indices, run after run."""
+    degree = np.arange(1, RUN_PROFILE_DEGREE + 1)
+    own = []
+    for r, (basis, used) in enumerate(zip(b.bases, b.uses)):
+        x, inside = basis.x[used], basis.inside[used]
+        lo, hi = (float(np.min(x[inside])), float(np.max(x[inside]))) if np.any(inside) else (0.0, 0.0)
+        scaled = np.where(inside, 2.0 * (x - lo) / (hi - lo) - 1.0, 0.0) if hi > lo else np.zeros(x.size)
+        values = np.polynomial.legendre.legvander(scaled, RUN_PROFILE_DEGREE)[:, degree] * inside[:, None]
+        for j in range(degree.size):
+            own.append(b.columns.add([values[:, j] if k == r else np.zeros(other.x[u].shape[0])
+                                      for k, (other, u) in enumerate(zip(b.bases, b.uses))]))
+    return tuple(own)
 
 
 def _admissible(effect: Effect, candidates: Sequence[_Candidate], context: Mapping[str, float]
@@ -1369,7 +1394,11 @@ def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], requ
                         top.name, base_spec, S0, request.alpha)
     top_share = reports[top.name].explained_share
     left_z = _left_z(scan.tested[top.name].family.heldout)
-    leaves_gap = scan.resistance_gap or left_z > normal_quantile(request.alpha)
+    own_z = _own_run_z(scan, top.name)
+    bar = normal_quantile(request.alpha)
+    naming["remainder"] = {"heldout_z": round(left_z, 2), "own_runs_z": None if own_z is None else round(own_z, 2),
+                           "threshold_z": round(bar, 3)}
+    leaves_gap = scan.resistance_gap or left_z > bar or (own_z is not None and own_z > bar)
     explains = not leaves_gap or top_share is None or top_share >= EXPLAIN_SHARE
     pair_share = (S0[0] - pair["heldout"]) / excess if pair and excess > 0 else None
     if not (explains or (pair and pair["significant"] and pair_share is not None and pair_share >= EXPLAIN_SHARE)):
@@ -1378,7 +1407,7 @@ def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], requ
                          if r.view == "resistance" and r.explained_share is not None), reverse=True)
         notes.append(f"a misfit stays that no catalogue effect explains: the best explanation ({best}) removes "
                      f"only {PERCENT * max(pair_share or 0, top_share or 0):.0f} % of its excess over the null "
-                     f"floor and leaves a gap (z {left_z:.1f}); candidates: "
+                     f"floor and leaves a gap ({_gap_said(scan, left_z, own_z, bar)}); candidates: "
                      + ", ".join(f"{name} {PERCENT * max(share, 0.0):.0f} %" for share, name in shares[:CANDIDATES])
                      + "; see where and axes for what the misfit follows")
         return "unexplained", [], top, pair, naming
@@ -1697,6 +1726,40 @@ def _named_first(reports: Mapping[str, EffectReport], tested: Mapping[str, _Test
     resistance = [r for r in reports.values() if r.view == "resistance"]
     eligible = [r for r in resistance if r.significant or beyond_every_replicate(tested[r.name])]
     return max((r for r in resistance if r.significant), key=improvement), max(eligible, key=improvement)
+
+
+def _own_run_z(scan: FamilyScan, top: str) -> float | None:
+    """How far what each run's own depth profile (:func:`_own_run_columns`) takes from the misfit ``top``'s best
+    member leaves, fitted to all runs, stands above what it takes on the null replicates: z of the data's
+    drop in mean square.  A paired test of the remainder (the same columns on the same replicates), where
+    :func:`_left_z` compares the remainder's size with the replicates' spread of it; None when the runs' own
+    columns would pass the solver's limit.
+
+    The replicates carry no effect, but every model here is linear in its coefficients: what further columns
+    take from the residual of ``top``'s fit does not depend on the size of ``top``'s effect in the target."""
+    return own_columns_z(scan.stats, scan.candidates[top][scan.tested[top].family.best].spec, scan.own_runs)
+
+
+def own_columns_z(stats: Statistics, spec: Spec, own: Sequence[int]) -> float | None:
+    """z of what columns ``own`` take, fitted to all runs on top of ``spec``, from the data's mean square (target
+    0) against what they take from each replicate's (the others), standardised as every statistic here; None
+    when there are none or the model would pass the solver's limit."""
+    if not own or len(spec.columns) - 1 + len(own) > MAX_COEFFICIENTS:
+        return None
+    drop = stats.score([spec]).total[0] - stats.score([replace(spec, columns=spec.columns + tuple(own))]).total[0]
+    return _standardise(drop, _score_floor(drop, stats))[0]
+
+
+def _gap_said(scan: FamilyScan, left_z: float, own_z: float | None, bar: float) -> str:
+    """Which test says a gap stays, for the ``unexplained`` note."""
+    said = []
+    if scan.resistance_gap:
+        said.append(f"a profile the runs share closes part of it, z {scan.z_probe:.1f}")
+    if left_z > bar:
+        said.append(f"held-out z {left_z:.1f}")
+    if own_z is not None and own_z > bar:
+        said.append(f"each run's own depth profile takes part of it, z {own_z:.1f}")
+    return "; ".join(said)
 
 
 def _left_z(heldout: np.ndarray) -> float:
