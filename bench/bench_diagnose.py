@@ -389,6 +389,7 @@ def main() -> None:
         print(f"{label:28s} truth={'+'.join(sorted(truth)):45s} verdict={result.verdict:25s} "
               f"{'OK ' if ok else 'MISS'} first={top.name if top else '-':25s} shrink={top.shrink_pct if top else 0:5.1f}% "
               f"z={top.z if top else 0:5.1f}/{result.decision['effect_threshold_z']:.1f} gap_z={result.baseline['gap_z']:.1f} "
+              f"own_z={result.baseline.get('own_runs_z')} "
               f"{result.verdict_effects} pair={result.baseline.get('best_pair', {}).get('effects')} "
               f"share={result.baseline.get('best_pair', {}).get('share_of_remainder')} {seconds:.1f}s{size}", flush=True)
     nulls = [r for r in rows if r[1] == {"none"}]

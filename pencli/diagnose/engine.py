@@ -974,6 +974,11 @@ class FamilyScan:
     resistance_gap: bool
     own_runs: tuple[int, ...] = ()
     """Column indices of each run's own depth profile (:func:`_own_run_columns`), run after run."""
+    z_own: float | None = None
+    """What each run's own depth profile takes from the baseline's residual, as a z against the replicates
+    (:func:`own_columns_z`)."""
+    run_gap: bool = False
+    """Whether ``z_own`` beats ``gap_threshold``: a misfit that differs from run to run."""
 
 
 @dataclass(frozen=True)
@@ -1230,13 +1235,20 @@ def scan_families(baseline: Baseline, calibration: NullCalibration, request: Req
                                                   for e in law_effects}, request.alpha,
                                       admissible={e.name: _admissible(e, candidates[e.name], b.context)
                                                   for e in law_effects if e.admissible is not None})
-    # a gap the runs share: a generic profile (in depth or in time since contact) closing part of it on held-out
-    # runs beyond what it closes on the null replicates
-    probes, gap_threshold = _familywise(stats, S0, {n: [c.spec for c in candidates[n]] for n in PROBES},
-                                        request.alpha)
+    # a gap: a generic profile (in depth or in time since contact) closing part of it on held-out runs beyond what
+    # it closes on the null replicates, a misfit the runs share; or a misfit that differs from run to run: each
+    # run's own coarse depth profile taking from the baseline's residual more than from the replicates'; one
+    # family-wise test over the three
+    probes, _ = _familywise(stats, S0, {n: [c.spec for c in candidates[n]] for n in PROBES}, request.alpha)
+    own_drop = own_columns_drop(stats, b.spec, own_runs)
+    floor = _score_floor(S0, stats)
+    improvements = [S0 - t.family.heldout for t in probes.values()] + ([own_drop] if own_drop is not None else [])
+    gap_threshold = familywise_threshold(np.column_stack(improvements), floor, request.alpha)
+    z_own = None if own_drop is None else _standardise(own_drop, floor)[0]
     return FamilyScan(law_effects, candidates, matrices, stats, S0, z_gap, floor_sq, float(S0[0]) - floor_sq, tested,
                       z_threshold, probes, gap_threshold, max(t.z for t in probes.values()),
-                      _shared_gap(S0, probes, gap_threshold), own_runs)
+                      _shared_gap(S0, probes, gap_threshold), own_runs, z_own,
+                      z_own is not None and z_own > gap_threshold)
 
 
 def _own_run_columns(b: Baseline) -> tuple[int, ...]:
@@ -1360,6 +1372,11 @@ def decide(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, d
         notes.append(f"the runs share a misfit (a generic profile closes it on held-out runs: z {scan.z_probe:.1f} "
                      f"against {scan.gap_threshold:.1f}) that no catalogue effect reduces significantly; see where "
                      f"and axes")
+    elif scan.run_gap:
+        verdict = "unexplained"
+        notes.append(f"each run has a misfit of its own (each run's own depth profile takes part of it: z "
+                     f"{scan.z_own:.1f} against {scan.gap_threshold:.1f}) that no catalogue effect reduces "
+                     f"significantly; see where and axes")
     rest = _rest_beside(baseline, calibration, request, pair, verdict, verdict_effects, reports, notes)
     if drive.gap:
         if verdict == "none":
@@ -1402,12 +1419,14 @@ def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], requ
     explains = not leaves_gap or top_share is None or top_share >= EXPLAIN_SHARE
     pair_share = (S0[0] - pair["heldout"]) / excess if pair and excess > 0 else None
     if not (explains or (pair and pair["significant"] and pair_share is not None and pair_share >= EXPLAIN_SHARE)):
-        best = f"{top.name} + {pair['effect']}" if pair else top.name
         shares = sorted(((r.explained_share, r.name) for r in reports.values()
                          if r.view == "resistance" and r.explained_share is not None), reverse=True)
-        notes.append(f"a misfit stays that no catalogue effect explains: the best explanation ({best}) removes "
-                     f"only {PERCENT * max(pair_share or 0, top_share or 0):.0f} % of its excess over the null "
-                     f"floor and leaves a gap ({_gap_said(scan, left_z, own_z, bar)}); candidates: "
+        beside = "" if not pair else (
+            f"; with {pair['effect']} beside it {PERCENT * max(pair_share or 0.0, 0.0):.0f} %"
+            + ("" if pair["significant"] else f", but {pair['effect']} is not significant on top of it"))
+        notes.append(f"a misfit stays that no catalogue effect explains: the best explanation ({top.name}) removes "
+                     f"only {PERCENT * max(top_share or 0.0, 0.0):.0f} % of its excess over the null floor{beside}, "
+                     f"and a gap stays ({_gap_said(scan, left_z, own_z, bar)}); candidates: "
                      + ", ".join(f"{name} {PERCENT * max(share, 0.0):.0f} %" for share, name in shares[:CANDIDATES])
                      + "; see where and axes for what the misfit follows")
         return "unexplained", [], top, pair, naming
@@ -1649,6 +1668,8 @@ def _baseline_record(baseline: Baseline, scan: FamilyScan, drive: DriveView, dec
         "null_rms_n": math.sqrt(scan.floor_sq),
         "gap_z": round(scan.z_gap, 2),
         "resistance_gap": bool(scan.resistance_gap),
+        "own_runs_z": None if scan.z_own is None else round(scan.z_own, 2),
+        "run_gap": bool(scan.run_gap),
         "probes": {name: {"z": round(t.z, 2), "shrink_pct": round(PERCENT * (1.0 - math.sqrt(
             max(t.family.heldout[0], 0.0) / S0[0])), 2)} for name, t in scan.probes.items()},
         "contact_speed_error_mean": float(np.mean(drive.ratios)),
@@ -1744,10 +1765,16 @@ def own_columns_z(stats: Statistics, spec: Spec, own: Sequence[int]) -> float | 
     """z of what columns ``own`` take, fitted to all runs on top of ``spec``, from the data's mean square (target
     0) against what they take from each replicate's (the others), standardised as every statistic here; None
     when there are none or the model would pass the solver's limit."""
+    drop = own_columns_drop(stats, spec, own)
+    return None if drop is None else _standardise(drop, _score_floor(drop, stats))[0]
+
+
+def own_columns_drop(stats: Statistics, spec: Spec, own: Sequence[int]) -> np.ndarray | None:
+    """What columns ``own`` take, fitted to all runs on top of ``spec``, from each target's mean square (the
+    data, then each replicate); None when there are none or the model would pass the solver's limit. [N²]"""
     if not own or len(spec.columns) - 1 + len(own) > MAX_COEFFICIENTS:
         return None
-    drop = stats.score([spec]).total[0] - stats.score([replace(spec, columns=spec.columns + tuple(own))]).total[0]
-    return _standardise(drop, _score_floor(drop, stats))[0]
+    return stats.score([spec]).total[0] - stats.score([replace(spec, columns=spec.columns + tuple(own))]).total[0]
 
 
 def _gap_said(scan: FamilyScan, left_z: float, own_z: float | None, bar: float) -> str:
