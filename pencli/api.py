@@ -1723,7 +1723,8 @@ def free_fall_probe(penetrator: str | Path, energizing: str | Path):
                          drag_coefficient=float(e.values["drag_coefficient"]),
                          added_mass_coefficient=float(e.values.get("added_mass_coefficient", 0.0)),
                          water_density=float(e.values["fluid_density_kg_m3"]),
-                         tether_force_n=float(e.values.get("tether_force_n", 0.0)))
+                         tether_force_n=float(e.values.get("tether_force_n", 0.0)),
+                         bed_density=float(e.values.get("bed_density_kg_m3", 0.0)))
 
 
 def fit_drops(drops: Sequence[Drop], probe, *, nuisances: bool = True):
@@ -1752,10 +1753,11 @@ def report_drops(drops: Sequence[Drop], out: str | Path, *, pdf: bool = True, pr
 
 def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ...], bias_g: float = 0.0,
                        seed: int = 0, calibration_out: str | Path | None = None, impact_shift_g: float = 0.0,
-                       rest_tilt_deg: float = 0.0):
+                       rest_tilt_deg: float = 0.0, bed_density_kg_m3: float = 0.0):
     """``pen drops simulate``: a drop of the simulated BlueDrop (:mod:`pencli.acquire.freefall`, the
     ``freefall_cone`` probe in ``drop_water``) released ``height_m`` above a bed of q = σ + b·z + c·v (``bed``:
-    kPa, kPa/m, kPa·s/m; two more: a layer's depth [m] and step [kPa]), each accelerometer with a random bias
+    kPa, kPa/m, kPa·s/m; two more: a layer's depth [m] and step [kPa]) and bulk density ``bed_density_kg_m3``
+    (0: it buoys nothing), each accelerometer with a random bias
     within ±``bias_g`` that shifts by ``impact_shift_g`` at the impact, the probe leaning ``rest_tilt_deg`` once
     stopped, written as a BlueDrop record and its calibration sheet (CSV; default ``calibration.csv``
     beside it), both or neither.  Returns (the simulation's truth, the sheet's path, each sensor's bias)."""
@@ -1777,11 +1779,14 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ..
         raise ParameterError(f"--impact-shift-g {impact_shift_g:g}: expected −0.5 … 0.5 g")
     if not 0.0 <= rest_tilt_deg <= 60.0:
         raise ParameterError(f"--rest-tilt-deg {rest_tilt_deg:g}: expected 0 … 60°")
+    if not 0.0 <= bed_density_kg_m3 <= 3000.0:
+        raise ParameterError(f"--bed-density {bed_density_kg_m3:g}: expected 0 (none) … 3000 kg/m³")
     rng = np.random.default_rng(seed)
     sensors = Sensors(bias_g={name: float(rng.uniform(-bias_g, bias_g)) for name in ACCELEROMETER_RANGES_G},
                       impact_shift_g={name: float(impact_shift_g) for name in ACCELEROMETER_RANGES_G})
     try:
-        truth = simulate_drop(Probe(), Bed(*bed), height_m, sensors=sensors, seed=seed, rest_tilt_deg=rest_tilt_deg,
+        truth = simulate_drop(Probe(), Bed(*bed[:3], *(bed[3:] or (math.inf, 0.0)),
+                                          density_kg_m3=bed_density_kg_m3), height_m, sensors=sensors, seed=seed, rest_tilt_deg=rest_tilt_deg,
                               tilt_azimuth_deg=float(rng.uniform(0.0, 360.0)) if rest_tilt_deg else 0.0)
     except ValueError as error:
         raise ParameterError(f"--bed: {error}") from None

@@ -69,6 +69,28 @@ def test_the_bed_is_fitted_across_stored_drops_with_the_drag_unknown(runner, dro
     assert abs(held["strength_kpa"] / BED[0] - 1) > abs(fit["strength_kpa"] / BED[0] - 1)  # the wrong drag costs
 
 
+def test_a_bed_that_buoys_the_probe_is_fitted_with_its_density_from_the_launcher_file(runner, tmp_path):
+    """Four drops into a saturated sand (bulk density 1,900 kg/m³) that buoys the cone's volume below its surface:
+    with the density in the launcher file (`bed_density_kg_m3`) the bed comes back within 3 % with the drag and
+    added mass fitted too; the same file without it reads the buoyancy as the bed's gradient."""
+    for k, height in enumerate(HEIGHTS_M):
+        r = invoke(runner, "drops", "simulate", "--height-m", height, "--bed", ",".join(map(str, BED)),
+                   "--bed-density", 1900, "--bias-g", 0.03, "--seed", 60 + k, "--out", tmp_path / f"drop-{k}.bin")
+        assert r.exit_code == 0, r.output + r.stderr
+    launcher = yaml.safe_load(invoke(runner, "params", "show", "drop_water", "--kind", "energizing").stdout)
+    fits = {}
+    for density in (1900.0, 0.0):
+        path = tmp_path / f"fall-{density:g}.yaml"
+        path.write_text(yaml.safe_dump({**launcher, "name": "sand", "bed_density_kg_m3": density}))
+        r = invoke(runner, "drops", "fit", *sorted(tmp_path.glob("drop-*.bin")), "--calibration",
+                   tmp_path / "calibration.csv", "-p", "freefall_cone", "-e", path, "--json")
+        assert r.exit_code == 0, r.stderr
+        fits[density] = json.loads(r.stdout)
+    for key, truth in zip(("strength_kpa", "gradient_kpa_m", "damping_kpa_s_m"), BED):
+        assert fits[1900.0][key] == pytest.approx(truth, rel=0.03), key
+    assert fits[0.0]["gradient_kpa_m"] - BED[1] > 0.5 * (1900 - 1025) * 9.80665 / 1e3  # the buoyancy as gradient
+
+
 def test_a_report_draws_each_drop_and_the_bed(runner, drops, tmp_path):
     root, _ = drops
     out = tmp_path / "drops.html"
@@ -88,6 +110,7 @@ def test_a_report_draws_each_drop_and_the_bed(runner, drops, tmp_path):
     (["simulate", "--out", "{tmp}/x.bin", "--bed", "0,1,1"], ["--bed", "σ > 0"]),
     (["simulate", "--out", "{tmp}/x.bin", "--impact-shift-g", "0.9"], ["--impact-shift-g 0.9", "0.5 g"]),
     (["simulate", "--out", "{tmp}/x.bin", "--rest-tilt-deg", "75"], ["--rest-tilt-deg 75", "60°"]),
+    (["simulate", "--out", "{tmp}/x.bin", "--bed-density", "5000"], ["--bed-density 5000", "3000 kg/m³"]),
     (["show", "{tmp}/missing.bin", "--calibration", "{cal}"], ["missing.bin", "no such file"]),
 ])
 def test_bad_input_is_one_line(runner, drops, tmp_path, args, said):

@@ -24,6 +24,7 @@ DROPS = {
             "fluid_density_kg_m3": 1.2, "drag_coefficient": 1.1, "displaced_volume_l": 1.6},
 }
 DROPS["tethered"] = {**DROPS["water"], "name": "tethered", "tether_force_n": 12.0}
+DROPS["buoyed"] = {**DROPS["water"], "name": "buoyed", "bed_density_kg_m3": 1900.0}
 G = 9.81
 
 
@@ -34,41 +35,54 @@ def predict(tmp_path, runner, drop, *extra):
     return json.loads(result.stdout)
 
 
+def embedded_volume(x: float) -> float:
+    """The blunt cone's volume below the surface with its tip ``x`` deep, from its radius r(s) = r_t + s·tan α up
+    to the shaft's: π·(r³ − r_t³)/(3·tan α), then the shaft's cylinder. [m³]"""
+    alpha = math.radians(HEAVY_CONE["cone_half_angle_deg"])
+    rs, rt = HEAVY_CONE["shaft_diameter_mm"] / 2e3, HEAVY_CONE["tip_flat_diameter_mm"] / 2e3
+    shoulder = (rs - rt) / math.tan(alpha)
+    r = rt + min(max(x, 0.0), shoulder) * math.tan(alpha)
+    return math.pi * (r ** 3 - rt ** 3) / (3 * math.tan(alpha)) + math.pi * rs * rs * max(x - shoulder, 0.0)
+
+
 def independent_drop(drop: dict):
     """From release at rest, s0 above the bed: (contact time, contact speed, final depth, time at rest, the
-    drag's work), integrated here from the forces as the physics states them."""
+    drag's work, the bed's buoyancy's work), integrated here from the forces as the physics states them."""
     m = HEAVY_CONE["sprung_mass_kg"]
     rho, volume = drop["fluid_density_kg_m3"], drop["displaced_volume_l"] / 1e3
     added = drop.get("added_mass_coefficient", 0.0) * rho * volume
     area = math.pi * (HEAVY_CONE["shaft_diameter_mm"] / 2e3) ** 2  # the body's largest frontal area
     drag = 0.5 * rho * drop["drag_coefficient"] * area
     s0 = drop["surface_offset_mm"] / 1e3
+    bed_density = drop.get("bed_density_kg_m3", 0.0)
 
     def rhs(_t, y):
         x, v = y[0], y[1]
         fluid = drag * v * abs(v) if x < 0.0 else 0.0
-        force = m * G - rho * volume * G - drop.get("tether_force_n", 0.0) - fluid - cone_resistance(x, v)
-        return [v, force / (m + added), fluid * v]
+        soil = (bed_density - rho) * G * embedded_volume(x) if bed_density and x > 0.0 else 0.0
+        force = m * G - rho * volume * G - drop.get("tether_force_n", 0.0) - fluid - soil - cone_resistance(x, v)
+        return [v, force / (m + added), fluid * v, soil * v]
 
     contact = lambda _t, y: y[0]  # noqa: E731
     contact.terminal, contact.direction = True, 1
-    fall = solve_ivp(rhs, (0.0, 10.0), [-s0, 0.0, 0.0], method="DOP853", rtol=1e-13, atol=1e-15, events=contact)
+    fall = solve_ivp(rhs, (0.0, 10.0), [-s0, 0.0, 0.0, 0.0], method="DOP853", rtol=1e-13, atol=1e-15,
+                     events=contact)
     assert fall.status == 1
-    t_c, (_, v_c, w_drag) = fall.t_events[0][0], fall.y_events[0][0]
+    t_c, (_, v_c, w_drag, _) = fall.t_events[0][0], fall.y_events[0][0]
     arrest = lambda _t, y: y[1]  # noqa: E731
     arrest.terminal, arrest.direction = True, -1
-    bed = solve_ivp(rhs, (t_c, t_c + 5.0), [0.0, v_c, w_drag], method="DOP853", rtol=1e-12, atol=1e-14,
+    bed = solve_ivp(rhs, (t_c, t_c + 5.0), [0.0, v_c, w_drag, 0.0], method="DOP853", rtol=1e-12, atol=1e-14,
                     events=arrest, max_step=1e-4)
     assert bed.status == 1
-    return t_c, v_c, bed.y_events[0][0][0], bed.t_events[0][0], w_drag
+    return t_c, v_c, bed.y_events[0][0][0], bed.t_events[0][0], w_drag, bed.y_events[0][0][3]
 
 
-@pytest.mark.parametrize("fluid", ["water", "air", "tethered"])
+@pytest.mark.parametrize("fluid", ["water", "air", "tethered", "buoyed"])
 def test_a_drop_predicts_what_an_integration_from_release_gives(tmp_path, runner, fluid):
     drop = DROPS[fluid]
     s = predict(tmp_path, runner, drop)
     assert s["model"] == "pen-1dof/cone+free_fall" and s["drive"] == "free_fall" and s["end"] == "arrest"
-    t_c, v_c, depth, t_rest, w_drag = independent_drop(drop)
+    t_c, v_c, depth, t_rest, w_drag, w_soil = independent_drop(drop)
     assert s["contact_time_s"] == pytest.approx(t_c, rel=1e-8)
     assert s["contact_speed_m_s"] == pytest.approx(v_c, rel=1e-8)
     assert s["final_depth_mm"] / 1e3 == pytest.approx(depth, rel=1e-8)
@@ -79,7 +93,7 @@ def test_a_drop_predicts_what_an_integration_from_release_gives(tmp_path, runner
     travel = s0 + depth
     buoyancy = drop["fluid_density_kg_m3"] * drop["displaced_volume_l"] / 1e3 * G + drop.get("tether_force_n", 0.0)
     assert s["gravity_work_j"] == pytest.approx(HEAVY_CONE["sprung_mass_kg"] * G * travel, rel=1e-8)
-    assert s["spring_energy_j"] == pytest.approx(-buoyancy * travel - w_drag, rel=1e-8)
+    assert s["spring_energy_j"] == pytest.approx(-buoyancy * travel - w_drag - w_soil, rel=1e-8)
     assert s["energy_other_j"] == pytest.approx(s["gravity_work_j"] + s["spring_energy_j"], rel=1e-8)
     assert abs(s["energy_balance_error_j"]) < 1e-8 * s["gravity_work_j"]
 
@@ -147,21 +161,23 @@ def test_the_schema_holds_each_drive_to_its_own_keys():
 
 
 def test_a_sweep_of_drops_gives_each_design_what_predict_gives_it(runner, tmp_path):
-    """The drop height and the drag coefficient varied: each row is `pen predict`'s for that design (the
-    free fall is integrated design by design); a spring's key is not a drop's to vary."""
+    """The drop height, the drag coefficient and the bed's density varied: each row is `pen predict`'s for that
+    design (the free fall is integrated design by design); a spring's key is not a drop's to vary."""
     import pyarrow.parquet as pq
 
     out = tmp_path / "s.parquet"
     result = invoke(runner, "sweep", "-p", "freefall_cone", "-m", "mpacs_b", "-e", "drop_water",
                     "--vary", "surface_offset_mm=500:1500", "--vary", "drag_coefficient=0.5,1.1",
-                    "--resolution", "3", "--out", out)
+                    "--vary", "bed_density_kg_m3=0,1900", "--resolution", "3", "--out", out)
     assert result.exit_code == 0, result.output
     rows = pq.read_table(out).to_pylist()
-    assert len(rows) == 6 and len({round(r["contact_speed_m_s"], 9) for r in rows}) == 6
+    assert len(rows) == 12 and len({round(r["contact_speed_m_s"], 9) for r in rows}) == 6
+    assert len({round(r["final_depth_mm"], 9) for r in rows}) == 12  # the bed's buoyancy shows in each
     for row in rows:
         alone = json.loads(invoke(runner, "predict", "-p", "freefall_cone", "-m", "mpacs_b", "-e", "drop_water",
                                   "--json", "--set", f"surface_offset_mm={row['surface_offset_mm']}",
-                                  "--set", f"drag_coefficient={row['drag_coefficient']}").stdout)
+                                  "--set", f"drag_coefficient={row['drag_coefficient']}",
+                                  "--set", f"bed_density_kg_m3={row['bed_density_kg_m3']}").stdout)
         for key in ("contact_speed_m_s", "final_depth_mm", "penetration_time_s", "spring_energy_j"):
             assert row[key] == pytest.approx(alone[key], rel=1e-12), key
     refused = invoke(runner, "sweep", "-p", "freefall_cone", "-m", "mpacs_b", "-e", "drop_water",

@@ -5,6 +5,7 @@ filters and the fit) written in the BlueDrop format."""
 from __future__ import annotations
 
 import csv
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -128,3 +129,20 @@ def test_broken_input_is_one_line_naming_the_file(tmp_path, case):
     assert expected in str(error.value) and "\n" not in str(error.value)
     assert str(error.value).startswith(str(bin_path if case in ("ragged", "empty") else cal_path))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cal.csv", "d.bin"]
+
+
+def test_a_bed_that_buoys_the_cone_is_fitted_with_its_density_and_misread_without_it(tmp_path):
+    """A saturated sand's bulk density (1,900 kg/m³ under seawater) buoys the cone's volume below the surface: a
+    force that grows with depth as the frontal area does, 8.6 kPa/m of q's gradient once the cone is in.  With
+    the density, the bed's gradient (50 kPa/m, small, where the buoyancy is a sixth of it) comes back within
+    10 % or 5 kPa/m as for any bed; without it, the fit reads the buoyancy as gradient."""
+    bed = Bed(20.0, 50.0, 8.0, density_kg_m3=1900.0)
+    motions = [motion for _, motion, _ in drops(tmp_path, bed, 91)]
+    known = FreeFallProbe(PROBE.mass_kg, PROBE.volume_m3, PROBE.half_angle_rad, PROBE.shaft_radius_m,
+                          PROBE.drag_coefficient, PROBE.added_mass_coefficient, bed_density=1900.0)
+    fit = fit_bed(motions, known)
+    assert fit.strength_kpa == pytest.approx(bed.strength_kpa, rel=0.1)
+    assert abs(fit.gradient_kpa_m - bed.gradient_kpa_m) < 0.1 * bed.gradient_kpa_m + 5.0
+    assert fit.damping_kpa_s_m == pytest.approx(bed.damping_kpa_s_m, rel=0.1)
+    blind = fit_bed(motions, replace(known, bed_density=0.0))
+    assert blind.gradient_kpa_m - fit.gradient_kpa_m > 0.5 * (1900.0 - 1025.0) * 9.80665 / 1e3

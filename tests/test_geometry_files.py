@@ -501,3 +501,39 @@ def test_what_a_push_or_a_drop_cannot_take_is_one_line(tmp_path, runner, monkeyp
     line = result.stderr.strip()
     assert "\n" not in line and all(w in line for w in said), line
     assert not (tmp_path / "runs.duckdb").exists()
+
+
+def test_each_geometrys_embedded_volume_and_its_integral_are_their_closed_forms():
+    """V(x), the body's volume below the surface with its tip x deep (what a bed buoys), for the blade (w·T·x),
+    a blunt cone (π·(r³ − r_t³)/(3·tan α) to the shoulder, then the shaft's cylinder) and a tapered blade
+    (w·(T_t·x + (T − T_t)·x²/(2·L_t)) to the taper's end, then the full section); and ∫V over a span crossing
+    the corner, against scipy's quadrature of those closed forms."""
+    from scipy.integrate import quad
+
+    from pencli.model.geometry import BLADE, Cone, TaperedBlade, embedded_volume_integral_m4, embedded_volume_m3
+    from tests.test_dynamics_closed_forms import make_design
+
+    design = make_design()
+    w, T = design.blade_width_m, design.blade_thickness_m
+    cone = Cone(half_angle_rad=math.radians(30.0), shaft_radius_m=0.01785, tip_radius_m=0.003)
+    ta, rs, rt = math.tan(cone.half_angle_rad), cone.shaft_radius_m, cone.tip_radius_m
+    shoulder = (rs - rt) / ta
+    taper = TaperedBlade(tip_thickness_m=0.2e-3, taper_length_m=0.012)
+    Tt, Lt = taper.tip_thickness_m, taper.taper_length_m
+
+    def cone_volume(x):
+        r = rt + min(x, shoulder) * ta
+        return math.pi * (r ** 3 - rt ** 3) / (3 * ta) + math.pi * rs * rs * max(x - shoulder, 0.0)
+
+    def taper_volume(x):
+        s = min(x, Lt)
+        return w * (Tt * s + (T - Tt) * s * s / (2 * Lt)) + w * T * max(x - Lt, 0.0)
+
+    for geometry, closed, corner in ((BLADE, lambda x: w * T * x, 0.02), (cone, cone_volume, shoulder),
+                                     (taper, taper_volume, Lt)):
+        for x in (0.3 * corner, corner, 2.5 * corner, 0.15):
+            assert embedded_volume_m3(geometry, design, x) == pytest.approx(closed(x), rel=1e-12), (geometry, x)
+        expected = quad(closed, 0.5 * corner, 3.0 * corner, points=[corner], epsabs=0, epsrel=1e-13)[0]
+        assert embedded_volume_integral_m4(geometry, design, 0.5 * corner, 3.0 * corner) == pytest.approx(
+            expected, rel=1e-11), geometry
+    assert embedded_volume_m3(cone, design, 0.0) == 0.0 and embedded_volume_integral_m4(cone, design, 0.1, 0.05) == 0

@@ -7,7 +7,8 @@ mass C_a·ρ_w·V), then enters the bed, which resists the cone's frontal
 area A_f(z) = π·min(z·tan α, r)² at depth z with a pressure that grows
 with depth and speed, q = σ + b·z + c·v (:class:`Bed`).  Buoyancy, drag
 and added mass are kept at their values in water throughout (the probe is
-mostly above the bed).  The motion is integrated to 10⁻¹⁰ (scipy's
+mostly above the bed); a bed of a given bulk density also buoys the part of
+the cone below its surface, by (ρ_b − ρ_w)·g times that volume.  The motion is integrated to 10⁻¹⁰ (scipy's
 DOP853) and ends where the probe stops; it then rests on the bed.
 
 The sensors: each axial accelerometer reads the specific force along the
@@ -60,6 +61,15 @@ class Probe:
         r = min(max(depth_m, 0.0) * math.tan(self.half_angle_rad), self.shaft_radius_m)
         return math.pi * r * r
 
+    def volume_below_m3(self, depth_m: float) -> float:
+        """The probe's volume below the bed's surface when its tip is ``depth_m`` into the bed: the sharp cone's
+        π·r³/(3·tan α) up to its base, then the shaft's cylinder. [m³]"""
+        length = self.shaft_radius_m / math.tan(self.half_angle_rad)
+        z = max(depth_m, 0.0)
+        r = min(z, length) * math.tan(self.half_angle_rad)
+        return math.pi * r ** 3 / (3.0 * math.tan(self.half_angle_rad)) + math.pi * self.shaft_radius_m ** 2 * max(
+            z - length, 0.0)
+
 
 @dataclass(frozen=True)
 class Bed:
@@ -72,6 +82,8 @@ class Bed:
     damping_kpa_s_m: float
     layer_depth_m: float = math.inf
     layer_step_kpa: float = 0.0
+    density_kg_m3: float = 0.0
+    """The bed's bulk density, which buoys the probe's volume below its surface (0: no such buoyancy). [kg/m³]"""
 
     def pressure_pa(self, depth_m: float, speed_m_s: float) -> float:
         step = self.layer_step_kpa if depth_m >= self.layer_depth_m else 0.0
@@ -130,6 +142,8 @@ def _motion(probe: Probe, bed: Bed, drop_height_m: float, water_density: float):
         z = x - drop_height_m
         if z > 0.0:
             force -= probe.frontal_area_m2(z) * bed.pressure_pa(z, v)
+            if bed.density_kg_m3 > 0.0:
+                force -= (bed.density_kg_m3 - water_density) * G * probe.volume_below_m3(z)
         return [v, force / m_eff]
 
     def stopped(_t, y):

@@ -214,6 +214,9 @@ def simulate(
     rest_tilt_deg: float = typer.Option(0.0, "--rest-tilt-deg", help="The angle the probe leans to from the "
                                         "vertical once it has stopped, towards a random side (its tilt channels "
                                         "read it) [°]."),
+    bed_density: float = typer.Option(0.0, "--bed-density", help="The bed's bulk density, which buoys the "
+                                      "cone's volume below its surface (1,900 a saturated sand; 0: none) "
+                                      "[kg/m³]."),
     seed: int = typer.Option(0, "--seed", help="Seed of the biases and the sensors' noise."),
     calibration_out: Optional[Path] = typer.Option(None, "--calibration-out", help="Where the calibration sheet "
                                                    "goes (CSV; default calibration.csv beside --out)."),
@@ -247,7 +250,7 @@ def simulate(
         api.check_output(calibration_out, db_path(db), "--calibration-out")
     truth, sheet, biases = api.simulate_drop_file(out, height_m=height_m, bed=values, bias_g=bias_g, seed=seed,
                                                   calibration_out=calibration_out, impact_shift_g=impact_shift_g,
-                                                  rest_tilt_deg=rest_tilt_deg)
+                                                  rest_tilt_deg=rest_tilt_deg, bed_density_kg_m3=bed_density)
     record = {"out": str(out), "calibration": str(sheet), "release_s": truth.release_s, "impact_s": truth.impact_s,
               "impact_speed_m_s": truth.impact_speed_m_s, "penetration_mm": 1e3 * truth.penetration_m,
               "stop_s": truth.stop_s, "bias_g": biases}

@@ -22,7 +22,7 @@ from typing import Sequence
 import numpy as np
 
 from pencli.filter.freefall import G, DropMotion
-from pencli.model.geometry import Cone
+from pencli.model.geometry import Cone, embedded_volume_m3
 
 
 FLIGHT_SKIP_S = 0.02
@@ -46,6 +46,9 @@ class FreeFallProbe:
     added_mass_coefficient: float
     water_density: float = 1025.0
     tether_force_n: float = 0.0
+    bed_density: float = 0.0
+    """The bed's bulk density [kg/m³], which buoys the cone's volume below the surface by (ρ_b − ρ_w)·g per m³
+    (0: not taken into account)."""
 
     @property
     def net_weight_n(self) -> float:
@@ -82,7 +85,17 @@ def bed_force_n(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, n
     section = math.pi * probe.shaft_radius_m ** 2
     force = (probe.net_weight_n - 0.5 * rho * probe.drag_coefficient * section * speed
              * np.abs(speed) - m_eff * accel)
-    return depth, speed, force
+    return depth, speed, force - bed_buoyancy_n(depth, probe)
+
+
+def bed_buoyancy_n(depth: np.ndarray, probe: FreeFallProbe) -> np.ndarray:
+    """(ρ_b − ρ_w)·g·V_e(z): what the bed buoys of the cone's volume below its surface at each depth ``depth`` [m]
+    (0 without a bed density). [N]"""
+    if probe.bed_density <= 0.0:
+        return np.zeros(np.shape(depth))
+    cone = Cone(half_angle_rad=probe.half_angle_rad, shaft_radius_m=probe.shaft_radius_m)
+    volume = np.array([embedded_volume_m3(cone, None, float(z)) for z in np.ravel(depth)]).reshape(np.shape(depth))
+    return (probe.bed_density - probe.water_density) * G * volume
 
 
 def _fitted_rows(motion: DropMotion, probe: FreeFallProbe, cone: Cone):
@@ -125,7 +138,7 @@ def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe, *, nuisances: b
         bed = slice(motion.impact, motion.stop + 1)
         v, a = motion.speed_m_s[bed][inside], motion.accel_m_s2[bed][inside]
         rows.append(np.column_stack(columns + [0.5 * rho * section * v * np.abs(v), rho * volume * a]))
-        targets.append(probe.net_weight_n - probe.mass_kg * a)
+        targets.append(probe.net_weight_n - probe.mass_kg * a - bed_buoyancy_n(depth, probe))
         start = int(np.searchsorted(motion.time_s, motion.time_s[motion.release] + FLIGHT_SKIP_S))
         flight = slice(start, motion.impact)
         v, a = motion.speed_m_s[flight], motion.accel_m_s2[flight]

@@ -205,7 +205,7 @@ def _constant_rate(**kwargs):
 DRIVES = {"springs": Springs, "free_fall": _free_fall, "constant_rate": _constant_rate}
 """Every drive by the name a launcher file's ``drive:`` gives it; its constructor's keywords are the SI names of
 the parameters that build it (``builds="drive"`` in :data:`pencli.params.definitions.PARAMETERS`) and, for a
-drive in :data:`IN_A_FLUID`, ``drag_area_m2``."""
+drive in :data:`IN_A_FLUID`, ``drag_area_m2`` and ``geometry``."""
 IN_A_FLUID = frozenset({"free_fall"})
 """The drives that move the body through a fluid: :func:`build_drive` gives them the geometry's largest frontal
 area, on which the fluid drags."""
@@ -228,6 +228,7 @@ def build_drive(name: str, values, design: Design, geometry) -> Drive:
               if p.builds == "drive" and p.key in values and not math.isnan(float(values[p.key]))}
     if name in IN_A_FLUID:
         kwargs["drag_area_m2"] = float(geometry.frontal_area_m2(design, float(design.penetration_depth_m)))
+        kwargs["geometry"] = geometry  # the bed buoys its embedded volume
     return DRIVES[name](**kwargs)
 
 

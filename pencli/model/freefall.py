@@ -8,6 +8,11 @@ buoyancy and the added mass stay (the bed's pore fluid and the fluid above it st
 tether the body pays out pulls back with a constant tension T from release to rest, which adds to the
 buoyancy wherever it appears below (ρ_f·V·g stands for ρ_f·V·g + T).
 
+Inside the bed the body displaces the bed as well as the fluid: given the bed's bulk density ρ_b (saturated,
+under water), the part of the body below the surface is buoyed by (ρ_b − ρ_f)·g·V_e(x) more, V_e(x) the
+volume the tip x deep has below the surface (:func:`~pencli.model.geometry.embedded_volume_m3`).  Without ρ_b
+(0, the default) this soil buoyancy is not modelled, as a BlueDrop's own processing leaves it out.
+
 The flight is closed form.  With m' = m + m_a, g' = (m − ρ_f·V)·g/m' and the terminal speed
 v_t² = 2·(m − ρ_f·V)·g/(ρ_f·C_D·A):
 
@@ -104,10 +109,31 @@ class FreeFall:
     added_mass_coefficient: float = 0.0
     tether_force_n: float = 0.0
     """The tension of a line the body pays out as it falls (a spool's drag), constant from release to rest. [N]"""
+    bed_density_kg_m3: float = 0.0
+    """ρ_b, the bed's bulk density the body displaces below the surface (0: soil buoyancy not modelled). [kg/m³]"""
+    geometry: object = None
+    """The body's geometry, whose embedded volume the bed buoys (needed when ``bed_density_kg_m3`` > 0)."""
     name: str = "free_fall"
     closed_form: bool = False
     keys: tuple[str, ...] = ("fluid_density_kg_m3", "drag_coefficient", "displaced_volume_l",
-                             "added_mass_coefficient", "tether_force_n")
+                             "added_mass_coefficient", "tether_force_n", "bed_density_kg_m3")
+
+    def __post_init__(self):
+        if self.bed_density_kg_m3 > 0.0 and self.geometry is None:
+            raise ValueError("a free fall with a bed density needs the body's geometry (its embedded volume)")
+
+    def _bed_factor(self, design) -> float:
+        """(ρ_b − ρ_f)·g: the soil buoyancy per unit of embedded volume; 0 when not modelled. [N/m³]"""
+        if self.bed_density_kg_m3 <= 0.0:
+            return 0.0
+        return (self.bed_density_kg_m3 - self.fluid_density_kg_m3) * float(design.gravity_m_s2)
+
+    def bed_buoyancy_n(self, design, depth_m: float) -> float:
+        """(ρ_b − ρ_f)·g·V_e(x): the bed's buoyancy on the body with its tip ``depth_m`` into the bed. [N]"""
+        from pencli.model.geometry import embedded_volume_m3
+
+        factor = self._bed_factor(design)
+        return factor * embedded_volume_m3(self.geometry, design, depth_m) if factor and depth_m > 0.0 else 0.0
 
     def added_mass_kg(self, design) -> float:
         """m_a = C_a·ρ_f·V: fluid the body carries along (inertia, no weight). [kg]"""
@@ -141,14 +167,18 @@ class FreeFall:
         upward = self.upward_n(design)
         k = self.drag_n_s2_m2()
         if isinstance(u, float):
-            if u >= s0 or not math.isfinite(scale) or u <= 0.0:
+            if u >= s0:
+                return -upward - self.bed_buoyancy_n(design, u - s0)
+            if not math.isfinite(scale) or u <= 0.0:
                 return -upward
             return -upward - k * vt2 * -math.expm1(-u / scale)
         u = np.asarray(u, dtype=float)
+        bed = (np.vectorize(lambda x: self.bed_buoyancy_n(design, float(x)), otypes=[float])(u - s0)
+               if self._bed_factor(design) else 0.0)
         if not math.isfinite(scale):
-            return np.full_like(u, -upward)
+            return np.full_like(u, -upward) - bed
         inside = (u > 0.0) & (u < s0)
-        return -upward - np.where(inside, k * vt2 * -np.expm1(-np.clip(u, 0.0, None) / scale), 0.0)
+        return -upward - np.where(inside, k * vt2 * -np.expm1(-np.clip(u, 0.0, None) / scale), 0.0) - bed
 
     def work(self, design, u0: float, u1: float) -> float:
         """−(ρ_f·V·g + T)·(u1 − u0) less the drag's work over the part of [u0, u1] above the surface. [J]"""
@@ -159,6 +189,11 @@ class FreeFall:
             a, b = min(max(u0, 0.0), s0), min(max(u1, 0.0), s0)
             # ∫ k·v_t²·(1 − e^{−u/L}) du = k·v_t²·[Δu + L·(e^{−b/L} − e^{−a/L})]
             total -= self.drag_n_s2_m2() * vt2 * ((b - a) + scale * (math.exp(-b / scale) - math.exp(-a / scale)))
+        factor = self._bed_factor(design)
+        if factor and u1 > s0:
+            from pencli.model.geometry import embedded_volume_integral_m4
+
+            total -= factor * embedded_volume_integral_m4(self.geometry, design, u0 - s0, u1 - s0)
         return float(total)
 
     def corners(self, design) -> tuple[float, ...]:
@@ -167,12 +202,14 @@ class FreeFall:
 
     def largest_slope(self, design, beyond_m: float = 0.0) -> float:
         vt2, scale = self._drag_scale(design)
-        return self.drag_n_s2_m2() * vt2 / scale if math.isfinite(scale) else 0.0
+        drag = self.drag_n_s2_m2() * vt2 / scale if math.isfinite(scale) else 0.0
+        return drag + abs(self._bed_factor(design)) * self.drag_area_m2  # the bed's: (ρ_b − ρ_f)·g·A_f at most
 
     def largest_force(self, design) -> float:
         vt2, _ = self._drag_scale(design)
         drag = self.drag_n_s2_m2() * vt2 if math.isfinite(vt2) else 0.0
-        return float(self.upward_n(design) + drag)
+        return float(self.upward_n(design) + drag
+                     + abs(self.bed_buoyancy_n(design, float(design.penetration_depth_m))))
 
 
 __all__ = ["FreeFall", "FreeFallFlight"]

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Callable, Protocol
 
 from pencli.errors import ModelError
@@ -211,6 +212,10 @@ class Cone(Shape):
         """The shoulder, L_c: the frontal area stops growing and the shaft's side area starts. [m]"""
         return (self.cone_length_m,)
 
+    def frontal_area_m2(self, design: Design | None, x: float) -> float:
+        """π·min(r_t + x·tan α, r_s)²: the cone's alone (no design's friction enters it). [m²]"""
+        return self.section_areas(x, 0.0)[0]
+
     def section_areas(self, x: float, mu: float) -> tuple[float, float, float]:
         """(frontal A_f, bearing B, side S) at depth ``x`` [m] for friction coefficient ``mu``. [m²]"""
         a, rt, rs = self.half_angle_rad, self.tip_radius_m, self.shaft_radius_m
@@ -314,6 +319,50 @@ def corner_depths_m(geometry: Geometry, design: Design) -> tuple[float, ...]:
     (:func:`pencli.filter.inertia.corner_times`). [m]"""
     corners = getattr(geometry, "corners_m", None)
     return tuple(sorted(float(c) for c in corners(design) if c > 0.0)) if corners else ()
+
+
+EMBEDDED_NODES = 8
+"""Gauss–Legendre nodes per piece between a geometry's corners in :func:`embedded_volume_m3`: exact for areas
+polynomial in depth up to degree 15 (a cone's is 2, its embedded volume 3). [–]"""
+
+
+def embedded_volume_m3(geometry: Geometry, design: Design, x: float) -> float:
+    """V(x) = ∫₀ˣ A_f(s) ds: the volume of the body below the bed's surface when its tip is ``x`` [m] deep (the
+    frontal area at depth s is the body's section s above its tip).  Gauss–Legendre on the pieces between the
+    geometry's corners (:func:`corner_depths_m`). [m³]"""
+    return _piecewise_integral(lambda s: geometry.frontal_area_m2(design, s), 0.0, x,
+                               corner_depths_m(geometry, design))
+
+
+def embedded_volume_integral_m4(geometry: Geometry, design: Design, x0: float, x1: float) -> float:
+    """∫ V(s) ds over [x0, x1] (depths ≥ 0): what a force proportional to the embedded volume does over that
+    travel, per unit of its factor (:func:`embedded_volume_m3`). [m⁴]"""
+    corners = corner_depths_m(geometry, design)
+    return _piecewise_integral(lambda s: embedded_volume_m3(geometry, design, s), max(x0, 0.0), max(x1, 0.0),
+                               corners)
+
+
+def _piecewise_integral(f: Callable[[float], float], a: float, b: float, corners: tuple[float, ...]) -> float:
+    """∫ f over [a, b], Gauss–Legendre (:data:`EMBEDDED_NODES`) on each piece between ``corners``."""
+    if b <= a:
+        return 0.0
+    nodes, weights = _gauss_legendre(EMBEDDED_NODES)
+    edges = [a, *(c for c in corners if a < c < b), b]
+    total = 0.0
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        half, mid = 0.5 * (hi - lo), 0.5 * (hi + lo)
+        total += half * sum(w * f(mid + half * n) for n, w in zip(nodes, weights))
+    return total
+
+
+@lru_cache(maxsize=None)
+def _gauss_legendre(n: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """(nodes, weights) of the n-point Gauss–Legendre rule on [−1, 1] (numpy imported here, not at the CLI's
+    start)."""
+    import numpy as np
+
+    nodes, weights = np.polynomial.legendre.leggauss(n)
+    return tuple(map(float, nodes)), tuple(map(float, weights))
 
 
 def geometry_of(penetrator: ParameterSet) -> Geometry:

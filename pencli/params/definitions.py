@@ -297,6 +297,10 @@ PARAMETERS: list[Param] = [
     _P("tether_force_n", "energizing", "T", "tension of a line the body pays out as it falls (a spool's drag), "
        "constant from release to rest", "N", "tether_force_n", 1.0, hard_min=0, range_min=0, range_max=1000,
        required=False, default=0.0, geometries=("free_fall",), builds="drive"),
+    _P("bed_density_kg_m3", "energizing", "ρ_b", "bulk density of the bed the body enters (saturated, under "
+       "water): below the surface the body is buoyed by (ρ_b − ρ_f)·g times its embedded volume; 0 leaves this "
+       "soil buoyancy out", "kg/m³", "bed_density_kg_m3", 1.0, hard_min=0, range_min=0, range_max=3000,
+       required=False, default=0.0, geometries=("free_fall",), builds="drive"),
     # --- energizing: a push at a constant rate ----------------------------------------
     _P("push_rate_mm_s", "energizing", "v", "the rate the rig pushes the body at, from the surface to full depth "
        "(20 for a standard CPT)", "mm/s", "rate_m_s", 1e-3, hard_min=0, hard_min_exclusive=True, range_min=0.1,
