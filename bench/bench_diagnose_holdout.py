@@ -1,7 +1,7 @@
 """The diagnosis measured on the hold-out truth world (pencli/testing/holdout_world.py), which it was never tuned on.
 
 Run: python -m bench.bench_diagnose_holdout [--quick] [--base SEED] [--no-ladder] [--out FILE.jsonl] [--world three]
-     [--ladder-only] [--drive N]
+     [--ladder-only] [--drive N] [--nulls N]
 
 ``--world three`` measures on world three (pencli/testing/world_three.py) instead, written by a developer who had not worked
 on the method after it was frozen, and drawn once blind: its own pairs, three draws of every effect and three
@@ -9,6 +9,8 @@ outside campaigns.  ``--ladder-only`` runs part 3 alone (with the two nulls it i
 beside parts 1-2 in a second process.  ``--drive N`` runs only launcher losses: N campaigns of a propulsion loss
 alone (seeds base + 500 + i; every other one cut to 4 runs) and N of a propulsion loss beside a resistance effect
 drawn by the seed (seeds base + 600 + i), and prints how many were found by the loss's form and the run count.
+``--nulls N`` runs only N campaigns without effect (seeds base + 1000 + i, as part 2's) and prints how many got a
+verdict other than ``none``, and which.
 
 Every campaign is written as CONTRACT §3 run folders and goes through
 ingest → tare → subtract-inertia → diagnose, as the README says.  Parts:
@@ -137,7 +139,7 @@ def show(label: str, row: dict) -> None:
 def main() -> None:
     global OUT, WORLD, CATALOGUE, OUTSIDE
     check_options(__doc__, ("--base", "--no-ladder", "--out", "--quick", "--summary", "--world", "--ladder-only",
-                            "--drive"))
+                            "--drive", "--nulls"))
     name = sys.argv[sys.argv.index("--world") + 1] if "--world" in sys.argv else "holdout"
     if name not in WORLDS:
         print(f"bench_diagnose_holdout: unknown world {name!r}; expected one of {', '.join(WORLDS)}", file=sys.stderr)
@@ -165,6 +167,9 @@ def main() -> None:
         raise SystemExit(2)
     if "--drive" in sys.argv:
         drive_only(int(sys.argv[sys.argv.index("--drive") + 1]), base)
+        return
+    if "--nulls" in sys.argv:
+        nulls_only(int(sys.argv[sys.argv.index("--nulls") + 1]), base)
         return
     n_nulls = 2 if ladder_only else 4 if quick else 20
     for i in range(n_nulls):
@@ -194,6 +199,19 @@ def main() -> None:
                 rows["ladder"].append(keep("ladder", row))
                 show(f"ladder {effect} x{intensity} (size {row['size']:.2f})", row)
     summarise(rows, n_nulls)
+
+
+def nulls_only(n: int, base: int) -> None:
+    """``--nulls N``: campaigns without effect alone, and how many were called anything but ``none``."""
+    import collections
+
+    rows = []
+    for i in range(n):
+        rows.append(keep("nulls", run(base + 1000 + i)))
+        show(f"null {i}", rows[-1])
+    called = collections.Counter(r["verdict"] for r in rows if r["verdict"] != "none")
+    print(f"\nnulls called anything but none: {sum(called.values())} of {n}"
+          + (f" ({', '.join(f'{v} {c}' for v, c in sorted(called.items()))})" if called else ""))
 
 
 def drive_only(n: int, base: int) -> None:
