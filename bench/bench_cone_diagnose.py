@@ -14,7 +14,8 @@ Prints a row per seed, then the layers found (softer and stronger apart) and the
 (default 4000-4010, the hold-out range; 0-4 is the range the cone's diagnosis was made on, 1000-1009 were looked
 at when a layer's description was held to a strength the material can hold, and 2000-2009 and 3000-3009 when a
 plateau's main edge was chosen, 5000-5005 before and after the inertia stage joined a cone's
-derivatives at its shoulder; 5006 on are unused).
+derivatives at its shoulder, 5006-5011 after each run's own depth profile joined the gap tests; 5012 on are
+unused).
 """
 
 from __future__ import annotations
