@@ -1786,7 +1786,8 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ..
                       impact_shift_g={name: float(impact_shift_g) for name in ACCELEROMETER_RANGES_G})
     try:
         truth = simulate_drop(Probe(), Bed(*bed[:3], *(bed[3:] or (math.inf, 0.0)),
-                                          density_kg_m3=bed_density_kg_m3), height_m, sensors=sensors, seed=seed, rest_tilt_deg=rest_tilt_deg,
+                                          density_kg_m3=bed_density_kg_m3), height_m, sensors=sensors, seed=seed,
+                              rest_tilt_deg=rest_tilt_deg,
                               tilt_azimuth_deg=float(rng.uniform(0.0, 360.0)) if rest_tilt_deg else 0.0)
     except ValueError as error:
         raise ParameterError(f"--bed: {error}") from None

@@ -130,10 +130,12 @@ class FreeFall:
 
     def bed_buoyancy_n(self, design, depth_m: float) -> float:
         """(ρ_b − ρ_f)·g·V_e(x): the bed's buoyancy on the body with its tip ``depth_m`` into the bed. [N]"""
+        factor = self._bed_factor(design)
+        if not factor or depth_m <= 0.0:  # the integrator's hot path without a bed density: nothing more
+            return 0.0
         from pencli.model.geometry import embedded_volume_m3
 
-        factor = self._bed_factor(design)
-        return factor * embedded_volume_m3(self.geometry, design, depth_m) if factor and depth_m > 0.0 else 0.0
+        return factor * embedded_volume_m3(self.geometry, design, depth_m)
 
     def added_mass_kg(self, design) -> float:
         """m_a = C_a·ρ_f·V: fluid the body carries along (inertia, no weight). [kg]"""
@@ -181,7 +183,8 @@ class FreeFall:
         return -upward - np.where(inside, k * vt2 * -np.expm1(-np.clip(u, 0.0, None) / scale), 0.0) - bed
 
     def work(self, design, u0: float, u1: float) -> float:
-        """−(ρ_f·V·g + T)·(u1 − u0) less the drag's work over the part of [u0, u1] above the surface. [J]"""
+        """−(ρ_f·V·g + T)·(u1 − u0) less the drag's work over the part of [u0, u1] above the surface and the
+        bed's buoyancy's over the part below it. [J]"""
         s0 = float(design.surface_offset_m)
         total = -self.upward_n(design) * (u1 - u0)
         vt2, scale = self._drag_scale(design)
