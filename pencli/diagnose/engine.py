@@ -978,7 +978,9 @@ class FamilyScan:
     """What each run's own depth profile takes from the baseline's residual, as a z against the replicates
     (:func:`own_columns_z`)."""
     run_gap: bool = False
-    """Whether ``z_own`` beats ``gap_threshold``: a misfit that differs from run to run."""
+    """Whether ``z_own`` beats ``run_threshold``: a misfit that differs from run to run (noted, not a gap)."""
+    run_threshold: float = math.inf
+    """The family-wise threshold over the two probes and the runs' own profiles, at least the probes' own."""
 
 
 @dataclass(frozen=True)
@@ -1235,10 +1237,9 @@ def scan_families(baseline: Baseline, calibration: NullCalibration, request: Req
                                                   for e in law_effects}, request.alpha,
                                       admissible={e.name: _admissible(e, candidates[e.name], b.context)
                                                   for e in law_effects if e.admissible is not None})
-    # a gap: a generic profile (in depth or in time since contact) closing part of it on held-out runs beyond what
-    # it closes on the null replicates, a misfit the runs share; or a misfit that differs from run to run: each
-    # run's own coarse depth profile taking from the baseline's residual more than from the replicates'; one
-    # family-wise test over the three
+    # a gap the runs share: a generic profile (in depth or in time since contact) closing part of it on held-out
+    # runs beyond what it closes on the null replicates; and, noted beside it, a misfit that differs from run to
+    # run: each run's own coarse depth profile taking from the baseline's residual more than from the replicates'
     probes, probe_threshold = _familywise(stats, S0, {n: [c.spec for c in candidates[n]] for n in PROBES},
                                           request.alpha)
     own_drop = own_columns_drop(stats, b.spec, own_runs)
@@ -1246,13 +1247,13 @@ def scan_families(baseline: Baseline, calibration: NullCalibration, request: Req
     improvements = [S0 - t.family.heldout for t in probes.values()] + ([own_drop] if own_drop is not None else [])
     # the largest z over more tests is larger replicate by replicate, but its tail law fitted by moments can sit
     # lower when the added column is light-tailed and the probes' heavy (a null of the example workspace: 3.1
-    # over the three, 3.9 over the probes): the probes keep at least their own bar
-    gap_threshold = max(probe_threshold, familywise_threshold(np.column_stack(improvements), floor, request.alpha))
+    # over the three, 3.9 over the probes): the run test's bar is at least the probes' own
+    run_threshold = max(probe_threshold, familywise_threshold(np.column_stack(improvements), floor, request.alpha))
     z_own = None if own_drop is None else _standardise(own_drop, floor)[0]
     return FamilyScan(law_effects, candidates, matrices, stats, S0, z_gap, floor_sq, float(S0[0]) - floor_sq, tested,
-                      z_threshold, probes, gap_threshold, max(t.z for t in probes.values()),
-                      _shared_gap(S0, probes, gap_threshold), own_runs, z_own,
-                      z_own is not None and z_own > gap_threshold)
+                      z_threshold, probes, probe_threshold, max(t.z for t in probes.values()),
+                      _shared_gap(S0, probes, probe_threshold), own_runs, z_own,
+                      z_own is not None and z_own > run_threshold, run_threshold)
 
 
 def _own_run_columns(b: Baseline) -> tuple[int, ...]:
@@ -1377,10 +1378,12 @@ def decide(baseline: Baseline, calibration: NullCalibration, scan: FamilyScan, d
                      f"against {scan.gap_threshold:.1f}) that no catalogue effect reduces significantly; see where "
                      f"and axes")
     elif scan.run_gap:
-        verdict = "unexplained"
-        notes.append(f"each run has a misfit of its own (each run's own depth profile takes part of it: z "
-                     f"{scan.z_own:.1f} against {scan.gap_threshold:.1f}) that no catalogue effect reduces "
-                     f"significantly; see where and axes")
+        # noted, not a verdict: the replicates re-measure the baseline but not every nuisance a run has of its own
+        # (each run's surface is not re-estimated on them), and on campaigns without effect of the two
+        # independent worlds the test fired in 2 of 100 at a rate meant to be under 1 in 300
+        notes.append(f"each run's own depth profile takes more of the misfit than of the replicates' (z "
+                     f"{scan.z_own:.1f} against {scan.run_threshold:.1f}): a misfit that differs from run to run, "
+                     f"or a nuisance of each run's that the replicates do not reproduce; not counted as a gap")
     rest = _rest_beside(baseline, calibration, request, pair, verdict, verdict_effects, reports, notes)
     if drive.gap:
         if verdict == "none":
@@ -1704,6 +1707,7 @@ def _decision_record(calibration: NullCalibration, scan: FamilyScan, drive: Driv
     return {
         "false_alarm": request.false_alarm, "bootstrap": request.bootstrap, "seed": request.seed,
         "effect_threshold_z": round(scan.z_threshold, 3), "gap_threshold_z": round(scan.gap_threshold, 3),
+        "run_gap_threshold_z": round(scan.run_threshold, 3),
         "drive_threshold_t": round(drive.threshold, 3), "explain_share": EXPLAIN_SHARE,
         "noise_model": [{**n.noise.to_dict(),
                          "anti_alias": n.anti_alias.to_dict(r.rate_hz) if n.anti_alias else None,
