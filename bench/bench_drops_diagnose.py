@@ -45,7 +45,7 @@ def _drops(seed: int, layered: bool, **sensors):
     bed = Bed(sigma, gradient, damping, depth, step) if layered else Bed(sigma, gradient, damping)
     made = drops_into(probe, bed, HEIGHTS_M, rng, seed, **sensors)
     past = sum(truth.penetration_m > depth + FOUND_WITHIN_M for truth, _, _ in made)
-    return [api.Drop(record, motion) for _, record, motion in made], bed, past >= 2
+    return [api.Drop(record, reading) for _, record, reading in made], bed, past >= 2
 
 
 def main() -> None:

@@ -31,12 +31,12 @@ def _errors(seed: int) -> dict[str, list[float]]:
     rng = np.random.default_rng(seed)
     probe = Probe(drag_coefficient=float(rng.uniform(0.5, 1.2)), added_mass_coefficient=float(rng.uniform(0.1, 0.8)))
     bed = Bed(float(rng.uniform(10, 40)), float(rng.uniform(0, 300)), float(rng.uniform(0, 30)))
-    motions = [motion for _, _, motion in drops_into(probe, bed, HEIGHTS_M, rng, seed)]
+    readings = [reading for _, _, reading in drops_into(probe, bed, HEIGHTS_M, rng, seed)]
     guess = FreeFallProbe(probe.mass_kg, probe.volume_m3, probe.half_angle_rad, probe.shaft_radius_m, 0.8, 0.3)
     truth = (bed.strength_kpa, bed.gradient_kpa_m, bed.damping_kpa_s_m)
     out = {}
     for label, nuisances in (("held", False), ("fitted", True)):
-        fit = fit_bed(motions, guess, nuisances=nuisances)
+        fit = fit_bed(readings, guess, nuisances=nuisances)
         got = (fit.strength_kpa, fit.gradient_kpa_m, fit.damping_kpa_s_m)
         out[label] = [100.0 * (g - t) / t for g, t in zip(got, truth)]
         if nuisances:

@@ -1348,21 +1348,35 @@ QUANTITY_UNITS = {"qt": "kPa", "qc": "kPa", "fs": "kPa", "u2": "kPa", "push_forc
 """The unit each of :data:`SOUNDING_QUANTITIES` is fitted in."""
 
 
-def sounding_resistance(sounding) -> tuple[np.ndarray, str, str]:
-    """A sounding's resistance to penetration, its name and unit: a cone's qt = qc + (1 − a)·u₂ where the sounding
-    has u₂ and its net area ratio, else qc [MPa]; a total sounding's push force on the rods [kN]."""
-    from pencli.fit.rate_effect import qt_kpa
+def sounding_reading(sounding):
+    """A sounding as its instrument's sensor chain reads it (:class:`pencli.sensors.Reading`): a cone's tip
+    (``pencli.sensors.cone_tip``: qc, fs, u₂, and qt with the header's net area ratio MA where it has a valid
+    one), a total sounding's force on the rods (``pencli.sensors.rod_force``); a record of a kind pen does not
+    know by the channels it has."""
+    from pencli.sensors import CHAINS, chain, missing_channels
 
     c = sounding.columns
-    if "qc_mpa" not in c:
-        if "push_force_kn" in c:
-            return c["push_force_kn"], "push_force", "kN"
+    instrument = getattr(sounding, "instrument", None)  # a sounding read from a file says it by its channels
+    names = [n for n in (instrument and instrument.chain, "cone_tip", "rod_force")
+             if n in CHAINS and not missing_channels(CHAINS[n], c)]
+    if not names:
         raise DataError(f"{sounding.source}: sounding {sounding.name} has no cone resistance (qc) and no push force "
                         f"(A)")
     ratio = sounding.header_number("MA")
-    if "u2_kpa" in c and ratio is not None:
-        return qt_kpa(c["qc_mpa"], c["u2_kpa"], ratio) / 1e3, "qt", "MPa"
-    return c["qc_mpa"], "qc", "MPa"
+    constants = {"net_area_ratio": ratio if ratio is not None and 0.0 < ratio <= 1.0 else None} \
+        if names[0] == "cone_tip" else {}
+    return chain(names[0], **constants).read(sounding.name, sounding.time_s, c)
+
+
+def sounding_resistance(sounding) -> tuple[np.ndarray, str, str]:
+    """A sounding's resistance to penetration, its name and unit, as its chain reads it (:func:`sounding_reading`):
+    a cone's qt = qc + (1 − a)·u₂ where the sounding has u₂ and its net area ratio, else qc [MPa]; a total
+    sounding's push force on the rods [kN]."""
+    reading = sounding_reading(sounding)
+    for name in ("qt", "qc"):
+        if name in reading.pressures_kpa:
+            return reading.pressures_kpa[name] / 1e3, name, "MPa"
+    return reading.force_n / 1e3, "push_force", "kN"
 
 
 def sounding_layers(sounding, *, min_thickness_m: float | None = None, resistance: tuple | None = None):
@@ -1484,7 +1498,7 @@ def read_soundings(paths: Sequence[str | Path], db: str | Path | None = None):
 
 def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
     """(the site, each sounding's unit means of ``quantity``) for a site of a units file."""
-    from pencli.fit.rate_effect import qt_kpa, unit_means
+    from pencli.fit.rate_effect import unit_means
     from pencli.io.units_file import read_units_file
 
     if quantity not in SOUNDING_QUANTITIES:
@@ -1513,10 +1527,12 @@ def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
             if area_ratio is None or not 0.0 < area_ratio <= 1.0:
                 raise DataError(f"{entry.path}: header MA (the net area ratio, 0 < a ≤ 1) is "
                                 f"{record.header.get('MA', 'missing')!r}; qt needs it")
-            values = qt_kpa(columns["qc_mpa"], columns["u2_kpa"], area_ratio)
-        else:
-            values = columns[needed[0]] * (1e3 if quantity == "qc" else 1.0)
-        means.append(unit_means(columns["depth_m"], record.time_s, values, chosen.units_m, entry.warp_m,
+        reading = sounding_reading(record)
+        values = reading.force_n if quantity == "push_force" else reading.pressures_kpa.get(quantity)
+        if values is None:
+            raise DataError(f"{entry.path}: sounding {record.name}'s sensor chain reads no {quantity}")
+        values = values / 1e3 if quantity == "push_force" else values
+        means.append(unit_means(reading.travel_m, record.time_s, values, chosen.units_m, entry.warp_m,
                                 entry.drop_m, logger_rate_mm_s=columns.get("rate_mm_s")))
     return chosen, means
 
@@ -1659,46 +1675,50 @@ def plot_snow_profile(result: SnowProfile, path: str | Path) -> str:
 # ---------------------------------------------------------------------------- free-fall drops
 @dataclass(frozen=True)
 class Drop:
-    """One free-fall record and its motion (:func:`pencli.filter.freefall.drop_motion`): release, impact, speed at
-    impact, penetration, each accelerometer's bias."""
+    """One free-fall record and its chain's reading (:class:`pencli.sensors.Reading`; its account the motion,
+    :class:`pencli.filter.freefall.DropMotion`: release, impact, speed at impact, penetration, each
+    accelerometer's bias)."""
 
     record: object
-    motion: object
+    reading: object
 
     @property
     def name(self) -> str:
-        from pencli.io.field import drop_name
+        return self.reading.name
 
-        return drop_name(self.record.source)
+    @property
+    def motion(self):
+        """The accelerometers' account of the drop (:class:`pencli.filter.freefall.DropMotion`)."""
+        return self.reading.account
 
 
 def read_drops(refs: Sequence[str | Path], db: str | Path | None = None,
                calibration: str | Path | None = None) -> list[Drop]:
     """The drops of BlueDrop files (read with the probe's ``calibration`` sheet) or of records of workspace ``db``,
-    each integrated to its motion; a record whose motion cannot be found is one line naming it."""
+    each read by its instrument's sensor chain (:mod:`pencli.sensors`); a record the chain cannot read is one line
+    naming it."""
+    return [Drop(record, drop_reading(record)) for record in field_records(refs, "drop", db,
+                                                                             {"calibration": calibration})]
+
+
+def drop_reading(record, bias_at: str = "ramp"):
+    """A drop record as its instrument's sensor chain reads it (:class:`pencli.sensors.Reading`): the stitched
+    accelerometers (``pencli.sensors.accelerometers``, the bias between the rests as ``bias_at`` says, a lean at
+    rest read through the tilt channels where the record has them); a record the chain cannot read is one line
+    naming it."""
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G
+    from pencli.io.field import drop_name
+    from pencli.sensors import chain, missing_channels
 
-    out = []
-    for record in field_records(refs, "drop", db, {"calibration": calibration}):
-        missing = [c for c in ACCELEROMETER_RANGES_G if c not in record.channels]
-        if missing:
-            raise DataError(f"{record.source}: no {', '.join(missing)} channel in the calibration")
-        out.append(Drop(record, drop_motion_of(record)))
-    return out
-
-
-def drop_motion_of(record, bias_at: str = "ramp"):
-    """A record's motion (:func:`pencli.filter.freefall.drop_motion`, the bias between the rests as ``bias_at``
-    says, a lean at rest read through the tilt channels where the record has them); a record whose motion cannot
-    be found is one line naming it."""
-    from pencli.filter.freefall import drop_motion
-    from pencli.io.bluedrop import ACCELEROMETER_RANGES_G
-
-    tilt = (record.channels["tilt_x"], record.channels["tilt_y"]) if {"tilt_x", "tilt_y"} <= set(record.channels) \
-        else None
     try:
-        return drop_motion(record.time_s, {c: record.channels[c] for c in ACCELEROMETER_RANGES_G},
-                           ACCELEROMETER_RANGES_G, bias_at=bias_at, tilt=tilt)
+        reader = chain(record.instrument.chain, ranges_g=ACCELEROMETER_RANGES_G, bias_at=bias_at)
+    except ValueError as error:
+        raise DataError(f"{record.source}: {error}") from None
+    missing = missing_channels(reader, record.channels)
+    if missing:
+        raise DataError(f"{record.source}: no {', '.join(missing)} channel in the calibration")
+    try:
+        return reader.read(drop_name(record.source), record.time_s, record.channels)
     except ValueError as error:
         raise DataError(f"{record.source}: {error}") from None
 
@@ -1733,7 +1753,7 @@ def fit_drops(drops: Sequence[Drop], probe, *, nuisances: bool = True):
     from pencli.fit.freefall import fit_bed
 
     try:
-        return fit_bed([d.motion for d in drops], probe, nuisances=nuisances)
+        return fit_bed([d.reading for d in drops], probe, nuisances=nuisances)
     except (ValueError, np.linalg.LinAlgError) as error:
         raise FitError(f"the bed cannot be fitted from these {len(drops)} drops: {error}") from None
 
@@ -1803,10 +1823,11 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ..
 
 def diagnose_drops(drops: Sequence[Drop], probe, *, false_alarm: float | None = None, shuffles: int | None = None,
                    seed: int = 0):
-    """``pen drops diagnose``: the accelerometers' check (:func:`pencli.diagnose.drops.accelerometer_check`), then
-    a layer across the drops (:func:`pencli.diagnose.drops.diagnose_drops`), on the bed's pressure with the
-    probe's drag and added mass fitted across them first (a drop whose bias a step at the impact accounts for is
-    read with that step)."""
+    """``pen drops diagnose``: the accelerometers' check on the drops that chain read
+    (:func:`pencli.diagnose.drops.accelerometer_check`), then a layer across the drops
+    (:func:`pencli.diagnose.drops.diagnose_drops`), on the bed's pressure with the probe's drag and added mass
+    fitted across them first where a chain read the acceleration (a drop whose bias a step at the impact accounts
+    for is read with that step)."""
     from pencli.diagnose import FALSE_ALARM, SHUFFLES
     from pencli.diagnose.drops import BedRows, diagnose_drops as diagnose
     from pencli.fit.freefall import bed_pressure
@@ -1814,14 +1835,19 @@ def diagnose_drops(drops: Sequence[Drop], probe, *, false_alarm: float | None = 
     from pencli.diagnose.drops import accelerometer_check, with_sensors
 
     false_alarm = FALSE_ALARM if false_alarm is None else false_alarm
-    stepped = {d.name: drop_motion_of(d.record, "impact") for d in drops}
-    check = accelerometer_check({d.name: (d.motion, stepped[d.name]) for d in drops}, false_alarm)
-    drops = [replace(d, motion=stepped[d.name]) if d.name in check.stepped else d for d in drops]
+    check = None
+    read_by_accelerometers = [d for d in drops if d.reading.chain == "accelerometers"]
+    if read_by_accelerometers:  # that chain's own check, on the drops it read
+        stepped = {d.name: drop_reading(d.record, "impact") for d in read_by_accelerometers}
+        check = accelerometer_check({d.name: (d.motion, stepped[d.name].account) for d in read_by_accelerometers},
+                                    false_alarm)
+        drops = [replace(d, reading=stepped[d.name]) if d.name in check.stepped else d for d in drops]
     fit = fit_drops(drops, probe)
-    fitted = replace(probe, drag_coefficient=fit.drag_coefficient, added_mass_coefficient=fit.added_mass_coefficient)
-    rows = [BedRows(d.name, *bed_pressure(d.motion, fitted)) for d in drops]
+    fitted = probe if fit.drag_coefficient is None else \
+        replace(probe, drag_coefficient=fit.drag_coefficient, added_mass_coefficient=fit.added_mass_coefficient)
+    rows = [BedRows(d.name, *bed_pressure(d.reading, fitted)) for d in drops]
     try:
         bed = diagnose(rows, false_alarm=false_alarm, shuffles=SHUFFLES if shuffles is None else shuffles, seed=seed)
     except ValueError as error:
         raise FitError(f"the drops cannot be diagnosed: {error}") from None
-    return with_sensors(bed, check)
+    return bed if check is None else with_sensors(bed, check)

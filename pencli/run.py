@@ -165,6 +165,17 @@ class Run:
         """One column over the analysis window."""
         return self.column(name)[self.window]
 
+    def reading(self):
+        """The run as its sensor chain read it (:class:`pencli.sensors.Reading`, from the inertia stage's columns
+        that :meth:`inertia_subtracted` wrote): depth below the surface, speed, acceleration, resistance, contact
+        and stop at the tare's events; a stage without them is one line saying what to run."""
+        from pencli.sensors.load_cell import stored
+
+        events = self.require_events()
+        return stored(self.name, self.column("time_s"), self.column("depth_m"), self.column("velocity_m_s"),
+                      self.columns.get("acceleration_m_s2"), self.column("resistance_n"), events,
+                      force_n=self.columns.get("force_n"))
+
     # ------------------------------------------------------------------ new stages
     def with_stage(self, name: str, columns: Mapping[str, np.ndarray], *, command: str,
                    parameters: Mapping[str, Any], events: Events | None = None) -> Run:
@@ -196,8 +207,9 @@ class Run:
         Returns ``(run, estimate)``: the run one stage on, and the load-cell mass the free flight reads
         (:class:`~pencli.filter.inertia.MassEstimate`, None when the flight is too short to tell).
         """
-        from pencli.filter.inertia import corner_times, subtract_inertia
+        from pencli.filter.inertia import corner_times
         from pencli.model.geometry import corner_depths_m
+        from pencli.sensors import chain
 
         if self.stage != "tare":
             raise DataError(f"run '{self.name}': subtract-inertia starts from the tare stage, not the {self.stage} "
@@ -207,8 +219,9 @@ class Run:
         events = replace(events, corners_s=corner_times(col["time_s"], col["depth_m"], events,
                                                         corner_depths_m(self.geometry, self.design)))
         m_lc = float(self.penetrator.get("load_cell_mass_kg"))
-        kin = subtract_inertia(col["time_s"], col["depth_m"], col["fz_n"], events, m_lc, method=method,
-                               use_flight_mass=use_flight_mass)
+        reading = chain("encoder_load_cell", load_cell_mass_kg=m_lc, events=events, method=method,
+                        use_flight_mass=use_flight_mass).read(self.name, col["time_s"], col)
+        kin = reading.account
         columns = {"time_s": col["time_s"], "depth_m": col["depth_m"],
                    "velocity_m_s": kin.velocity_m_s, "acceleration_m_s2": kin.acceleration_m_s2,
                    "force_n": col["fz_n"], "resistance_n": kin.resistance_n,

@@ -16,7 +16,7 @@ import pytest
 
 from pencli import api
 from pencli.errors import DataError
-from pencli.fit.rate_effect import qt_kpa
+from pencli.sensors.cone_tip import qt_kpa
 from pencli.io.ags import read_ags
 from tests.conftest import REPO, invoke
 

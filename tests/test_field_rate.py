@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from pencli.errors import FitError
-from pencli.fit.rate_effect import UnitMean, fit_rate_effect, qt_kpa, unit_means, warp_depths
+from pencli.fit.rate_effect import UnitMean, fit_rate_effect, unit_means, warp_depths
+from pencli.sensors.cone_tip import qt_kpa
 from pencli.io.sgf import read_sgf
 from tests.conftest import REPO
 

@@ -15,6 +15,7 @@ from pencli.errors import DataError
 from pencli.filter.freefall import drop_motion, stitch
 from pencli.fit.freefall import FreeFallProbe, fit_bed
 from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, CHANNELS, bluedrop_bytes, read_bluedrop, read_calibration
+from pencli.sensors.accelerometers import reading_of
 
 PROBE = Probe()
 HEIGHTS_M = (0.5, 1.0, 3.0, 8.0)
@@ -62,10 +63,10 @@ def test_the_bed_is_fitted_across_drops(tmp_path, seed):
     errors: the residuals of neighbouring samples are correlated, so they are not stated as intervals here.)"""
     rng = np.random.default_rng(700 + seed)
     bed = Bed(rng.uniform(10, 40), rng.uniform(0, 300), rng.uniform(2, 30))
-    motions = [motion for _, motion, _ in drops(tmp_path, bed, 70 + seed)]
+    readings = [reading_of(f"drop{k}", motion) for k, (_, motion, _) in enumerate(drops(tmp_path, bed, 70 + seed))]
     probe = FreeFallProbe(PROBE.mass_kg, PROBE.volume_m3, PROBE.half_angle_rad, PROBE.shaft_radius_m,
                           PROBE.drag_coefficient, PROBE.added_mass_coefficient)
-    fit = fit_bed(motions, probe)
+    fit = fit_bed(readings, probe)
     assert fit.strength_kpa == pytest.approx(bed.strength_kpa, rel=0.1)
     assert abs(fit.gradient_kpa_m - bed.gradient_kpa_m) < 0.1 * bed.gradient_kpa_m + 5.0
     assert fit.damping_kpa_s_m == pytest.approx(bed.damping_kpa_s_m, rel=0.1)
@@ -137,12 +138,12 @@ def test_a_bed_that_buoys_the_cone_is_fitted_with_its_density_and_misread_withou
     the density, the bed's gradient (50 kPa/m, small, where the buoyancy is a sixth of it) comes back within
     10 % or 5 kPa/m as for any bed; without it, the fit reads the buoyancy as gradient."""
     bed = Bed(20.0, 50.0, 8.0, density_kg_m3=1900.0)
-    motions = [motion for _, motion, _ in drops(tmp_path, bed, 91)]
+    readings = [reading_of(f"drop{k}", motion) for k, (_, motion, _) in enumerate(drops(tmp_path, bed, 91))]
     known = FreeFallProbe(PROBE.mass_kg, PROBE.volume_m3, PROBE.half_angle_rad, PROBE.shaft_radius_m,
                           PROBE.drag_coefficient, PROBE.added_mass_coefficient, bed_density=1900.0)
-    fit = fit_bed(motions, known)
+    fit = fit_bed(readings, known)
     assert fit.strength_kpa == pytest.approx(bed.strength_kpa, rel=0.1)
     assert abs(fit.gradient_kpa_m - bed.gradient_kpa_m) < 0.1 * bed.gradient_kpa_m + 5.0
     assert fit.damping_kpa_s_m == pytest.approx(bed.damping_kpa_s_m, rel=0.1)
-    blind = fit_bed(motions, replace(known, bed_density=0.0))
+    blind = fit_bed(readings, replace(known, bed_density=0.0))
     assert blind.gradient_kpa_m - fit.gradient_kpa_m > 0.5 * (1900.0 - 1025.0) * 9.80665 / 1e3

@@ -14,7 +14,7 @@ import pytest
 from pencli import api
 from pencli.errors import DataError
 from pencli.filter.rate import push_rate_mm_s
-from pencli.fit.rate_effect import qt_kpa
+from pencli.sensors.cone_tip import qt_kpa
 from pencli.io.gef import read_gef
 from tests.conftest import REPO, invoke
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 PKG = Path(__file__).resolve().parents[1] / "pencli"
-CORE = ("model", "filter", "fit", "predict", "diagnose", "params")
+CORE = ("model", "filter", "fit", "predict", "diagnose", "params", "sensors")
 FORBIDDEN_IN_CORE = {"pandas", "pyarrow", "duckdb", "openpyxl", "rich", "typer", "click", "matplotlib"}
 UPWARD_FROM_CORE = {"pencli.commands", "pencli.cli", "pencli.api", "pencli.store", "pencli.io", "pencli.report",
                     "pencli.acquire"}

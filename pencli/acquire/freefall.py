@@ -125,6 +125,13 @@ class Drop:
     impact_speed_m_s: float
     stop_s: float
     penetration_m: float
+    travel_m: np.ndarray | None = None
+    """The true travel from the release at each sample (what any other sensor chain would read). [m]"""
+    speed_m_s: np.ndarray | None = None
+    """The true speed at each sample. [m/s]"""
+    bed_force_n: np.ndarray | None = None
+    """The bed's true force on the probe at each sample: A_f·q and the bed's buoyancy while it moves, the
+    submerged weight once it rests. [N]"""
 
 
 def _motion(probe: Probe, bed: Bed, drop_height_m: float, water_density: float):
@@ -187,6 +194,10 @@ def simulate_drop(probe: Probe, bed: Bed, drop_height_m: float, *, sensors: Sens
     x = np.where(t < hold_s, 0.0, drop_height_m + final)
     accel = np.zeros(n)
     x[falling] = solution.sol(t[falling] - hold_s)[0]
+    speed = np.zeros(n)
+    speed[falling] = solution.sol(t[falling] - hold_s)[1]
+    bed_force = _bed_force(probe, bed, x - drop_height_m, speed, water_density)
+    bed_force[t > hold_s + t_stop] = (probe.mass_kg - water_density * probe.volume_m3) * G
     accel[falling] = [rhs(tt - hold_s, solution.sol(tt - hold_s))[1] for tt in t[falling]]  # the equation's own
     lean = math.radians(rest_tilt_deg) * np.clip((t - hold_s - t_stop) / SETTLE_S, 0.0, 1.0)  # at rest only
     specific = (G - accel) / G * np.cos(lean)
@@ -210,4 +221,16 @@ def simulate_drop(probe: Probe, bed: Bed, drop_height_m: float, *, sensors: Sens
         value = np.sin(lean) * share + rng.normal(0.0, sensors.noise_g, n)
         raw[:, CHANNELS.index(name)] = np.rint(value * cal.scale - cal.offset)
     return Drop(raw=raw, release_s=hold_s, impact_s=hold_s + t_impact, impact_speed_m_s=v_impact,
-                stop_s=hold_s + t_stop, penetration_m=final)
+                stop_s=hold_s + t_stop, penetration_m=final, travel_m=x, speed_m_s=speed, bed_force_n=bed_force)
+
+
+def _bed_force(probe: Probe, bed: Bed, depth_m: np.ndarray, speed_m_s: np.ndarray, water_density: float
+               ) -> np.ndarray:
+    """The bed's force on the probe at each depth in it and speed: A_f(z)·q(z, v) and (ρ_b − ρ_w)·g·V(z). [N]"""
+    out = np.zeros(depth_m.size)
+    for k in np.flatnonzero(depth_m > 0.0):
+        z, v = float(depth_m[k]), float(speed_m_s[k])
+        out[k] = probe.frontal_area_m2(z) * bed.pressure_pa(z, v)
+        if bed.density_kg_m3 > 0.0:
+            out[k] += (bed.density_kg_m3 - water_density) * G * probe.volume_below_m3(z)
+    return out

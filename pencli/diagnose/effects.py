@@ -157,14 +157,11 @@ class _RunView:
         return float(np.std(self.resistance_n[pre])) if pre.sum() > MIN_NOISE_SAMPLES else 1.0
 
 
-VIEW_COLUMNS = ("time_s", "depth_m", "velocity_m_s", "acceleration_m_s2", "force_n", "resistance_n")
-"""The inertia-stage columns the diagnosis reads."""
-
-
 def views(runs: Sequence[Run | _RunView]) -> list[_RunView]:
     """Each conditioned run (inertia stage) as the diagnosis reads it, its contact as the force sees it and a late
     force rise looked for (a view is passed on as it is)."""
     from pencli.filter.inertia import kinematic_events, late_force_rise
+    from pencli.sensors.load_cell import unbroken_at_contact
 
     out = []
     for run in runs:
@@ -172,14 +169,18 @@ def views(runs: Sequence[Run | _RunView]) -> list[_RunView]:
             out.append(run)
             continue
         events, params = run.require_events(), run.stage_parameters
-        t, depth, v, a, force, resistance = (run.column(name) for name in VIEW_COLUMNS)
+        reading = run.reading()
+        if reading.accel_m_s2 is None or "force_n" not in reading.channels:
+            run.column("acceleration_m_s2"), run.column("force_n")  # one line: what the stage lacks
+        t, depth, v, a = reading.time_s, reading.travel_m, reading.speed_m_s, reading.accel_m_s2
+        force, resistance = reading.channels["force_n"], reading.force_n
         geometry = run.geometry
         mass = float(params["load_cell_mass_kg"])
         step = float(params.get("encoder_step_m", DEFAULT_ENCODER_STEP_M))
         method = str(params.get("method", "spline"))
         steps = force_steps_at_contact(geometry, run.design)
         if not steps:
-            v, a, resistance = _unbroken_at_contact(t, depth, force, events, mass, step, method)
+            v, a, resistance = unbroken_at_contact(t, depth, force, events, mass, step, method)
         out.append(_RunView(run.run_id, run.design, t, depth, v, a, force, resistance, events.motion_start_s,
                             events.contact_s, events.stop_s, events.window_start_s, events.window_end_s,
                             events.end, events.contact_speed_m_s, mass, step, method,
@@ -187,23 +188,6 @@ def views(runs: Sequence[Run | _RunView]) -> list[_RunView]:
                             late_force_rise(t, force, events, LAG_SPAN_S) if steps else None, geometry=geometry,
                             corners_s=events.corners_s))
     return out
-
-
-def _unbroken_at_contact(t, depth, force, events, mass: float, step: float, method: str):
-    """(v, a, R = F − m_lc·a) with derivatives that do not break at contact, for a tip of no area at the surface
-    (a sharp cone).  Its force rises from nothing, so its acceleration does not jump where it meets the block,
-    and its force's onset lags the contact by however deep the tip goes before the force clears the noise: a
-    break there (the inertia stage's, which the fit keeps) leaves an acceleration error at contact that the
-    replicates, whose motion has no jump there, do not share, and dev nulls of the sharp cone were called a
-    strength gradient (2 of 2).  The contact is then the position's alone, and the replicates break where
-    these derivatives do (:attr:`pencli.diagnose.null.RunNull.contact_break`)."""
-    from pencli.filter.derivatives import derivatives
-    from pencli.filter.inertia import motion_breaks, motion_joins, rest_mask
-
-    rate = (t.size - 1) / (t[-1] - t[0])
-    v, a = derivatives(depth, rate, motion_breaks(t, events, False), method, count_m=step,
-                       joins=motion_joins(t, events, False), at_rest=rest_mask(t, events))
-    return v, a, force - mass * a
 
 
 @dataclass(frozen=True)

@@ -5,8 +5,10 @@ In the bed, the probe's equation of motion (x and a positive down) is
     (m + C_a·ρ_w·V)·a = (m − ρ_w·V)·g − ½·ρ_w·C_D·A·v|v| − A_f(z)·q(z, v),
 
 so each sample from impact to stop gives the bed's force from the measured
-acceleration, speed and depth (:class:`pencli.filter.freefall.DropMotion`)
-and the probe's known mass, volume, drag and added mass; q is linear in
+acceleration, speed and depth (a :class:`pencli.sensors.Reading` of the
+``accelerometers`` chain) and the probe's known mass, volume, drag and added
+mass; a chain that measures the bed's force itself (a tip load cell) gives it
+without the equation.  q is linear in
 (σ, b, c), fitted by least squares over every drop at once (one drop
 alone barely separates b from c: depth and speed move together).  The
 frontal area is the cone geometry's (:class:`pencli.model.geometry.Cone`).
@@ -21,8 +23,9 @@ from typing import Sequence
 
 import numpy as np
 
-from pencli.filter.freefall import G, DropMotion
+from pencli.filter.freefall import G
 from pencli.model.geometry import Cone, embedded_volume_m3
+from pencli.sensors import Reading
 
 
 FLIGHT_SKIP_S = 0.02
@@ -75,16 +78,19 @@ class BedFit:
     """C_a fitted as a nuisance (None: the probe's was taken)."""
 
 
-def bed_force_n(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(depth in the bed [m], speed [m/s], the bed's force [N]) at every row from impact to stop."""
-    rows = slice(motion.impact, motion.stop + 1)
-    depth = motion.travel_m[rows] - float(np.interp(motion.impact_s, motion.time_s, motion.travel_m))
-    speed, accel = motion.speed_m_s[rows], motion.accel_m_s2[rows]
-    rho = probe.water_density
-    m_eff = probe.mass_kg + probe.added_mass_coefficient * rho * probe.volume_m3
-    section = math.pi * probe.shaft_radius_m ** 2
-    force = (probe.net_weight_n - 0.5 * rho * probe.drag_coefficient * section * speed
-             * np.abs(speed) - m_eff * accel)
+def bed_force_n(reading: Reading, probe: FreeFallProbe) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(depth in the bed [m], speed [m/s], the bed's force [N], less its buoyancy) at every row from impact to
+    stop: the force the chain measured, else the equation of motion's from the measured acceleration."""
+    rows = reading.penetration
+    depth, speed = reading.depth_m(), reading.speed_m_s[rows]
+    if reading.force_n is not None:
+        force = reading.force_n[rows]
+    else:
+        rho = probe.water_density
+        m_eff = probe.mass_kg + probe.added_mass_coefficient * rho * probe.volume_m3
+        section = math.pi * probe.shaft_radius_m ** 2
+        force = (probe.net_weight_n - 0.5 * rho * probe.drag_coefficient * section * speed
+                 * np.abs(speed) - m_eff * reading.accel_m_s2[rows])
     return depth, speed, force - bed_buoyancy_n(depth, probe)
 
 
@@ -98,50 +104,53 @@ def bed_buoyancy_n(depth: np.ndarray, probe: FreeFallProbe) -> np.ndarray:
     return (probe.bed_density - probe.water_density) * G * volume
 
 
-def _fitted_rows(motion: DropMotion, probe: FreeFallProbe, cone: Cone):
+def _fitted_rows(reading: Reading, probe: FreeFallProbe, cone: Cone):
     """The rows :func:`fit_bed` fits (the whole cone in the bed, faster than ``MIN_SPEED_M_S``), as (mask over the
     rows from impact to stop, depth [m], speed [m/s], the bed's force [N], the cone's frontal area [m²]) there."""
-    depth, speed, force = bed_force_n(motion, probe)
+    depth, speed, force = bed_force_n(reading, probe)
     inside = (depth > cone.cone_length_m) & (speed > MIN_SPEED_M_S)
     area = np.array([cone.section_areas(z, 0.0)[0] for z in depth[inside]])
     return inside, depth[inside], speed[inside], force[inside], area
 
 
-def bed_pressure(motion: DropMotion, probe: FreeFallProbe) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def bed_pressure(reading: Reading, probe: FreeFallProbe) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(depth [m], speed [m/s], the bed's pressure on the cone's frontal area [kPa]) at the rows :func:`fit_bed`
     fits: the whole cone in the bed, faster than ``MIN_SPEED_M_S``."""
     cone = Cone(half_angle_rad=probe.half_angle_rad, shaft_radius_m=probe.shaft_radius_m)
-    _, depth, speed, force, area = _fitted_rows(motion, probe, cone)
+    _, depth, speed, force, area = _fitted_rows(reading, probe, cone)
     return depth, speed, force / area / 1e3
 
 
-def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe, *, nuisances: bool = False) -> BedFit:
+def fit_bed(readings: Sequence[Reading], probe: FreeFallProbe, *, nuisances: bool = False) -> BedFit:
     """σ, b, c of q = σ + b·z + c·v fitted over every drop's rows in the bed where the whole cone has entered
     (while the tip's area grows, a millimetre's error in the depth of impact is a large share of it) and the
     probe still moves faster than ``MIN_SPEED_M_S``.
 
     ``nuisances``: the drag and added-mass coefficients are fitted too (the probe's are not taken).  The equation
     is linear in them as well, and the fall through the water, where the bed pushes nothing, is what determines
-    them: its rows from ``FLIGHT_SKIP_S`` after the release to the impact join the fit."""
+    them: its rows from ``FLIGHT_SKIP_S`` after the release to the impact join the fit.  They are fitted only
+    from drops whose chain reads the acceleration and not the bed's force (where it reads the force, the
+    equation of motion is not needed); none such: they are not fitted."""
     cone = Cone(half_angle_rad=probe.half_angle_rad, shaft_radius_m=probe.shaft_radius_m)
     rho, volume = probe.water_density, probe.volume_m3
     section = math.pi * probe.shaft_radius_m ** 2
+    nuisances = nuisances and any(r.force_n is None for r in readings)
     rows, targets, in_bed = [], [], []
-    for motion in motions:
-        inside, depth, speed, force, area = _fitted_rows(motion, probe, cone)
+    for reading in readings:
+        inside, depth, speed, force, area = _fitted_rows(reading, probe, cone)
         columns = [1e3 * area, 1e3 * area * depth, 1e3 * area * speed]
         in_bed.append(np.ones(area.size, dtype=bool))
-        if not nuisances:
-            rows.append(np.column_stack(columns))
+        if not nuisances or reading.force_n is not None:
+            rows.append(np.column_stack(columns + [np.zeros(area.size)] * (2 if nuisances else 0)))
             targets.append(force)
             continue
-        bed = slice(motion.impact, motion.stop + 1)
-        v, a = motion.speed_m_s[bed][inside], motion.accel_m_s2[bed][inside]
+        bed = reading.penetration
+        v, a = reading.speed_m_s[bed][inside], reading.accel_m_s2[bed][inside]
         rows.append(np.column_stack(columns + [0.5 * rho * section * v * np.abs(v), rho * volume * a]))
         targets.append(probe.net_weight_n - probe.mass_kg * a - bed_buoyancy_n(depth, probe))
-        start = int(np.searchsorted(motion.time_s, motion.time_s[motion.release] + FLIGHT_SKIP_S))
-        flight = slice(start, motion.impact)
-        v, a = motion.speed_m_s[flight], motion.accel_m_s2[flight]
+        start = int(np.searchsorted(reading.time_s, reading.time_s[reading.start] + FLIGHT_SKIP_S))
+        flight = slice(start, reading.contact)
+        v, a = reading.speed_m_s[flight], reading.accel_m_s2[flight]
         zero = np.zeros(v.size)
         rows.append(np.column_stack([zero, zero, zero, 0.5 * rho * section * v * np.abs(v), rho * volume * a]))
         targets.append(probe.net_weight_n - probe.mass_kg * a)
@@ -154,5 +163,5 @@ def fit_bed(motions: Sequence[DropMotion], probe: FreeFallProbe, *, nuisances: b
     bed_rows = np.concatenate(in_bed)
     scale = max(float(np.mean(np.abs(X[bed_rows, :3] @ theta[:3]))), 1e-300)  # the bed's mean force
     return BedFit(*(float(v) for v in theta[:3]), tuple(float(v) for v in np.sqrt(np.diag(covariance))),
-                  int(y.size), len(motions), float(np.sqrt(np.mean(residual[bed_rows] ** 2)) / scale),
+                  int(y.size), len(readings), float(np.sqrt(np.mean(residual[bed_rows] ** 2)) / scale),
                   *((float(theta[3]), float(theta[4])) if nuisances else ()))

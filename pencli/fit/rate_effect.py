@@ -31,11 +31,6 @@ MIN_RATE_SPAN = 0.1
 law's slope is fitted on the rates' noise. [decades]"""
 
 
-def qt_kpa(qc_mpa: np.ndarray, u2_kpa: np.ndarray, net_area_ratio: float) -> np.ndarray:
-    """Cone resistance corrected for the pore pressure on the cone's shoulder: qt = qc + (1 − a)·u₂. [kPa]"""
-    return 1e3 * np.asarray(qc_mpa, dtype=float) + (1.0 - net_area_ratio) * np.asarray(u2_kpa, dtype=float)
-
-
 def warp_depths(depth_m: np.ndarray, pairs_m: Sequence[Sequence[float]]) -> np.ndarray:
     """A sounding's depths at a reference sounding's: ``pairs_m`` are [depth here, depth there]; the shift between
     them is interpolated, and held beyond the first and last pair.  No pairs: the depths unchanged. [m]"""

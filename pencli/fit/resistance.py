@@ -96,7 +96,8 @@ def windows(runs: Sequence[Run | _Window], margins_s: tuple[float, float] = (0.0
             out.append(run)
             continue
         events = run.require_events()
-        record = {name: run.column(name) for name in RECORD_COLUMNS}
+        reading = run.reading()
+        record = dict(zip(RECORD_COLUMNS, (reading.time_s, reading.travel_m, reading.speed_m_s, reading.force_n)))
         keep = run.window
         if any(margins_s):
             first, last = fit_edges(events.contact_s, events.stop_s, margins_s)

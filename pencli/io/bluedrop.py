@@ -57,6 +57,13 @@ class DropRecord:
     raw: np.ndarray
     source: str = ""
 
+    @property
+    def instrument(self):
+        """A free-fall cone read by its accelerometers (:data:`pencli.io.field.KINDS`)."""
+        from pencli.io.field import instrument_of
+
+        return instrument_of("free_fall")
+
 
 def read_calibration(path: str | Path) -> dict[str, ChannelCalibration]:
     """A calibration CSV (``channel,offset,scale,unit``, one row per channel of :data:`CALIBRATED`).  Raises

@@ -56,14 +56,17 @@ class Instrument:
     geometry: str | None
     drive: str
     sensors: str
+    chain: str | None = None
+    """The sensor chain (:data:`pencli.sensors.CHAINS`) fit and diagnosis read it through (None: none of pen's;
+    a SnowMicroPen's force goes to the snow estimator as it is)."""
 
 
 KINDS: dict[str, Instrument] = {
-    "cptu": Instrument("cone", "constant_rate", "tip, sleeve, pore pressure"),
-    "cpt": Instrument("cone", "constant_rate", "tip, sleeve"),
-    "total_sounding": Instrument("drill_bit", "constant_rate", "push force, rotation, flushing"),
+    "cptu": Instrument("cone", "constant_rate", "tip, sleeve, pore pressure", "cone_tip"),
+    "cpt": Instrument("cone", "constant_rate", "tip, sleeve", "cone_tip"),
+    "total_sounding": Instrument("drill_bit", "constant_rate", "push force, rotation, flushing", "rod_force"),
     "smp": Instrument("cone", "constant_rate", "tip force"),
-    "free_fall": Instrument("cone", "free_fall", "accelerometers, pore pressure, tilt"),
+    "free_fall": Instrument("cone", "free_fall", "accelerometers, pore pressure, tilt", "accelerometers"),
 }
 """Kinds of field record pen knows → the instrument.  A sounding of a method pen does not know keeps its kind
 (``sgf_method_<code>``) with no geometry."""

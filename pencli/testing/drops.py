@@ -14,13 +14,14 @@ import numpy as np
 def drops_into(probe, bed, heights_m: Sequence[float], rng: np.random.Generator, seed: int,
                bias_g: float = 0.03, drift_g_per_s: float = 0.0, impact_shift_g: tuple[float, float] | None = None,
                rest_tilt_deg: float = 0.0) -> list[tuple]:
-    """(truth, record, motion) of a drop of ``probe`` into ``bed`` from each height, each accelerometer with a bias
+    """(truth, record, reading) of a drop of ``probe`` into ``bed`` from each height, each accelerometer with a bias
     drawn from ``rng`` within ±``bias_g``, a drift in time within ±``drift_g_per_s``, a shift at the impact whose
     size is drawn within ``impact_shift_g`` (low, high) with either sign (none by default), the probe leaning once
     stopped by an angle drawn within ``rest_tilt_deg`` towards a random side, and the sensors' noise seeded by
-    ``seed``; the motion read as ``pen drops`` reads it (the tilt channels with the accelerometers)."""
+    ``seed``; the record read as ``pen drops`` reads it (its sensor chain's :class:`pencli.sensors.Reading`, the tilt
+    channels with the accelerometers)."""
     from pencli.acquire.freefall import Sensors, simulate_drop
-    from pencli.api import drop_motion_of
+    from pencli.api import drop_reading
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G, bluedrop_bytes, read_bluedrop
 
     out = []
@@ -39,8 +40,7 @@ def drops_into(probe, bed, heights_m: Sequence[float], rng: np.random.Generator,
             path = Path(tmp) / f"drop-{k}.bin"
             path.write_bytes(bluedrop_bytes(truth.raw))
             record = read_bluedrop(path, sensors.calibration)
-            motion = drop_motion_of(record)
-            out.append((truth, record, motion))
+            out.append((truth, record, drop_reading(record)))
     return out
 
 

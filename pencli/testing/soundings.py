@@ -17,7 +17,7 @@ RATES_MM_S = (5, 10, 20, 35, 50, 65)
 def random_sounding(seed: int, layered: bool = True) -> tuple[list[float], np.ndarray, np.ndarray]:
     """(true boundaries [m], depth [m], qt [kPa]) of sounding ``seed``: 1 to 6 random layers from 1 to 15 m (or,
     with ``layered`` False, one layer with a gradient), noise 1–6 %, pushed at 10, 20 or 40 mm/s."""
-    from pencli.fit.rate_effect import qt_kpa
+    from pencli.sensors.cone_tip import qt_kpa
 
     rng = np.random.default_rng(seed if layered else [seed, 99])
     if layered:
