@@ -1,11 +1,13 @@
 """The fit of Eq. 9's coefficients on cones and tapered blades fired by the simulated rig, against the rig's truth.
 
-Run: python -m bench.bench_geometry_fit [--seed SEED] [--material NAME]
+Run: python -m bench.bench_geometry_fit [--seed SEED] [--material NAME] [--wide]
 
 Nine cones (25, 35.7 and 50 mm, 60° apex) and nine tapered blades (1, 1.5 and 2 mm thick, edges 0.3-0.5 mm over
 8-20 mm), each on 2, 4 and 6 springs, into the material (default MPACS C; its preset's coefficients are the
 rig's truth), stored, tared, inertia-subtracted and fitted; prints each coefficient fitted, its 95 % interval
-and its error against the truth, then what the fit warns these runs do not determine.
+and its error against the truth, then what the fit warns these runs do not determine.  ``--wide``: each also on
+a softer and a stronger launcher (2 springs compressed to 360 mm; 9 springs), contact speeds over a factor of
+about 4 instead of 1.7, which separates C·v from K·ρ·v² where the rate terms are large (Grill Brick).
 """
 
 from __future__ import annotations
@@ -43,8 +45,23 @@ def _files(folder: Path, shape: str) -> list[str]:
     return out
 
 
+def _wide_launchers(folder: Path) -> tuple[str, str]:
+    """A softer and a stronger launcher than the bundled springs: the 2-spring preset compressed to 360 mm only
+    (a sixth of its energy), and 9 of its springs."""
+    from pencli.params.load import load_preset
+
+    base = load_preset("springs_2", "energizing").to_mapping()
+    base.pop("notes", None)
+    out = []
+    for name, change in (("soft", {"spring_compressed_length_mm": 360.0}), ("strong", {"spring_count": 9})):
+        path = folder / f"{name}.yaml"
+        path.write_text(yaml.safe_dump({**base, **change, "name": name}))
+        out.append(str(path))
+    return tuple(out)
+
+
 def main() -> None:
-    check_options(__doc__, ("--seed", "--material"))
+    check_options(__doc__, ("--seed", "--material", "--wide"))
     args = sys.argv[1:]
     seed = int(args[args.index("--seed") + 1]) if "--seed" in args else 21
     material = args[args.index("--material") + 1] if "--material" in args else "mpacs_c"
@@ -57,7 +74,8 @@ def main() -> None:
     for shape in ("cone", "tapered_blade"):
         with tempfile.TemporaryDirectory() as tmp:
             folder = Path(tmp)
-            shots = [(f, springs) for f in _files(folder, shape) for springs in (2, 4, 6)]
+            launchers = (2, 4, 6) + (_wide_launchers(folder) if "--wide" in args else ())
+            shots = [(f, springs) for f in _files(folder, shape) for springs in launchers]
             db = make_campaign(folder, material, shots=shots, seed=seed)
             api.tare_runs(db, ["all"])
             api.subtract_inertia_runs(db, ["all"])

@@ -35,7 +35,8 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
                   converter_noise: float | None = None) -> Path:
     """Fire a campaign into ``folder/runs.duckdb``; returns the catalog path.
 
-    ``shots``: (blade thickness in mm of a bundled 184 mm blade, or a penetrator file ending in .yaml; springs).
+    ``shots``: (blade thickness in mm of a bundled 184 mm blade, or a penetrator file ending in .yaml; springs, or a
+    launcher file ending in .yaml).
     ``standoff_mm``: per shot, the true stand-off minus the file's (stand-off scatter).
     ``strength_scale``: per shot, the block's true strength over the recorded one (unrecorded scatter).
     ``encoder_mm``: the string encoder's step (default: the bundled encoder's).
@@ -83,8 +84,9 @@ def make_campaign(folder: Path, material: str, *, shots=None, seed: int = 0, eff
         rig_file = folder / f"rig-{i}.yaml"
         rig_file.write_text(yaml.safe_dump(rig))
         penetrator = blade if str(blade).endswith(".yaml") else f"al6061_{blade}mm"  # a file, or a blade's mm
-        shot = api.acquire(springs=springs, penetrator=penetrator, material=str(material_file), rig=rig_file,
-                           position_cal=position_cal, duration_s=1.0, info={"id": f"r{i:02d}-{blade}mm-{springs}s"})
+        launcher = {"springs": None, "energizing": springs} if str(springs).endswith(".yaml") else {"springs": springs}
+        shot = api.acquire(**launcher, penetrator=penetrator, material=str(material_file), rig=rig_file,
+                           position_cal=position_cal, duration_s=1.0, info={"id": f"r{i:02d}-{blade}mm-{Path(str(springs)).stem}s"})
         try:
             api.add_run(shot.run, db, command="test campaign")
         except DataError:  # a saturated shot is discarded, as the lab would
