@@ -16,8 +16,8 @@ the verdict is ``accelerometer_bias``; and *drifting*, each bias drifting in tim
 the pipeline takes out between the rests), a null; and *leaning*, each drop coming to rest leaning by up to
 15° towards a random side (its axial sensors then read cos θ of gravity; pen reads the lean from the tilt
 channels), a null.  Prints a row per seed, then the layers found among those met, the shifts found, and the
-nulls (plain, drifting and leaning) called.  Seeds START to END (default 7001-7021, unused; 0-6 is the range
-the diagnosis was made on, 1000-1019, 4000-4019, 5000-5019, 6000-6019 and 7000 have been run and looked at).
+nulls (plain, drifting and leaning) called.  Seeds START to END (default 8001-8021, unused; 0-6 is the range
+the diagnosis was made on, 1000-1019, 4000-4019, 5000-5019, 6000-6019 and 7000-7020 have been run and looked at).
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ def main() -> None:
 
     args = sys.argv[1:]
     start, end = (int(v) for v in args[args.index("--seeds") + 1:args.index("--seeds") + 3]) \
-        if "--seeds" in args else (7001, 7021)
+        if "--seeds" in args else (8001, 8021)
     truth_probe = Probe()
     guess = FreeFallProbe(truth_probe.mass_kg, truth_probe.volume_m3, truth_probe.half_angle_rad,
                           truth_probe.shaft_radius_m, 0.8, 0.3)

@@ -7,8 +7,8 @@ pushes the simulated constant-rate cone (:mod:`pencli.acquire.sounding`) through
 with a rate effect of K per decade (default −0.15: faster is weaker, as in a silty sand where drainage goes from
 partial to undrained) and again with none; the units are the 20 mm/s sounding's layers.  Each site is diagnosed
 (every ordering of the six rates, the default 0.2 % false-alarm rate).  Prints a row per seed, then how many
-effects were named with their sign and how many nulls were called.  Seeds START to END (default 6000-6040, unused;
-1000-1019, 2000-2039, 3000-3299, 4000-4039 and 5000-5039 have been run and looked at).
+effects were named with their sign and how many nulls were called.  Seeds START to END (default 7000-7040, unused;
+1000-1019, 2000-2039, 3000-3299, 4000-4039, 5000-5039 and 6000-6039 have been run and looked at).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def main() -> None:
 
     args = sys.argv[1:]
     start, end = (int(v) for v in args[args.index("--seeds") + 1:args.index("--seeds") + 3]) \
-        if "--seeds" in args else (6000, 6040)
+        if "--seeds" in args else (7000, 7040)
     per_decade = float(args[args.index("--per-decade") + 1]) if "--per-decade" in args else -0.15
     named = called = 0
     for seed in range(start, end):
