@@ -1613,6 +1613,7 @@ def estimate_snow_profile(profile, *, window_mm: float | None = None, overlap: f
     or a record id of workspace ``db``."""
     from pencli.fit import shot_noise as sn
     from pencli.io.pnt import SmpProfile
+    from pencli.sensors import chain
 
     if not isinstance(profile, SmpProfile):
         found_profiles = read_snow_profiles([profile], db)
@@ -1620,20 +1621,22 @@ def estimate_snow_profile(profile, *, window_mm: float | None = None, overlap: f
             raise DataError(f"{profile}: names {len(found_profiles)} profiles; give one")
         profile = found_profiles[0]
     path = profile.source
-    found = sn.surface_mm(profile.force_n, profile.step_mm) if surface_mm is None else surface_mm
+    reading = chain("tip_force").read(profile.name, None, {"depth_mm": profile.depth_mm, "force_n": profile.force_n})
+    force, depth_mm = reading.force_n, profile.depth_mm  # the travel as recorded, in the estimator's mm
+    found = sn.surface_mm(force, profile.step_mm) if surface_mm is None else surface_mm
     if found is None:
         raise DataError(f"{path}: no snow surface in the force (no 1-mm mean {sn.SURFACE_RISE_N} N above the "
                         f"air's); give it with --surface-mm")
     end = float(profile.depth_mm[-1]) if bottom_mm is None else bottom_mm
-    first, last = np.searchsorted(profile.depth_mm, [found, end])
+    first, last = np.searchsorted(depth_mm, [found, end])
     if last - first < 3:
         raise DataError(f"{path}: no samples between the surface at {found:.1f} mm and the bottom at {end:.1f} mm")
     try:
-        estimates = sn.shot_noise(profile.force_n[first:last], profile.step_mm,
+        estimates = sn.shot_noise(force[first:last], profile.step_mm,
                                   diameter_mm=profile.tip_diameter_mm,
                                   window_mm=sn.WINDOW_MM if window_mm is None else window_mm,
                                   overlap=sn.OVERLAP if overlap is None else overlap, overload_n=profile.overload_n,
-                                  start_mm=float(profile.depth_mm[first]) - found)
+                                  start_mm=float(depth_mm[first]) - found)
     except ValueError as error:
         raise DataError(f"{path}: {error}") from None
     summaries = tuple(sn.layer_summary(estimates, top, bottom) for top, bottom in layers)

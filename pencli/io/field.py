@@ -57,15 +57,14 @@ class Instrument:
     drive: str
     sensors: str
     chain: str | None = None
-    """The sensor chain (:data:`pencli.sensors.CHAINS`) fit and diagnosis read it through (None: none of pen's;
-    a SnowMicroPen's force goes to the snow estimator as it is)."""
+    """The sensor chain (:data:`pencli.sensors.CHAINS`) fit and diagnosis read it through (None: none of pen's)."""
 
 
 KINDS: dict[str, Instrument] = {
     "cptu": Instrument("cone", "constant_rate", "tip, sleeve, pore pressure", "cone_tip"),
     "cpt": Instrument("cone", "constant_rate", "tip, sleeve", "cone_tip"),
     "total_sounding": Instrument("drill_bit", "constant_rate", "push force, rotation, flushing", "rod_force"),
-    "smp": Instrument("cone", "constant_rate", "tip force"),
+    "smp": Instrument("cone", "constant_rate", "tip force", "tip_force"),
     "free_fall": Instrument("cone", "free_fall", "accelerometers, pore pressure, tilt", "accelerometers"),
 }
 """Kinds of field record pen knows → the instrument.  A sounding of a method pen does not know keeps its kind

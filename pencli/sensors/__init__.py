@@ -10,6 +10,7 @@ a) and to the force the material puts on it, R:
 - ``cone_tip`` (a cone pushed at a constant rate): q̃c = qt − (1 − a_n)·u₂, f̃s, ũ₂, z̃ = x; read as qt, fs, u₂
   [kPa], v from the logger's rate or z̃ and the clock.
 - ``rod_force`` (a total sounding): F̃ = R on the bit and rods together, z̃ = x.
+- ``tip_force`` (a SnowMicroPen): F̃ = R on the tip alone, at a fixed step of the motor's travel.
 
 The fits and diagnoses read a :class:`Reading`, whichever chain made it: the rows of the motion, the
 acceleration where the chain measures it, the force where it measures one (so that a drop read by a tip load
@@ -135,8 +136,9 @@ def _register_own() -> None:
     from pencli.sensors.cone_tip import ConeTip
     from pencli.sensors.load_cell import EncoderLoadCell
     from pencli.sensors.rod_force import RodForce
+    from pencli.sensors.tip_force import TipForce
 
-    for cls in (EncoderLoadCell, StitchedAccelerometers, ConeTip, RodForce):
+    for cls in (EncoderLoadCell, StitchedAccelerometers, ConeTip, RodForce, TipForce):
         register_chain(cls)
 
 

@@ -1,0 +1,28 @@
+"""The ``tip_force`` chain: a load cell right behind a cone's tip, against the motor's travel (a SnowMicroPen).
+
+It measures the force on the tip alone, F̃ = R_tip, at a fixed step of travel; the snow's surface is found in the
+force (:func:`pencli.fit.shot_noise.surface_mm`), so the travel counts from the motor's start.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+import numpy as np
+
+from pencli.sensors import Reading
+
+
+class TipForce:
+    """A tip's force (``force_n`` [N]) against travel (``depth_mm`` [mm])."""
+
+    name = "tip_force"
+    channels = ("depth_mm", "force_n")
+    measures = frozenset({"motion", "force"})
+
+    def read(self, name: str, time_s: np.ndarray | None, channels: Mapping[str, np.ndarray]) -> Reading:
+        travel = np.asarray(channels["depth_mm"], dtype=float) / 1e3
+        speed = np.gradient(travel, time_s) if time_s is not None and travel.size > 1 else \
+            np.full(travel.shape, math.nan)
+        return Reading(name, self.name, travel, speed, time_s, force_n=np.asarray(channels["force_n"], dtype=float))
