@@ -72,3 +72,21 @@ def test_the_registry_names_what_it_has_and_refuses_a_name_twice():
 def test_a_reading_without_a_stop_runs_to_its_last_row():
     r = Reading("x", "cone_tip", np.arange(5.0), np.ones(5), contact=2, surface_m=1.5)
     assert r.depth_m().tolist() == [0.5, 1.5, 2.5]
+
+
+def test_the_rigs_replicates_are_read_as_the_encoder_and_load_cell_read():
+    """The encoder rounds travel to whole counts at its phase (0.3 mm at phase 0 reads 2 counts of 0.16 mm) and is
+    zeroed at its first reading; the load cell's resistance is off by the mass times the acceleration's error,
+    plus its noise."""
+    from pencli.sensors.load_cell import encoder_reading, load_cell_reading
+
+    travel = np.array([[0.0], [0.3e-3], [0.5e-3]])
+    read = encoder_reading(travel, 0.16e-3, np.array([0.0, 0.5]), first_m=-0.148)
+    assert read[:, 0] + 0.148 == pytest.approx([0.0, 0.32e-3, 0.48e-3], abs=1e-15)
+    # at phase 0.5 (0.08 mm): 0.08, 0.38, 0.58 mm are 0.5, 2.375, 3.625 counts, rounded to 0, 2, 4 (half to even)
+    assert read[:, 1] + 0.148 == pytest.approx([0.0, 0.32e-3, 0.64e-3], abs=1e-15)
+    half = encoder_reading(travel, 0.16e-3, np.array([0.5]), first_m=0.0, position_error_m=np.full((3, 1), 0.05e-3))
+    assert half[:, 0] == pytest.approx([0.0, 0.32e-3, 0.48e-3], abs=1e-15)
+    noise = np.array([[0.5, -0.5], [0.0, 1.0]])
+    out = load_cell_reading(np.array([100.0, 200.0]), 0.4, np.array([[10.0, -10.0], [0.0, 5.0]]), noise)
+    assert out.tolist() == [[100.0 - 4.0 + 0.5, 100.0 + 4.0 - 0.5], [200.0, 200.0 - 2.0 + 1.0]]

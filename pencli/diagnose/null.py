@@ -14,7 +14,9 @@ chain, as read from its data:
   random amount per replicate, after adding the position error the record
   shows beyond its quantisation (:func:`position_noise`), and the same
   derivative method re-derives velocity and acceleration from it, so
-  derivative errors are the pipeline's own;
+  derivative errors are the pipeline's own (the chain's observation
+  equations: :func:`pencli.sensors.load_cell.encoder_reading` and
+  :func:`~pencli.sensors.load_cell.load_cell_reading`);
 - the force channel adds noise of the colour and level measured on the
   pre-trigger span (its spectrum, :class:`NoiseModel`; each replicate with
   a spectrum that measurement's own error allows, :meth:`NoiseModel.spectra`), and where that
@@ -48,6 +50,7 @@ from pencli.errors import DataError
 from pencli.filter.derivatives import derivatives, smooth_motion, spline_columns
 from pencli.filter.inertia import motion_breaks, motion_joins
 from pencli.filter.tare import Events, detect_events
+from pencli.sensors.load_cell import encoder_reading, load_cell_reading
 
 MIN_SPECTRUM_SAMPLES = 64
 """Fewer samples than this give a spectrum of too few bins to read a colour from: the noise is taken as white."""
@@ -769,12 +772,10 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
     truth, reference, motions = _replicate_motions(null, motion, smooth, rate, count, rng)
     # the noise, each replicate with a spectrum the run's may have (its own stream: the rest is drawn as before)
     noise = null.noise.simulate(t.size, rng, count, null.noise.spectra(count, np.random.default_rng([seed, 7])))
-    shifts = step * fractions
-    moved = truth + shifts
+    error_m = None
     if jitter > 0.0:  # the encoder's own position error, where the blade moves (at rest the record is its own)
-        moved = moved + np.where(null.at_rest, 0.0, jitter)[:, None] * rng.standard_normal(moved.shape)
-    depth = step * np.round(moved / step) - shifts
-    depth -= depth[:1] - null.depth_m[0]  # the encoder is zeroed at rest, as the data's
+        error_m = np.where(null.at_rest, 0.0, jitter)[:, None] * rng.standard_normal((t.size, count))
+    depth = encoder_reading(truth, step, fractions, float(null.depth_m[0]), error_m)  # zeroed at rest, as the data's
     speeds = np.full(count, np.nan)
     for b in range(count):
         try:
@@ -782,8 +783,8 @@ def replicate_run(null: RunNull, count: int, seed: int, phases: np.ndarray | Non
         except DataError:
             pass
     accel = _measured_accelerations(null, depth, motions, rate)
-    error = np.where(null.at_rest[:, None], 0.0, accel - reference)
-    out = null.fitted_n[:, None] - null.load_cell_mass_kg * error[null.use] + noise[null.use]
+    error = np.where(null.at_rest[:, None], 0.0, accel - reference)  # at rest the record is its own: no error
+    out = load_cell_reading(null.fitted_n, null.load_cell_mass_kg, error[null.use], noise[null.use])
     if null.anti_alias is not None:  # the channel's filter acts on the force, R + m·a, not on the noise added after
         force = null.load_cell_mass_kg * np.where(null.at_rest[:, None], 0.0, reference)
         if null.baseline_n is not None:

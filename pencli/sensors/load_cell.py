@@ -72,3 +72,27 @@ def unbroken_at_contact(time_s: np.ndarray, depth_m: np.ndarray, force_n: np.nda
     v, a = derivatives(depth_m, rate, motion_breaks(t, events, False), method, count_m=encoder_step_m,
                        joins=motion_joins(t, events, False), at_rest=rest_mask(t, events))
     return v, a, force_n - load_cell_mass_kg * a
+
+
+def encoder_reading(travel_m: np.ndarray, step_m: float, phases: np.ndarray, first_m: float,
+                    position_error_m: np.ndarray | None = None) -> np.ndarray:
+    """What the encoder records of true travels ``travel_m`` (n × k: k motions): each motion's travel shifted by
+    its phase (``phases``, k fractions of a count) and its position error where given (n × k) [m], rounded to the
+    count ``step_m`` and shifted back, x̃ = s·round((x + f·s)/s) − f·s, then zeroed so that its first reading is
+    ``first_m`` (the encoder is zeroed at rest). [m]"""
+    shifts = step_m * phases
+    moved = travel_m + shifts
+    if position_error_m is not None:
+        moved = moved + position_error_m
+    recorded = step_m * np.round(moved / step_m) - shifts
+    recorded -= recorded[:1] - first_m
+    return recorded
+
+
+def load_cell_reading(resistance_n: np.ndarray, load_cell_mass_kg: float, accel_error_m_s2: np.ndarray,
+                      noise_n: np.ndarray) -> np.ndarray:
+    """What the chain reads as the resistance of a motion whose true resistance is ``resistance_n`` (n,) [N]: the
+    load cell reads F = R + m_lc·a* plus its noise (n × k) [N], and the chain subtracts m_lc·ã with the
+    acceleration ã it derived from the encoder, off the true a* by ``accel_error_m_s2`` = ã − a* (n × k), so
+    R̃ = R − m_lc·(ã − a*) + noise. [N]"""
+    return resistance_n[:, None] - load_cell_mass_kg * accel_error_m_s2 + noise_n
