@@ -1704,17 +1704,17 @@ def read_drops(refs: Sequence[str | Path], db: str | Path | None = None,
                                                                              {"calibration": calibration})]
 
 
-def drop_reading(record, bias_at: str = "ramp"):
+def drop_reading(record, **constants):
     """A drop record as its instrument's sensor chain reads it (:class:`pencli.sensors.Reading`): the stitched
-    accelerometers (``pencli.sensors.accelerometers``, the bias between the rests as ``bias_at`` says, a lean at
-    rest read through the tilt channels where the record has them); a record the chain cannot read is one line
-    naming it."""
+    accelerometers (``pencli.sensors.accelerometers``, the bias between the rests as ``bias_at`` in
+    ``constants`` says, a ramp by default; a lean at rest read through the tilt channels where the record has
+    them); a record the chain cannot read is one line naming it."""
     from pencli.io.bluedrop import ACCELEROMETER_RANGES_G
     from pencli.io.field import drop_name
     from pencli.sensors import chain, missing_channels
 
     try:
-        reader = chain(record.instrument.chain, ranges_g=ACCELEROMETER_RANGES_G, bias_at=bias_at)
+        reader = chain(record.instrument.chain, ranges_g=ACCELEROMETER_RANGES_G, **constants)
     except ValueError as error:
         raise DataError(f"{record.source}: {error}") from None
     missing = missing_channels(reader, record.channels)
@@ -1826,8 +1826,8 @@ def simulate_drop_file(out: str | Path, *, height_m: float, bed: tuple[float, ..
 
 def diagnose_drops(drops: Sequence[Drop], probe, *, false_alarm: float | None = None, shuffles: int | None = None,
                    seed: int = 0):
-    """``pen drops diagnose``: the accelerometers' check on the drops that chain read
-    (:func:`pencli.diagnose.drops.accelerometer_check`), then a layer across the drops
+    """``pen drops diagnose``: each sensor chain's own check on the drops it read
+    (:data:`pencli.diagnose.drops.SENSOR_CHECKS`: the accelerometers'), then a layer across the drops
     (:func:`pencli.diagnose.drops.diagnose_drops`), on the bed's pressure with the probe's drag and added mass
     fitted across them first where a chain read the acceleration (a drop whose bias a step at the impact accounts
     for is read with that step)."""
@@ -1835,16 +1835,16 @@ def diagnose_drops(drops: Sequence[Drop], probe, *, false_alarm: float | None = 
     from pencli.diagnose.drops import BedRows, diagnose_drops as diagnose
     from pencli.fit.freefall import bed_pressure
 
-    from pencli.diagnose.drops import accelerometer_check, with_sensors
+    from pencli.diagnose.drops import SENSOR_CHECKS, with_sensors
 
     false_alarm = FALSE_ALARM if false_alarm is None else false_alarm
     check = None
-    read_by_accelerometers = [d for d in drops if d.reading.chain == "accelerometers"]
-    if read_by_accelerometers:  # that chain's own check, on the drops it read
-        stepped = {d.name: drop_reading(d.record, "impact") for d in read_by_accelerometers}
-        check = accelerometer_check({d.name: (d.motion, stepped[d.name].account) for d in read_by_accelerometers},
-                                    false_alarm)
-        drops = [replace(d, reading=stepped[d.name]) if d.name in check.stepped else d for d in drops]
+    for name, (second, run_check) in SENSOR_CHECKS.items():  # each chain's own check, on the drops it read
+        read = [d for d in drops if d.reading.chain == name]
+        if read:
+            again = {d.name: drop_reading(d.record, **second) for d in read}
+            check = run_check({d.name: (d.reading.account, again[d.name].account) for d in read}, false_alarm)
+            drops = [replace(d, reading=again[d.name]) if d.name in check.stepped else d for d in drops]
     fit = fit_drops(drops, probe)
     fitted = probe if fit.drag_coefficient is None else \
         replace(probe, drag_coefficient=fit.drag_coefficient, added_mass_coefficient=fit.added_mass_coefficient)

@@ -151,6 +151,13 @@ def accelerometer_check(motions: dict, false_alarm: float = FALSE_ALARM) -> Acce
     return AccelerometerCheck(biased, stepped, ramp, step, threshold, untested)
 
 
+SENSOR_CHECKS = {"accelerometers": ({"bias_at": "impact"}, accelerometer_check)}
+"""Each sensor chain's own check on the drops it read, by the chain's name (:data:`pencli.sensors.CHAINS`): the
+chain's constants for a second reading of each drop, and the check, which takes ``{drop: (first reading's
+account, second's)}`` and the false-alarm rate and returns a result whose ``stepped`` drops are read the second
+way from then on.  A chain without an entry has no check of its own."""
+
+
 def _design(rows: Sequence[BedRows]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     depth = np.concatenate([r.depth_m for r in rows])
     speed = np.concatenate([r.speed_m_s for r in rows])
