@@ -39,7 +39,7 @@ class EncoderLoadCell:
         kin = subtract_inertia(time_s, channels["depth_m"], channels["fz_n"], self.events, self.load_cell_mass_kg,
                                method=self.method, use_flight_mass=self.use_flight_mass)
         return stored(name, time_s, channels["depth_m"], kin.velocity_m_s, kin.acceleration_m_s2, kin.resistance_n,
-                      self.events, account=kin)
+                      self.events, force_n=channels["fz_n"], account=kin)
 
 
 def stored(name: str, time_s: np.ndarray, depth_m: np.ndarray, velocity_m_s: np.ndarray,
