@@ -10,7 +10,8 @@ beside parts 1-2 in a second process.  ``--drive N`` runs only launcher losses: 
 alone (seeds base + 500 + i; every other one cut to 4 runs) and N of a propulsion loss beside a resistance effect
 drawn by the seed (seeds base + 600 + i), and prints how many were found by the loss's form and the run count.
 ``--nulls N`` runs only N campaigns without effect (seeds base + 1000 + i, as part 2's) and prints how many got a
-verdict other than ``none``, and which.
+verdict other than ``none``, and which, and how many of them the run-to-run test (noted beside ``none``, not
+counted) would have called a gap.
 
 Every campaign is written as CONTRACT §3 run folders and goes through
 ingest → tare → subtract-inertia → diagnose, as the README says.  Parts:
@@ -82,6 +83,8 @@ def run(seed: int, effects=(), intensity: float = 1.0, runs: int | None = None) 
             "runs": len(campaign.folders),
             "pipeline_seconds": pipeline,
             "notes": list(result.notes), "rest_drift": result.baseline.get("rest_drift"),
+            "own_runs_z": result.baseline.get("own_runs_z"), "run_gap": bool(result.baseline.get("run_gap")),
+            "run_gap_threshold_z": result.decision.get("run_gap_threshold_z"),
             "best_pair": result.baseline.get("best_pair")}
 
 
@@ -132,7 +135,8 @@ def show(label: str, row: dict) -> None:
     print(f"{label:34s} truth={'+'.join(row['truth']) or 'none':45s} verdict={row['verdict']:25s} "
           f"{'OK ' if right(row) else 'MISS'} effects={row['verdict_effects']} {row['seconds']:.1f}s "
           f"noise={row['noise_n']:.1f}N rate={row['nuisances']['rate_hz']} enc={row['nuisances']['encoder_mm']}mm"
-          + (f" size={row['size']:.2f}" if "size" in row else ""),
+          + (f" size={row['size']:.2f}" if "size" in row else "")
+          + (f" own_z={row['own_runs_z']}" if row.get("own_runs_z") is not None else ""),
           flush=True)
 
 
@@ -212,6 +216,10 @@ def nulls_only(n: int, base: int) -> None:
     called = collections.Counter(r["verdict"] for r in rows if r["verdict"] != "none")
     print(f"\nnulls called anything but none: {sum(called.values())} of {n}"
           + (f" ({', '.join(f'{v} {c}' for v, c in sorted(called.items()))})" if called else ""))
+    gaps = [r for r in rows if r["run_gap"]]  # noted beside none, not counted: how often it would be
+    print(f"nulls whose run-to-run test (each run's own depth profile) passes its threshold: {len(gaps)} of {n}"
+          + (" (" + ", ".join(f"seed {r['seed']}: z {r['own_runs_z']} > {r['run_gap_threshold_z']}"
+                               for r in gaps) + ")" if gaps else ""))
 
 
 def drive_only(n: int, base: int) -> None:
