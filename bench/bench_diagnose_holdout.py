@@ -10,8 +10,8 @@ beside parts 1-2 in a second process.  ``--drive N`` runs only launcher losses: 
 alone (seeds base + 500 + i; every other one cut to 4 runs) and N of a propulsion loss beside a resistance effect
 drawn by the seed (seeds base + 600 + i), and prints how many were found by the loss's form and the run count.
 ``--nulls N`` runs only N campaigns without effect (seeds base + 1000 + i, as part 2's) and prints how many got a
-verdict other than ``none``, and which, and how many of them the run-to-run test (noted beside ``none``, not
-counted) would have called a gap.
+verdict other than ``none``, and which, and how many the run-to-run test (each run's own depth profile) calls a
+gap.
 
 Every campaign is written as CONTRACT §3 run folders and goes through
 ingest → tare → subtract-inertia → diagnose, as the README says.  Parts:
@@ -216,7 +216,7 @@ def nulls_only(n: int, base: int) -> None:
     called = collections.Counter(r["verdict"] for r in rows if r["verdict"] != "none")
     print(f"\nnulls called anything but none: {sum(called.values())} of {n}"
           + (f" ({', '.join(f'{v} {c}' for v, c in sorted(called.items()))})" if called else ""))
-    gaps = [r for r in rows if r["run_gap"]]  # noted beside none, not counted: how often it would be
+    gaps = [r for r in rows if r["run_gap"]]  # what the run-to-run test alone calls
     print(f"nulls whose run-to-run test (each run's own depth profile) passes its threshold: {len(gaps)} of {n}"
           + (" (" + ", ".join(f"seed {r['seed']}: z {r['own_runs_z']} > {r['run_gap_threshold_z']}"
                                for r in gaps) + ")" if gaps else ""))
