@@ -1528,10 +1528,12 @@ def site_unit_means(units_file: str | Path, site: str, quantity: str = "qt"):
                 raise DataError(f"{entry.path}: header MA (the net area ratio, 0 < a ≤ 1) is "
                                 f"{record.header.get('MA', 'missing')!r}; qt needs it")
         reading = sounding_reading(record)
-        values = reading.force_n if quantity == "push_force" else reading.pressures_kpa.get(quantity)
+        if quantity == "push_force":
+            values = None if reading.force_n is None else reading.force_n / 1e3
+        else:
+            values = reading.pressures_kpa.get(quantity)
         if values is None:
             raise DataError(f"{entry.path}: sounding {record.name}'s sensor chain reads no {quantity}")
-        values = values / 1e3 if quantity == "push_force" else values
         means.append(unit_means(reading.travel_m, record.time_s, values, chosen.units_m, entry.warp_m,
                                 entry.drop_m, logger_rate_mm_s=columns.get("rate_mm_s")))
     return chosen, means

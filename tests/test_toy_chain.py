@@ -6,6 +6,8 @@ rangefinder with 0.01 mm of noise and a tip load cell with 0.2 N."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -51,8 +53,7 @@ def test_a_registered_chain_is_fitted_by_the_bed_fit_within_three_percent(rangef
     reader = chain("rangefinder_tip_cell")
     readings = [reader.read(f"drop{k}", t, c) for k, (t, c) in enumerate(records(bed, 3))]
     assert all(r.chain == "rangefinder_tip_cell" and r.force_n is not None for r in readings)
-    wrong = probe()
-    wrong = type(wrong)(**{**wrong.__dict__, "drag_coefficient": 0.4, "added_mass_coefficient": 0.15})
+    wrong = replace(probe(), drag_coefficient=0.4, added_mass_coefficient=0.15)
     fit = fit_bed(readings, wrong, nuisances=True)
     assert fit.drag_coefficient is None and fit.added_mass_coefficient is None
     assert fit.strength_kpa == pytest.approx(bed.strength_kpa, rel=0.03)

@@ -29,7 +29,6 @@ ENTRY_M = 0.02
 class RangefinderTipCell:
     name = "rangefinder_tip_cell"
     channels = ("range_m", "tip_force_n")
-    measures = frozenset({"motion", "force"})
 
     def read(self, name: str, time_s: np.ndarray | None, channels: Mapping[str, np.ndarray]) -> Reading:
         travel, force = np.asarray(channels["range_m"], float), np.asarray(channels["tip_force_n"], float)

@@ -196,8 +196,9 @@ def simulate_drop(probe: Probe, bed: Bed, drop_height_m: float, *, sensors: Sens
     x[falling] = solution.sol(t[falling] - hold_s)[0]
     speed = np.zeros(n)
     speed[falling] = solution.sol(t[falling] - hold_s)[1]
-    bed_force = _bed_force(probe, bed, x - drop_height_m, speed, water_density)
-    bed_force[t > hold_s + t_stop] = (probe.mass_kg - water_density * probe.volume_m3) * G
+    bed_force = np.where(t > hold_s + t_stop, (probe.mass_kg - water_density * probe.volume_m3) * G, 0.0)
+    in_bed = falling & (x > drop_height_m)
+    bed_force[in_bed] = _bed_force(probe, bed, x[in_bed] - drop_height_m, speed[in_bed], water_density)
     accel[falling] = [rhs(tt - hold_s, solution.sol(tt - hold_s))[1] for tt in t[falling]]  # the equation's own
     lean = math.radians(rest_tilt_deg) * np.clip((t - hold_s - t_stop) / SETTLE_S, 0.0, 1.0)  # at rest only
     specific = (G - accel) / G * np.cos(lean)
@@ -226,10 +227,10 @@ def simulate_drop(probe: Probe, bed: Bed, drop_height_m: float, *, sensors: Sens
 
 def _bed_force(probe: Probe, bed: Bed, depth_m: np.ndarray, speed_m_s: np.ndarray, water_density: float
                ) -> np.ndarray:
-    """The bed's force on the probe at each depth in it and speed: A_f(z)·q(z, v) and (ρ_b − ρ_w)·g·V(z). [N]"""
-    out = np.zeros(depth_m.size)
-    for k in np.flatnonzero(depth_m > 0.0):
-        z, v = float(depth_m[k]), float(speed_m_s[k])
+    """The bed's force on the moving probe at each depth in it (> 0) and speed: A_f(z)·q(z, v) and
+    (ρ_b − ρ_w)·g·V(z). [N]"""
+    out = np.empty(depth_m.size)
+    for k, (z, v) in enumerate(zip(depth_m.tolist(), speed_m_s.tolist())):
         out[k] = probe.frontal_area_m2(z) * bed.pressure_pa(z, v)
         if bed.density_kg_m3 > 0.0:
             out[k] += (bed.density_kg_m3 - water_density) * G * probe.volume_below_m3(z)

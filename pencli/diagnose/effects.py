@@ -170,8 +170,8 @@ def views(runs: Sequence[Run | _RunView]) -> list[_RunView]:
             continue
         events, params = run.require_events(), run.stage_parameters
         reading = run.reading()
-        if reading.accel_m_s2 is None or "force_n" not in reading.channels:
-            run.column("acceleration_m_s2"), run.column("force_n")  # one line: what the stage lacks
+        for name in ("acceleration_m_s2", "force_n"):  # a stage without them: one line naming what it lacks
+            run.column(name)
         t, depth, v, a = reading.time_s, reading.travel_m, reading.speed_m_s, reading.accel_m_s2
         force, resistance = reading.channels["force_n"], reading.force_n
         geometry = run.geometry

@@ -81,8 +81,6 @@ class SensorChain(Protocol):
     name: str
     channels: tuple[str, ...]
     """Channels a record must have for the chain to read it."""
-    measures: frozenset[str]
-    """What the reading carries: ``motion`` always; ``acceleration``, ``force``, ``pressure`` where measured."""
 
     def read(self, name: str, time_s: np.ndarray | None, channels: Mapping[str, np.ndarray]) -> Reading:
         """The record ``name``'s reading; a record the chain cannot read raises ValueError saying why."""

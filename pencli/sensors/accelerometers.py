@@ -24,7 +24,6 @@ class StitchedAccelerometers:
     the rest before the release to the rest after the stop (:data:`pencli.filter.freefall.BIAS_MODELS`)."""
 
     name = "accelerometers"
-    measures = frozenset({"motion", "acceleration"})
 
     def __init__(self, ranges_g: Mapping[str, float], bias_at: str = "ramp") -> None:
         if bias_at not in BIAS_MODELS:

@@ -27,7 +27,6 @@ class ConeTip:
 
     name = "cone_tip"
     channels = ("depth_m", "qc_mpa")
-    measures = frozenset({"motion", "pressure"})
 
     def __init__(self, net_area_ratio: float | None = None) -> None:
         if net_area_ratio is not None and not 0.0 < net_area_ratio <= 1.0:

@@ -24,7 +24,6 @@ class EncoderLoadCell:
 
     name = "encoder_load_cell"
     channels = ("depth_m", "fz_n")
-    measures = frozenset({"motion", "acceleration", "force"})
 
     def __init__(self, load_cell_mass_kg: float, events: Events, method: str | None = None,
                  use_flight_mass: bool = False) -> None:

@@ -18,7 +18,6 @@ class RodForce:
 
     name = "rod_force"
     channels = ("depth_m", "push_force_kn")
-    measures = frozenset({"motion", "force"})
 
     def read(self, name: str, time_s: np.ndarray | None, channels: Mapping[str, np.ndarray]) -> Reading:
         depth = np.asarray(channels["depth_m"], dtype=float)

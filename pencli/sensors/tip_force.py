@@ -6,12 +6,12 @@ force (:func:`pencli.fit.shot_noise.surface_mm`), so the travel counts from the 
 
 from __future__ import annotations
 
-import math
 from typing import Mapping
 
 import numpy as np
 
 from pencli.sensors import Reading
+from pencli.sensors.cone_tip import push_speed_m_s
 
 
 class TipForce:
@@ -19,10 +19,8 @@ class TipForce:
 
     name = "tip_force"
     channels = ("depth_mm", "force_n")
-    measures = frozenset({"motion", "force"})
 
     def read(self, name: str, time_s: np.ndarray | None, channels: Mapping[str, np.ndarray]) -> Reading:
         travel = np.asarray(channels["depth_mm"], dtype=float) / 1e3
-        speed = np.gradient(travel, time_s) if time_s is not None and travel.size > 1 else \
-            np.full(travel.shape, math.nan)
-        return Reading(name, self.name, travel, speed, time_s, force_n=np.asarray(channels["force_n"], dtype=float))
+        return Reading(name, self.name, travel, push_speed_m_s(travel, time_s, None), time_s,
+                       force_n=np.asarray(channels["force_n"], dtype=float))
