@@ -88,6 +88,38 @@ def test_the_drive_stage_reads_no_gap_on_a_launcher_that_matches_its_file(runs):
     assert np.all(np.abs(drive.ratios) < 0.01)  # contact speeds within 1 % of the launcher's prediction
 
 
+def _phase_z(tmp_path, effects, names):
+    """The phase split's (z, bar) of each named effect's best member, on the simulated rig's six shots with
+    ``effects`` (100 replicates)."""
+    from tests.test_diagnose import campaign
+
+    runs = views(api.load_campaign(campaign(tmp_path, effects, 4500), ["all"]))
+    request = engine.check_request(runs, None, 0.01, 100, 0, 1)
+    baseline = engine.fit_baseline(runs)
+    scan = engine.scan_families(baseline, engine.calibrate_nulls(baseline, request), request)
+    out = {}
+    for name in names:
+        z, bar = engine.signature_test(scan, baseline, scan.candidates[name][scan.tested[name].family.best].spec,
+                                       request.alpha)
+        out[name] = (z["phase"], bar)
+    return out
+
+
+@pytest.mark.slow
+def test_an_effect_of_the_force_chain_is_one_size_in_flight_and_in_the_material(tmp_path):
+    """A wrong load-cell mass (× 1.5) reads the launch's acceleration as it reads the penetration's: its own
+    member fitted apart in flight takes no more than on the replicates, while a drift standing in for it does;
+    a load cell whose gain rises with the force (0.25 per kN, outside the catalogue) reads the penetration's
+    kilonewtons with a 'mass' the launch's tens of newtons do not show."""
+    mass = _phase_z(tmp_path / "mass", [{"name": "load_cell_mass_error", "ratio": 1.5}],
+                    ("load_cell_mass_error", "force_drift"))
+    assert mass["load_cell_mass_error"][0] < mass["load_cell_mass_error"][1], mass
+    assert mass["force_drift"][0] > mass["force_drift"][1], mass
+    gauge = _phase_z(tmp_path / "gauge", [{"name": "gauge_nonlinearity", "gain_per_kn": 0.25}],
+                     ("load_cell_mass_error",))
+    assert gauge["load_cell_mass_error"][0] > gauge["load_cell_mass_error"][1], gauge
+
+
 # ---------------------------------------------------------------------------- the engine's shape
 def _functions(path: Path):
     tree = ast.parse(path.read_text())

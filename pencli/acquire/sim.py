@@ -195,6 +195,9 @@ def measure(motion: TrueMotion, world: TrueWorld, rig: RigConfig, setup: ShotSet
         modes = (amp * np.exp(-zeta * w0 * np.maximum(tc, 0)) * np.sin(wd * tc)
                  + second * amp * np.exp(-2 * zeta * w0 * np.maximum(tc, 0)) * np.sin(ratio * wd * tc))
         axial = axial + np.where(tc > 0, modes, 0.0)
+    gauge = world.effect("gauge_nonlinearity")
+    if gauge:  # the cell's own response, before its electronics' filter and drift
+        axial = axial * (1.0 + gauge["gain_per_kn"] * axial / 1e3)
     lag = world.effect("sensor_lag")
     if lag:
         axial = _lag(axial, lag["tau_ms"] * 1e-3, rate, int(lag["shape"]))

@@ -90,6 +90,8 @@ TRUE_EFFECTS: dict[str, EffectSpec] = {spec.name: spec for spec in (
                "guide_friction_n along the whole travel", {"loss": 0.15, "guide_friction_n": 10.0}),
     EffectSpec("brittle_bursts", "(outside the diagnosis catalogue) strength collapses and recovers in "
                "saw-tooth bursts every period_mm of depth, by depth ratio", {"period_mm": 20.0, "ratio": 0.5}),
+    EffectSpec("gauge_nonlinearity", "(outside the diagnosis catalogue) the load cell's gain changes with the force "
+               "it carries: it reads F·(1 + gain_per_kn·F / 1 kN)", {"gain_per_kn": 0.1}),
 )}
 
 
