@@ -101,20 +101,20 @@ def _phase_z(tmp_path, effects, names):
     for name in names:
         z, bar = engine.signature_test(scan, baseline, scan.candidates[name][scan.tested[name].family.best].spec,
                                        request.alpha)
-        out[name] = (z["phase"], bar)
+        out[name] = (z["phase"], bar) if z else None
     return out
 
 
 @pytest.mark.slow
 def test_an_effect_of_the_force_chain_is_one_size_in_flight_and_in_the_material(tmp_path):
     """A wrong load-cell mass (× 1.5) reads the launch's acceleration as it reads the penetration's: its own
-    member fitted apart in flight takes no more than on the replicates, while a drift standing in for it does;
-    a load cell whose gain rises with the force (0.25 per kN, outside the catalogue) reads the penetration's
-    kilonewtons with a 'mass' the launch's tens of newtons do not show."""
+    member fitted apart in flight takes no more than on the replicates; a load cell whose gain rises with the
+    force (0.25 per kN, outside the catalogue) reads the penetration's kilonewtons with a 'mass' the launch's tens
+    of newtons do not show.  A drift, whose shape is one of a family, is not split."""
     mass = _phase_z(tmp_path / "mass", [{"name": "load_cell_mass_error", "ratio": 1.5}],
                     ("load_cell_mass_error", "force_drift"))
     assert mass["load_cell_mass_error"][0] < mass["load_cell_mass_error"][1], mass
-    assert mass["force_drift"][0] > mass["force_drift"][1], mass
+    assert mass["force_drift"] is None, mass
     gauge = _phase_z(tmp_path / "gauge", [{"name": "gauge_nonlinearity", "gain_per_kn": 0.25}],
                      ("load_cell_mass_error",))
     assert gauge["load_cell_mass_error"][0] > gauge["load_cell_mass_error"][1], gauge

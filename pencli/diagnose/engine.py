@@ -1812,25 +1812,29 @@ def own_columns_drop(stats: Statistics, spec: Spec, own: Sequence[int]) -> np.nd
 
 SPLIT_ENERGY_FLOOR = 1e-6
 """A copy of a column that holds less than this share of the column's energy on the data is left out of a split:
-a depth or speed law is zero in flight, so it has no flight part to fit apart. [–]"""
+nothing of it lies on that side. [–]"""
 
 
 def signature_splits(baseline: Baseline) -> dict[str, list[list[np.ndarray]]]:
     """The splits along which a catalogue effect's size must not change, per run the masks (over its analysed
-    samples) of the copies each adds: ``phase``, the flight apart from the material.  An effect of the force chain
-    is the same term before contact as after: a wrong load-cell mass reads the launch's acceleration as it reads
-    the penetration's, a drift goes on through the flight.
+    samples) of the copies each adds: ``phase``, the flight apart from the material.  A term of the force chain
+    that is the measured acceleration itself (a wrong load-cell mass) reads the launch's acceleration as it reads
+    the penetration's.
 
-    A split run by run is not among them: the catalogue's families follow a true form only in part, and each
-    run's own size of the best member takes that mismatch (on the development world the true layers, gradients,
-    plugs and ringings of 5 campaigns in 20 stood 4.7 to 900 z out of their replicates by it)."""
+    Only such columns are split (:func:`split_drop`): they have no shape of their own to get wrong.  A drift's
+    shape is one of a family, and the flight part of a shape that follows the true drift only in part takes that
+    mismatch (a logarithmic drift beside a velocity friction, 0.5 N of noise at 60 kHz: 4.8 z over its bar).  A
+    split run by run is not made for the same reason: each run's own size of a family's best member takes its
+    mismatch (on the development world the true layers, gradients, plugs and ringings of 5 campaigns in 20 stood
+    4.7 to 900 z out of their replicates by it, and 6 in 20 even beside the family's best second shape)."""
     return {"phase": [[~basis.inside[u]] for basis, u in zip(baseline.bases, baseline.uses)]}
 
 
 def split_drop(scan: FamilyScan, spec: Spec, masks: Sequence[Sequence[np.ndarray]]) -> np.ndarray | None:
-    """What copies of ``spec``'s extra columns, each restricted by one of ``masks`` (per run, over its analysed
-    samples) and fitted beside them, take from each target's mean square (the data, then each replicate); None
-    when no copy holds any of the columns or the model would pass the solver's limit. [N²]
+    """What copies of ``spec``'s extra columns that read the measured acceleration, each restricted by one of
+    ``masks`` (per run, over its analysed samples) and fitted beside them, take from each target's mean square
+    (the data, then each replicate); None when there are none, no copy holds any of them, or the model would pass
+    the solver's limit. [N²]
 
     Built on its own small matrices (the model's columns, their copies): a paired test as
     :func:`own_columns_drop`, on the same replicates."""
@@ -1839,14 +1843,15 @@ def split_drop(scan: FamilyScan, spec: Spec, masks: Sequence[Sequence[np.ndarray
     data = [W[:, extra] for W in scan.matrices]
     whole = sum(np.sum(w * w, axis=0) for w in data)  # (extra,) each column's energy over the runs
     keep = [(c, j) for c in range(len(masks[0])) for j in range(len(extra))
-            if sum(float(np.sum(w[m[c], j] ** 2)) for w, m in zip(data, masks)) > SPLIT_ENERGY_FLOOR * whole[j]]
+            if extra[j] in scan.varying
+            and sum(float(np.sum(w[m[c], j] ** 2)) for w, m in zip(data, masks)) > SPLIT_ENERGY_FLOOR * whole[j]]
     if not keep or p - 1 + len(keep) > MAX_COEFFICIENTS:
         return None
     matrices = [np.column_stack([W[:, local]] + [w[:, j] * m[c] for c, j in keep])
                 for W, w, m in zip(scan.matrices, data, masks)]
     varying = {i: scan.varying[q] for i, q in enumerate(local) if q in scan.varying}
     varying.update({p + 1 + i: [v * m[c][:, None] for v, m in zip(scan.varying[extra[j]], masks)]
-                    for i, (c, j) in enumerate(keep) if extra[j] in scan.varying})
+                    for i, (c, j) in enumerate(keep)})
     nonnegative = np.concatenate([scan.stats.nonnegative[local], np.zeros(len(keep), dtype=bool)])
     stats = Statistics(matrices, list(scan.targets), nonnegative, varying, scan.stats.resolution)
     base = Spec(tuple(range(p)), p, spec.scaled)
@@ -1864,7 +1869,7 @@ def signature_test(scan: FamilyScan, baseline: Baseline, spec: Spec, alpha: floa
     every statistic here), and the family-wise threshold over those splits on the replicates at ``alpha``.  An
     effect the campaign has is one size along every split; a catalogue effect standing in for one outside the
     catalogue often is not (a load cell whose gain rises with the force read as a wrong load-cell mass: the mass
-    that fits the penetration is not the one the launch shows)."""
+    that fits the penetration is not the one the launch shows).  ({}, inf) when no split applies."""
     drops = {}
     for name, masks in signature_splits(baseline).items():
         drop = split_drop(scan, spec, masks)
