@@ -89,7 +89,7 @@ def test_the_drive_stage_reads_no_gap_on_a_launcher_that_matches_its_file(runs):
 
 
 def _phase_z(tmp_path, effects, names):
-    """The phase split's (z, bar) of each named effect's best member, on the simulated rig's six shots with
+    """The flight split's (z, bar) of each named effect's best member, on the simulated rig's six shots with
     ``effects`` (100 replicates)."""
     from tests.test_diagnose import campaign
 
@@ -99,9 +99,9 @@ def _phase_z(tmp_path, effects, names):
     scan = engine.scan_families(baseline, engine.calibrate_nulls(baseline, request), request)
     out = {}
     for name in names:
-        z, bar = engine.signature_test(scan, baseline, scan.candidates[name][scan.tested[name].family.best].spec,
-                                       request.alpha)
-        out[name] = (z["phase"], bar) if z else None
+        z, bar = engine.flight_split_test(scan, baseline, scan.candidates[name][scan.tested[name].family.best].spec,
+                                          request.alpha)
+        out[name] = None if z is None else (z, bar)
     return out
 
 

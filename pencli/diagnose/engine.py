@@ -1410,8 +1410,8 @@ def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], requ
     """The resistance view's verdict once an effect passed the family-wise test: the effect named first and a
     significant second, or ``unexplained`` when neither it nor the pair removes :data:`EXPLAIN_SHARE` of the
     misfit's excess over the null floor while a gap stays (the runs share a misfit, or the first effect's
-    held-out error stands above its own null replicates'), or when the effect named alone takes the misfit with
-    a size that changes along a split its own term holds it to (:func:`signature_test`)."""
+    held-out error stands above its own null replicates'), or when the verdict's model holds a load-cell mass
+    that the flight and the material read differently (:func:`flight_split_test`)."""
     S0, excess = scan.S0, scan.excess
     gate, top = _named_first(reports, scan.tested, S0)
     naming = {"familywise_first": gate.name, "named_first": top.name}
@@ -1432,12 +1432,12 @@ def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], requ
     pair_share = (S0[0] - pair["heldout"]) / excess if pair and excess > 0 else None
     paired = bool(pair and pair["significant"])
     named = " with ".join([top.name] + ([pair["effect"]] if paired else []))
-    signature, signature_bar = signature_test(scan, baseline, pair["spec"] if paired else scan.candidates[top.name][
+    split_z, split_bar = flight_split_test(scan, baseline, pair["spec"] if paired else scan.candidates[top.name][
         scan.tested[top.name].family.best].spec, request.alpha)
-    broken = {k: z for k, z in signature.items() if z > signature_bar}
     naming["remainder"] = {"heldout_z": round(left_z, 2), "own_runs_z": None if own_z is None else round(own_z, 2),
-                           "threshold_z": round(bar, 3), "signature_z": {k: round(v, 2) for k, v in signature.items()},
-                           "signature_threshold_z": round(float(signature_bar), 3) if signature else None}
+                           "threshold_z": round(bar, 3),
+                           "flight_split_z": None if split_z is None else round(split_z, 2),
+                           "flight_split_threshold_z": None if split_z is None else round(float(split_bar), 3)}
     if not (explains or (paired and pair_share is not None and pair_share >= EXPLAIN_SHARE)):
         beside = "" if not pair else (
             f"; with {pair['effect']} beside it {PERCENT * max(pair_share or 0.0, 0.0):.0f} %"
@@ -1446,12 +1446,12 @@ def _resistance_verdict(scan: FamilyScan, reports: dict[str, EffectReport], requ
                      f"only {PERCENT * max(top_share or 0.0, 0.0):.0f} % of its excess over the null floor{beside}, "
                      f"and a gap stays ({_gap_said(scan, left_z, own_z, bar)}); {_candidates_said(reports)}")
         return "unexplained", [], top, pair, naming
-    if broken:
-        said = " and ".join(f"{SPLIT_SAID[k]} (z {z:.1f})" for k, z in broken.items())
+    if split_z is not None and split_z > split_bar:
         notes.append(f"a misfit stays that no catalogue effect explains: the best explanation ({named}) removes "
                      f"{PERCENT * max((pair_share if paired else top_share) or 0.0, 0.0):.0f} % of its excess over "
-                     f"the null floor, but with a size that {said} against {signature_bar:.1f}, which {named} "
-                     f"would not; {_candidates_said(reports)}")
+                     f"the null floor, but with a load-cell mass that differs between the flight and the material "
+                     f"(z {split_z:.1f} against {split_bar:.1f}), which a wrong mass would not; "
+                     f"{_candidates_said(reports)}")
         return "unexplained", [], top, pair, naming
     verdict_effects = [top.name]
     if paired:
@@ -1815,11 +1815,10 @@ SPLIT_ENERGY_FLOOR = 1e-6
 nothing of it lies on that side. [–]"""
 
 
-def signature_splits(baseline: Baseline) -> dict[str, list[list[np.ndarray]]]:
-    """The splits along which a catalogue effect's size must not change, per run the masks (over its analysed
-    samples) of the copies each adds: ``phase``, the flight apart from the material.  A term of the force chain
-    that is the measured acceleration itself (a wrong load-cell mass) reads the launch's acceleration as it reads
-    the penetration's.
+def flight_masks(baseline: Baseline) -> list[list[np.ndarray]]:
+    """Per run, the mask (over its analysed samples) of its flight, for :func:`split_drop`: the copy it adds is
+    the column's flight apart from the material.  A term of the force chain that is the measured acceleration
+    itself (a wrong load-cell mass) reads the launch's acceleration as it reads the penetration's.
 
     Only such columns are split (:func:`split_drop`): they have no shape of their own to get wrong.  A drift's
     shape is one of a family, and the flight part of a shape that follows the true drift only in part takes that
@@ -1827,7 +1826,7 @@ def signature_splits(baseline: Baseline) -> dict[str, list[list[np.ndarray]]]:
     split run by run is not made for the same reason: each run's own size of a family's best member takes its
     mismatch (on the development world the true layers, gradients, plugs and ringings of 5 campaigns in 20 stood
     4.7 to 900 z out of their replicates by it, and 6 in 20 even beside the family's best second shape)."""
-    return {"phase": [[~basis.inside[u]] for basis, u in zip(baseline.bases, baseline.uses)]}
+    return [[~basis.inside[u]] for basis, u in zip(baseline.bases, baseline.uses)]
 
 
 def split_drop(scan: FamilyScan, spec: Spec, masks: Sequence[Sequence[np.ndarray]]) -> np.ndarray | None:
@@ -1840,6 +1839,8 @@ def split_drop(scan: FamilyScan, spec: Spec, masks: Sequence[Sequence[np.ndarray
     :func:`own_columns_drop`, on the same replicates."""
     p, extra = len(spec.columns), list(spec.columns[len(TERMS):])
     local = [*spec.columns, spec.offset]
+    if not any(q in scan.varying for q in extra):
+        return None
     data = [W[:, extra] for W in scan.matrices]
     whole = sum(np.sum(w * w, axis=0) for w in data)  # (extra,) each column's energy over the runs
     keep = [(c, j) for c in range(len(masks[0])) for j in range(len(extra))
@@ -1859,28 +1860,18 @@ def split_drop(scan: FamilyScan, spec: Spec, masks: Sequence[Sequence[np.ndarray
     return stats.score([base]).total[0] - stats.score([split]).total[0]
 
 
-SPLIT_SAID = {"phase": "differs between the flight and the material"}
-"""How an ``unexplained`` note says which split broke an effect's signature."""
-
-
-def signature_test(scan: FamilyScan, baseline: Baseline, spec: Spec, alpha: float) -> tuple[dict[str, float], float]:
-    """({split: z}, the bar): per split of :func:`signature_splits` that applies, z of what fitting ``spec``'s effect
-    apart along it takes from the data's mean square against what it takes from each replicate's (standardised as
-    every statistic here), and the family-wise threshold over those splits on the replicates at ``alpha``.  An
-    effect the campaign has is one size along every split; a catalogue effect standing in for one outside the
-    catalogue often is not (a load cell whose gain rises with the force read as a wrong load-cell mass: the mass
-    that fits the penetration is not the one the launch shows).  ({}, inf) when no split applies."""
-    drops = {}
-    for name, masks in signature_splits(baseline).items():
-        drop = split_drop(scan, spec, masks)
-        if drop is not None:
-            drops[name] = drop
-    if not drops:
-        return {}, math.inf
-    stacked = np.column_stack(list(drops.values()))
-    floor = _score_floor(stacked[:, 0], scan.stats)
-    return ({k: _standardise(d, floor)[0] for k, d in drops.items()},
-            familywise_threshold(stacked, floor, alpha))
+def flight_split_test(scan: FamilyScan, baseline: Baseline, spec: Spec, alpha: float) -> tuple[float | None, float]:
+    """(z, the bar) of what fitting the flight part of ``spec``'s acceleration columns apart (:func:`flight_masks`)
+    takes from the data's mean square against what it takes from each replicate's (standardised as every
+    statistic here), and the threshold of the replicates at ``alpha``; (None, inf) when the model has no such
+    column.  A wrong load-cell mass is one size in flight and in the material; a mass standing in for an effect
+    outside the catalogue often is not (a load cell whose gain rises with the force: the mass that fits the
+    penetration's kilonewtons is not the one the launch's tens of newtons show)."""
+    drop = split_drop(scan, spec, flight_masks(baseline))
+    if drop is None:
+        return None, math.inf
+    floor = _score_floor(drop, scan.stats)
+    return _standardise(drop, floor)[0], familywise_threshold(drop[:, None], floor, alpha)
 
 
 def _gap_said(scan: FamilyScan, left_z: float, own_z: float | None, bar: float) -> str:
