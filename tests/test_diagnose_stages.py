@@ -106,7 +106,7 @@ def _phase_z(tmp_path, effects, names):
 
 
 @pytest.mark.slow
-def test_an_effect_of_the_force_chain_is_one_size_in_flight_and_in_the_material(tmp_path):
+def test_a_wrong_load_cell_mass_is_one_size_in_flight_and_in_the_material(tmp_path):
     """A wrong load-cell mass (× 1.5) reads the launch's acceleration as it reads the penetration's: its own
     member fitted apart in flight takes no more than on the replicates; a load cell whose gain rises with the
     force (0.25 per kN, outside the catalogue) reads the penetration's kilonewtons with a 'mass' the launch's tens

@@ -1815,7 +1815,7 @@ SPLIT_ENERGY_FLOOR = 1e-6
 nothing of it lies on that side. [–]"""
 
 
-def flight_masks(baseline: Baseline) -> list[list[np.ndarray]]:
+def flight_masks(baseline: Baseline) -> list[np.ndarray]:
     """Per run, the mask (over its analysed samples) of its flight, for :func:`split_drop`: the copy it adds is
     the column's flight apart from the material.  A term of the force chain that is the measured acceleration
     itself (a wrong load-cell mass) reads the launch's acceleration as it reads the penetration's.
@@ -1826,33 +1826,29 @@ def flight_masks(baseline: Baseline) -> list[list[np.ndarray]]:
     split run by run is not made for the same reason: each run's own size of a family's best member takes its
     mismatch (on the development world the true layers, gradients, plugs and ringings of 5 campaigns in 20 stood
     4.7 to 900 z out of their replicates by it, and 6 in 20 even beside the family's best second shape)."""
-    return [[~basis.inside[u]] for basis, u in zip(baseline.bases, baseline.uses)]
+    return [~basis.inside[u] for basis, u in zip(baseline.bases, baseline.uses)]
 
 
-def split_drop(scan: FamilyScan, spec: Spec, masks: Sequence[Sequence[np.ndarray]]) -> np.ndarray | None:
-    """What copies of ``spec``'s extra columns that read the measured acceleration, each restricted by one of
-    ``masks`` (per run, over its analysed samples) and fitted beside them, take from each target's mean square
-    (the data, then each replicate); None when there are none, no copy holds any of them, or the model would pass
-    the solver's limit. [N²]
+def split_drop(scan: FamilyScan, spec: Spec, masks: Sequence[np.ndarray]) -> np.ndarray | None:
+    """What a copy of each of ``spec``'s extra columns that read the measured acceleration, restricted to
+    ``masks`` (per run, over its analysed samples) and fitted beside them, takes from each target's mean square
+    (the data, then each replicate); None when there is no such column with any of its energy inside the masks,
+    or the model would pass the solver's limit. [N²]
 
     Built on its own small matrices (the model's columns, their copies): a paired test as
     :func:`own_columns_drop`, on the same replicates."""
-    p, extra = len(spec.columns), list(spec.columns[len(TERMS):])
+    p, extra = len(spec.columns), spec.columns[len(TERMS):]
     local = [*spec.columns, spec.offset]
-    if not any(q in scan.varying for q in extra):
-        return None
-    data = [W[:, extra] for W in scan.matrices]
-    whole = sum(np.sum(w * w, axis=0) for w in data)  # (extra,) each column's energy over the runs
-    keep = [(c, j) for c in range(len(masks[0])) for j in range(len(extra))
-            if extra[j] in scan.varying
-            and sum(float(np.sum(w[m[c], j] ** 2)) for w, m in zip(data, masks)) > SPLIT_ENERGY_FLOOR * whole[j]]
+
+    def energy(q: int, inside: bool) -> float:
+        return sum(float(np.sum(W[m if inside else slice(None), q] ** 2)) for W, m in zip(scan.matrices, masks))
+
+    keep = [q for q in extra if q in scan.varying and energy(q, True) > SPLIT_ENERGY_FLOOR * energy(q, False)]
     if not keep or p - 1 + len(keep) > MAX_COEFFICIENTS:
         return None
-    matrices = [np.column_stack([W[:, local]] + [w[:, j] * m[c] for c, j in keep])
-                for W, w, m in zip(scan.matrices, data, masks)]
+    matrices = [np.column_stack([W[:, local]] + [W[:, q] * m for q in keep]) for W, m in zip(scan.matrices, masks)]
     varying = {i: scan.varying[q] for i, q in enumerate(local) if q in scan.varying}
-    varying.update({p + 1 + i: [v * m[c][:, None] for v, m in zip(scan.varying[extra[j]], masks)]
-                    for i, (c, j) in enumerate(keep)})
+    varying.update({p + 1 + i: [v * m[:, None] for v, m in zip(scan.varying[q], masks)] for i, q in enumerate(keep)})
     nonnegative = np.concatenate([scan.stats.nonnegative[local], np.zeros(len(keep), dtype=bool)])
     stats = Statistics(matrices, list(scan.targets), nonnegative, varying, scan.stats.resolution)
     base = Spec(tuple(range(p)), p, spec.scaled)
